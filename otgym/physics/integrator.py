@@ -1,0 +1,227 @@
+"""Euler-Maruyama integration of overdamped rigid-body dynamics.
+
+For each body (drag-centre pose q = (x, y, theta)) and step dt:
+
+    q <- q + M F(q) dt + sqrt(2 kT dt M) xi,        xi ~ N(0, I)
+
+with M = diag(1/gamma_t, 1/gamma_t, 1/gamma_r) (otgym.physics.mobility) and F the
+generalised force (force and torque about the drag centre) of the optical traps,
+contact, van der Waals, flow drag (gamma_i u(x_i) on each sphere, plus the torque
+8 pi eta a^3 * vorticity / 2) and user forces. The noise amplitude follows from the
+fluctuation-dissipation theorem; with a diagonal, pose-independent M in the body
+frame no spurious-drift term arises. Kinematic bodies (obstacles) move with their
+prescribed velocity instead. Traps move with a prescribed velocity each step.
+
+``control_step`` runs ``model.substeps`` steps with ``lax.scan`` and reports what the
+tasks need: contact forces per body pair (pN, net force averaged over the control
+step), contact and wall-contact flags, trap-to-handle distances and trap loss.
+
+Layout: internally every quantity carries the environment batch as its *last* axis
+(x and y as separate (N, E) arrays), so that XLA vectorises across environments;
+this is 5x faster on CPU than ``vmap`` over a (N, 2) layout. ``control_step_batch``
+takes states with a leading batch axis; ``control_step`` is the one-environment case.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
+from otgym.physics.model import Model, PhysicsState, sphere_positions_um
+
+
+@struct.dataclass
+class Controls:
+    """Inputs held constant over one control step.
+
+    trap_velocity_um_s: (T, 2); body_velocity: (B, 3) um/s, rad/s, used by kinematic
+    bodies only; external_force: (B, 3) pN, pN*um applied to dynamic bodies.
+    For ``control_step_batch`` each has a leading batch axis."""
+
+    trap_velocity_um_s: jnp.ndarray
+    body_velocity: jnp.ndarray
+    external_force: jnp.ndarray
+
+    @classmethod
+    def zeros(cls, model: Model, batch: int | None = None) -> "Controls":
+        dtype = model.sphere_radius_um.dtype
+        lead = () if batch is None else (batch,)
+        return cls(jnp.zeros(lead + (model.n_traps, 2), dtype),
+                   jnp.zeros(lead + (model.n_bodies, 3), dtype),
+                   jnp.zeros(lead + (model.n_bodies, 3), dtype))
+
+
+@struct.dataclass
+class StepReport:
+    """What happened during one control step (leading batch axis when batched)."""
+
+    contact_force_pn: jnp.ndarray  # (BP,) |net contact force| per body pair, step average
+    contact: jnp.ndarray  # (BP,) bool, the pair touched at some step
+    wall_contact: jnp.ndarray  # (B,) bool, the body touched a wall at some step
+    trap_distance_um: jnp.ndarray  # (T,) handle-to-trap distance at the end
+    trap_distance_max_um: jnp.ndarray  # (T,) largest during the step
+    trap_lost: jnp.ndarray  # (T,) bool, beyond the escape distance at some step
+    max_overlap_um: jnp.ndarray  # () deepest sphere overlap during the step
+
+
+def _check_controls(model: Model, controls: Controls, lead: tuple) -> None:
+    expected = {"trap_velocity_um_s": (model.n_traps, 2), "body_velocity": (model.n_bodies, 3),
+                "external_force": (model.n_bodies, 3)}
+    for name, shape in expected.items():
+        actual = tuple(getattr(controls, name).shape)
+        if actual != lead + shape:
+            raise ValueError(f"controls.{name} must have shape {lead + shape}, got {actual}")
+
+
+def _sphere_xy(model: Model, px, py, theta):
+    """Sphere centres (N, E) and their lever arms from the drag centre."""
+    body = np.asarray(model.sphere_body, dtype=int)
+    cos, sin = jnp.cos(theta)[body], jnp.sin(theta)[body]
+    ox, oy = model.sphere_offset_um[:, 0:1], model.sphere_offset_um[:, 1:2]
+    lever_x, lever_y = cos * ox - sin * oy, sin * ox + cos * oy
+    return px[body] + lever_x, py[body] + lever_y, lever_x, lever_y
+
+
+def _forces(model: Model, px, py, theta, trap_x, trap_y, external):
+    """Generalised forces (3 arrays (B, E)) and the contact details for reporting."""
+    x, y, lever_x, lever_y = _sphere_xy(model, px, py, theta)
+    points = jnp.stack([x, y], axis=-1)
+    drag = model.sphere_drag_pn_s_per_um[:, None]
+    flow = model.flow.velocity_um_s(points)
+    fx, fy = drag * flow[..., 0], drag * flow[..., 1]
+    traps = np.asarray(model.trap_sphere, dtype=int)
+    to_trap_x, to_trap_y = trap_x - x[traps], trap_y - y[traps]
+    trap_distance = jnp.sqrt(to_trap_x**2 + to_trap_y**2)
+    if model.n_traps:
+        scale = jnp.where(trap_distance > 0,
+                          model.trap_law.magnitude_pn(trap_distance) / jnp.maximum(trap_distance, 1e-30), 0.0)
+        fx, fy = fx.at[traps].add(scale * to_trap_x), fy.at[traps].add(scale * to_trap_y)
+    e = x.shape[-1]
+    contact_x = contact_y = jnp.zeros((0, e), x.dtype)
+    overlap_max = jnp.zeros(e, x.dtype)
+    if model.pair_a:
+        a, b = np.asarray(model.pair_a), np.asarray(model.pair_b)
+        radius = model.sphere_radius_um[:, None]
+        on_a_x, on_a_y, contact_x, contact_y, overlap = sphere_pair_forces(
+            x[b] - x[a], y[b] - y[a], radius[a], radius[b],
+            model.pair_stiffness_pn_per_um[:, None], model.hamaker_pn_um, model.min_gap_um)
+        fx = fx + model.pair_incidence @ on_a_x
+        fy = fy + model.pair_incidence @ on_a_y
+        overlap_max = jnp.max(overlap, axis=0)
+    distance, normal = model.walls.distance_and_normal(points)
+    wall_x, wall_y, wall_contact, wall_overlap = sphere_wall_forces(
+        distance, normal[..., 0], normal[..., 1], model.sphere_radius_um[:, None],
+        model.wall_stiffness_pn_per_um[:, None], model.hamaker_pn_um, model.min_gap_um)
+    fx, fy = fx + wall_x, fy + wall_y
+    dynamic = (model.wall_stiffness_pn_per_um > 0)[:, None]
+    overlap_max = jnp.maximum(overlap_max, jnp.max(wall_overlap * dynamic, axis=0))
+    torque = lever_x * fy - lever_y * fx
+    torque = torque + model.sphere_rotational_drag_pn_s_um[:, None] * model.flow.vorticity_per_s(points) / 2
+    to_body = model.body_of_sphere.T
+    generalised = (to_body @ fx + external[0], to_body @ fy + external[1], to_body @ torque + external[2])
+    wall_touch = wall_contact > 0
+    return generalised, contact_x, contact_y, wall_touch, overlap_max, trap_distance
+
+
+def _substep(model: Model, controls, trap_start, carry, inputs):
+    noise, index = inputs
+    (px, py, theta, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
+     distance_max, overlap_max) = carry
+    trap_vx, trap_vy, body_velocity, external = controls
+    (gx, gy, gt), cx, cy, wall_touch, overlap, distance = _forces(
+        model, px, py, theta, trap_x, trap_y, external)
+    mobility, noise_um, kinematic = model.body_mobility, model.body_noise_um, model.kinematic_mask
+    dt = model.dt_s
+    px = px + (mobility[:, 0:1] * gx + kinematic[:, 0:1] * body_velocity[0]) * dt + noise_um[:, 0:1] * noise[0]
+    py = py + (mobility[:, 1:2] * gy + kinematic[:, 1:2] * body_velocity[1]) * dt + noise_um[:, 1:2] * noise[1]
+    theta = theta + (mobility[:, 2:3] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt + noise_um[:, 2:3] * noise[2]
+    # traps move from their start by v * t, not by summing v * dt: in float32 a sum of
+    # many steps far smaller than a position's last digit would drift systematically
+    elapsed = (index + 1).astype(dt.dtype) * dt
+    trap_x, trap_y = trap_start[0] + trap_vx * elapsed, trap_start[1] + trap_vy * elapsed
+    return (px, py, theta, trap_x, trap_y, contact_x + cx,
+            contact_y + cy, contact_any | (cx**2 + cy**2 > 0), wall_any | wall_touch,
+            jnp.maximum(distance_max, distance), jnp.maximum(overlap_max, overlap)), None
+
+
+def control_step_batch(model: Model, state: PhysicsState, controls: Controls, keys):
+    """Advance E environments (leading batch axis on state, controls, keys) by one
+    control step of ``model.substeps`` Euler-Maruyama steps.
+
+    Returns (state, StepReport), both with a leading batch axis. Each environment's
+    noise comes from its own key, so results equal E separate ``control_step`` calls."""
+    pose, trap_xy = state.pose, state.trap_xy_um
+    if pose.ndim != 3 or pose.shape[1:] != (model.n_bodies, 3):
+        raise ValueError(f"state.pose must have shape (E, {model.n_bodies}, 3), got {pose.shape}")
+    n_env = pose.shape[0]
+    if trap_xy.shape != (n_env, model.n_traps, 2):
+        raise ValueError(f"state.trap_xy_um must have shape {(n_env, model.n_traps, 2)}, got {trap_xy.shape}")
+    _check_controls(model, controls, (n_env,))
+    dtype = pose.dtype
+    noise = jax.vmap(lambda k: jax.random.normal(k, (model.substeps, model.n_bodies, 3), dtype))(keys)
+    noise = jnp.transpose(noise, (1, 3, 2, 0))  # (substeps, 3, B, E)
+    last = lambda a: jnp.moveaxis(a, 0, -1)  # noqa: E731  (E, K, ...) -> (K, ..., E)
+    pose_t, trap_t = last(pose), last(trap_xy)
+    body_velocity, external = last(controls.body_velocity), last(controls.external_force)
+    trap_velocity = last(controls.trap_velocity_um_s)
+    step_controls = (trap_velocity[:, 0], trap_velocity[:, 1],
+                     (body_velocity[:, 0], body_velocity[:, 1], body_velocity[:, 2]),
+                     (external[:, 0], external[:, 1], external[:, 2]))
+    n_pairs, n_spheres = len(model.pair_a), model.sphere_radius_um.shape[0]
+    carry = (pose_t[:, 0], pose_t[:, 1], pose_t[:, 2], trap_t[:, 0], trap_t[:, 1],
+             jnp.zeros((n_pairs, n_env), dtype), jnp.zeros((n_pairs, n_env), dtype),
+             jnp.zeros((n_pairs, n_env), bool), jnp.zeros((n_spheres, n_env), bool),
+             jnp.zeros((model.n_traps, n_env), dtype), jnp.zeros(n_env, dtype))
+    trap_start = (trap_t[:, 0], trap_t[:, 1])
+    carry, _ = jax.lax.scan(lambda c, inputs: _substep(model, step_controls, trap_start, c, inputs),
+                            carry, (noise, jnp.arange(model.substeps)))
+    (px, py, theta, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
+     distance_max, overlap_max) = carry
+    x, y, _, _ = _sphere_xy(model, px, py, theta)
+    traps = np.asarray(model.trap_sphere, dtype=int)
+    distance = jnp.sqrt((trap_x - x[traps]) ** 2 + (trap_y - y[traps]) ** 2)
+    distance_max = jnp.maximum(distance_max, distance)
+    to_pairs = model.pair_to_body_pair.T
+    mean_x, mean_y = to_pairs @ contact_x / model.substeps, to_pairs @ contact_y / model.substeps
+    first = lambda a: jnp.moveaxis(a, -1, 0)  # noqa: E731
+    report = StepReport(
+        contact_force_pn=first(jnp.sqrt(mean_x**2 + mean_y**2)),
+        contact=first(to_pairs @ contact_any.astype(dtype) > 0),
+        wall_contact=first(model.body_of_sphere.T @ wall_any.astype(dtype) > 0),
+        trap_distance_um=first(distance),
+        trap_distance_max_um=first(distance_max),
+        trap_lost=first(distance_max > model.trap_law.escape_distance),
+        max_overlap_um=overlap_max,
+    )
+    new_state = PhysicsState(pose=first(jnp.stack([px, py, theta], axis=1)),
+                             trap_xy_um=first(jnp.stack([trap_x, trap_y], axis=1)))
+    return new_state, report
+
+
+def control_step(model: Model, state: PhysicsState, controls: Controls, key):
+    """Advance one environment by ``model.substeps`` steps; returns (state, StepReport)."""
+    _check_controls(model, controls, ())
+    expand = lambda tree: jax.tree.map(lambda a: a[None], tree)  # noqa: E731
+    new_state, report = control_step_batch(model, expand(state), expand(controls), key[None])
+    squeeze = lambda tree: jax.tree.map(lambda a: a[0], tree)  # noqa: E731
+    return squeeze(new_state), squeeze(report)
+
+
+def rollout(model: Model, state: PhysicsState, controls: Controls, key, n_control_steps: int):
+    """Run ``n_control_steps`` control steps of one environment with fixed controls.
+
+    Returns (final state, poses (n, B, 3), trap positions (n, T, 2), stacked reports)."""
+    def body(carry, step_key):
+        new_state, report = control_step(model, carry, controls, step_key)
+        return new_state, (new_state.pose, new_state.trap_xy_um, report)
+
+    final, (poses, traps, reports) = jax.lax.scan(body, state, jax.random.split(key, n_control_steps))
+    return final, poses, traps, reports
+
+
+def sphere_positions(model: Model, state: PhysicsState):
+    """World positions (..., N, 2) of every sphere of a (possibly batched) state."""
+    return sphere_positions_um(model, state.pose)

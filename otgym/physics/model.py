@@ -1,0 +1,330 @@
+"""A physics model: bodies, traps, fluid and walls compiled into flat JAX arrays.
+
+``build_model`` turns validated Python descriptions (``BodySpec``, ``PhysicsConfig``)
+into a ``Model`` pytree whose array shapes depend only on the scene's structure, so
+one compiled step serves every environment of that structure (``vmap`` over states).
+Spheres of all bodies are flattened into one list; the sphere pairs that can touch
+(different bodies, not both kinematic) are listed once, statically.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from typing import Sequence
+
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from otgym.physics.bodies import BodySpec
+from otgym.physics.constants import (
+    HAMAKER_POLYSTYRENE_WATER_PN_UM,
+    ROOM_TEMPERATURE_K,
+    WATER_VISCOSITY_PA_S,
+    thermal_energy_pn_um,
+)
+from otgym.physics.fields import NoWalls, UniformFlow
+from otgym.physics.interactions import CONTACT_STEP_FRACTION
+from otgym.physics.mobility import body_drag, sphere_drag
+from otgym.physics.traps import TrapLaw
+from otgym.physics.validation import (
+    require_non_negative,
+    require_positive,
+    require_positive_scalar,
+    require_shape,
+)
+
+STABILITY_LIMIT = 1.0
+"""Largest allowed dt * (trap stiffness * point mobility): explicit Euler is stable
+below 2; below 1 it relaxes without overshoot."""
+
+TUNNELLING_FRACTION = 0.5
+"""A step may move a sphere (drift + 3 sigma of noise) by at most this fraction of
+the smallest sphere radius, so nothing passes through anything in one step."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicsConfig:
+    """Physical and numerical parameters (units in the names; defaults from the
+    literature, see otgym.physics.constants)."""
+
+    dt_s: float = 1e-4
+    substeps: int = 1
+    temperature_k: float = ROOM_TEMPERATURE_K
+    viscosity_pa_s: float = WATER_VISCOSITY_PA_S
+    hamaker_pn_um: float = HAMAKER_POLYSTYRENE_WATER_PN_UM
+    min_gap_um: float = 0.05
+    height_above_floor_um: float | None = None
+    trap_law: TrapLaw = TrapLaw()
+    dtype: str = "float32"
+
+    def __post_init__(self):
+        require_positive_scalar("dt_s", self.dt_s)
+        if not isinstance(self.substeps, int) or self.substeps < 1:
+            raise ValueError(f"substeps must be a positive integer, got {self.substeps!r}")
+        require_non_negative("temperature_k", self.temperature_k)
+        require_positive("viscosity_pa_s", self.viscosity_pa_s)
+        require_non_negative("hamaker_pn_um", self.hamaker_pn_um)
+        require_positive("min_gap_um", self.min_gap_um)
+        if self.height_above_floor_um is not None:
+            require_positive("height_above_floor_um", self.height_above_floor_um)
+        if self.dtype not in ("float32", "float64"):
+            raise ValueError(f"dtype must be 'float32' or 'float64', got {self.dtype!r}")
+        if not isinstance(self.trap_law, TrapLaw):
+            raise ValueError(f"trap_law must be a TrapLaw, got {self.trap_law!r}")
+
+    @property
+    def kt_pn_um(self) -> float:
+        return thermal_energy_pn_um(self.temperature_k)
+
+    @property
+    def control_period_s(self) -> float:
+        return self.dt_s * self.substeps
+
+
+@struct.dataclass
+class Model:
+    """Flat arrays of one scene structure (N spheres, B bodies, P pairs, T traps)."""
+
+    sphere_offset_um: jnp.ndarray  # (N, 2) in the body frame, about the drag centre
+    sphere_radius_um: jnp.ndarray  # (N,)
+    sphere_drag_pn_s_per_um: jnp.ndarray  # (N,)
+    sphere_rotational_drag_pn_s_um: jnp.ndarray  # (N,)
+    body_of_sphere: jnp.ndarray  # (N, B) one-hot
+    body_mobility: jnp.ndarray  # (B, 3): 1/gamma_t, 1/gamma_t, 1/gamma_r; 0 if kinematic
+    body_noise_um: jnp.ndarray  # (B, 3): sqrt(2 kT dt mobility) per step
+    kinematic_mask: jnp.ndarray  # (B, 3): 1 for kinematic bodies
+    pair_stiffness_pn_per_um: jnp.ndarray  # (P,)
+    pair_incidence: jnp.ndarray  # (N, P): +1 at the pair's first sphere, -1 at its second
+    pair_to_body_pair: jnp.ndarray  # (P, BP) one-hot
+    wall_stiffness_pn_per_um: jnp.ndarray  # (N,); 0 for spheres of kinematic bodies
+    dt_s: jnp.ndarray
+    hamaker_pn_um: jnp.ndarray
+    min_gap_um: jnp.ndarray
+    flow: object = struct.field(default_factory=UniformFlow)
+    walls: object = struct.field(default_factory=NoWalls)
+    pair_a: tuple = struct.field(pytree_node=False, default=())
+    pair_b: tuple = struct.field(pytree_node=False, default=())
+    trap_sphere: tuple = struct.field(pytree_node=False, default=())
+    sphere_body: tuple = struct.field(pytree_node=False, default=())
+    body_pairs: tuple = struct.field(pytree_node=False, default=())
+    body_names: tuple = struct.field(pytree_node=False, default=())
+    body_kinds: tuple = struct.field(pytree_node=False, default=())
+    trap_law: TrapLaw = struct.field(pytree_node=False, default=TrapLaw())
+    substeps: int = struct.field(pytree_node=False, default=1)
+
+    @property
+    def n_bodies(self) -> int:
+        return len(self.body_names)
+
+    @property
+    def n_traps(self) -> int:
+        return len(self.trap_sphere)
+
+    def body_index(self, name: str) -> int:
+        if name not in self.body_names:
+            raise ValueError(f"no body named {name!r}; bodies are {self.body_names}")
+        return self.body_names.index(name)
+
+    def body_pair_index(self, a: str | int, b: str | int) -> int:
+        """Index into per-body-pair reports (order of the two bodies does not matter)."""
+        ia = self.body_index(a) if isinstance(a, str) else int(a)
+        ib = self.body_index(b) if isinstance(b, str) else int(b)
+        key = (min(ia, ib), max(ia, ib))
+        if key not in self.body_pairs:
+            raise ValueError(f"bodies {a!r} and {b!r} cannot touch (same body or both kinematic)")
+        return self.body_pairs.index(key)
+
+
+@struct.dataclass
+class PhysicsState:
+    """Pose (x_um, y_um, theta_rad) of each body's drag centre and each trap's centre."""
+
+    pose: jnp.ndarray  # (B, 3)
+    trap_xy_um: jnp.ndarray  # (T, 2)
+
+
+def default_traps(bodies: Sequence[BodySpec]) -> list[tuple[int, int]]:
+    """One trap on every handle of every body, in body order."""
+    return [(b, h) for b, body in enumerate(bodies) for h in body.handle_indices]
+
+
+def max_stable_dt_s(bodies: Sequence[BodySpec], config: PhysicsConfig,
+                    traps: Sequence[tuple[int, int]] | None = None) -> float:
+    """Largest step that keeps explicit Euler-Maruyama stable (trap relaxation) and
+    free of tunnelling (drift plus 3 sigma of noise below half the smallest radius)."""
+    traps = default_traps(bodies) if traps is None else traps
+    law = config.trap_law
+    kt = config.kt_pn_um
+    smallest_radius = min(float(b.radii_um.min()) for b in bodies)
+    limit = math.inf
+    for index, body in enumerate(bodies):
+        if body.kinematic:
+            continue
+        drag = body_drag(body.offsets_um, body.radii_um, config.viscosity_pa_s,
+                         config.height_above_floor_um)
+        mobility = drag.max_point_mobility_um_per_pn_s
+        n_traps = sum(1 for b, _ in traps if b == index)
+        if n_traps:
+            limit = min(limit, STABILITY_LIMIT / (mobility * n_traps * law.centre_stiffness_pn_per_um))
+        drift_um_per_s = mobility * n_traps * law.max_force_pn if n_traps else 0.0
+        step_budget = TUNNELLING_FRACTION * smallest_radius
+        # solve drift*dt + 3*sqrt(2 kT mobility dt) = budget for dt
+        noise = 3 * math.sqrt(2 * kt * mobility)
+        if drift_um_per_s > 0:
+            root = (-noise + math.sqrt(noise**2 + 4 * drift_um_per_s * step_budget)) / (2 * drift_um_per_s)
+        else:
+            root = step_budget / noise if noise > 0 else math.inf
+        limit = min(limit, root**2)
+    return limit
+
+
+def _check_traps(bodies: Sequence[BodySpec], traps) -> list[tuple[int, int]]:
+    checked = []
+    for entry in traps:
+        if len(entry) != 2:
+            raise ValueError(f"traps entries must be (body_index, handle_index), got {entry!r}")
+        b, h = int(entry[0]), int(entry[1])
+        if not 0 <= b < len(bodies):
+            raise ValueError(f"traps: body index {b} outside 0..{len(bodies) - 1}")
+        if h not in bodies[b].handle_indices:
+            raise ValueError(f"traps: sphere {h} of body {bodies[b].name!r} is not a handle "
+                             f"(handles: {bodies[b].handle_indices})")
+        checked.append((b, h))
+    return checked
+
+
+def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfig(), *,
+                traps: Sequence[tuple[int, int]] | None = None,
+                flow=None, walls=None) -> Model:
+    """Compile a scene description into a ``Model``.
+
+    traps: (body_index, handle_sphere_index) for each optical trap; default one per
+    handle. Raises ValueError naming the parameter for any invalid input, including
+    a ``dt_s`` too large for stability (see ``max_stable_dt_s``).
+    """
+    if len(bodies) == 0:
+        raise ValueError("bodies must contain at least one body")
+    if not all(isinstance(b, BodySpec) for b in bodies):
+        raise ValueError("bodies must be BodySpec instances (see otgym.physics.bodies)")
+    names = [b.name for b in bodies]
+    if len(set(names)) != len(names):
+        raise ValueError(f"body names must be unique, got {names}")
+    traps = _check_traps(bodies, default_traps(bodies) if traps is None else traps)
+    dt_limit = max_stable_dt_s(bodies, config, traps)
+    if config.dt_s > dt_limit:
+        raise ValueError(f"dt_s={config.dt_s:g} is too large for stability with these bodies "
+                         f"and trap law: it must be at most {dt_limit:.3g} s")
+
+    dtype = jnp.float64 if config.dtype == "float64" else jnp.float32
+    kt = config.kt_pn_um
+    offsets, radii, drag_t, drag_r, sphere_body, mobility, point_mobility = [], [], [], [], [], [], []
+    sphere_start = []
+    for index, body in enumerate(bodies):
+        drag = body_drag(body.offsets_um, body.radii_um, config.viscosity_pa_s,
+                         config.height_above_floor_um)
+        gamma_i, gamma_rot_i = sphere_drag(body.radii_um, config.viscosity_pa_s,
+                                           config.height_above_floor_um)
+        sphere_start.append(len(radii))
+        offsets.extend(body.offsets_um - drag.drag_centre_um)
+        radii.extend(body.radii_um)
+        drag_t.extend(gamma_i)
+        drag_r.extend(gamma_rot_i)
+        sphere_body.extend([index] * body.n_spheres)
+        if body.kinematic:
+            mobility.append((0.0, 0.0, 0.0))
+            point_mobility.append(0.0)
+        else:
+            mu_t = 1.0 / drag.translational_pn_s_per_um
+            mobility.append((mu_t, mu_t, 1.0 / drag.rotational_pn_s_um))
+            point_mobility.append(drag.max_point_mobility_um_per_pn_s)
+    n_spheres, n_bodies = len(radii), len(bodies)
+    mobility = np.array(mobility)
+    point_mobility = np.array(point_mobility)
+    kinematic = np.array([b.kinematic for b in bodies])
+
+    pair_a, pair_b, pair_stiffness, pair_body_pair = [], [], [], []
+    body_pairs = [(i, j) for i, j in itertools.combinations(range(n_bodies), 2)
+                  if not (kinematic[i] and kinematic[j])]
+    for bp, (i, j) in enumerate(body_pairs):
+        stiffness = CONTACT_STEP_FRACTION / (config.dt_s * (point_mobility[i] + point_mobility[j]))
+        for si in range(sphere_start[i], sphere_start[i] + bodies[i].n_spheres):
+            for sj in range(sphere_start[j], sphere_start[j] + bodies[j].n_spheres):
+                pair_a.append(si)
+                pair_b.append(sj)
+                pair_stiffness.append(stiffness)
+                pair_body_pair.append(bp)
+    n_pairs = len(pair_a)
+    incidence = np.zeros((n_spheres, n_pairs))
+    incidence[pair_a, np.arange(n_pairs)] = 1.0
+    incidence[pair_b, np.arange(n_pairs)] = -1.0
+    pair_to_body_pair = np.zeros((n_pairs, len(body_pairs)))
+    pair_to_body_pair[np.arange(n_pairs), pair_body_pair] = 1.0
+    sphere_point_mobility = point_mobility[sphere_body]
+    wall_stiffness = np.where(sphere_point_mobility > 0,
+                              CONTACT_STEP_FRACTION / (config.dt_s * np.maximum(sphere_point_mobility, 1e-30)),
+                              0.0)
+    body_of_sphere = np.zeros((n_spheres, n_bodies))
+    body_of_sphere[np.arange(n_spheres), sphere_body] = 1.0
+    trap_sphere = tuple(sphere_start[b] + h for b, h in traps)
+
+    def arr(x):
+        return jnp.asarray(np.asarray(x, float), dtype)
+
+    return Model(
+        sphere_offset_um=arr(offsets).reshape(n_spheres, 2),
+        sphere_radius_um=arr(radii),
+        sphere_drag_pn_s_per_um=arr(drag_t),
+        sphere_rotational_drag_pn_s_um=arr(drag_r),
+        body_of_sphere=arr(body_of_sphere),
+        body_mobility=arr(mobility),
+        body_noise_um=arr(np.sqrt(2 * kt * config.dt_s * mobility)),
+        kinematic_mask=arr(np.repeat(kinematic[:, None], 3, axis=1)),
+        pair_stiffness_pn_per_um=arr(pair_stiffness),
+        pair_incidence=arr(incidence),
+        pair_to_body_pair=arr(pair_to_body_pair),
+        wall_stiffness_pn_per_um=arr(wall_stiffness),
+        dt_s=arr(config.dt_s),
+        hamaker_pn_um=arr(config.hamaker_pn_um),
+        min_gap_um=arr(config.min_gap_um),
+        flow=UniformFlow(jnp.zeros(2, dtype)) if flow is None else flow,
+        walls=NoWalls() if walls is None else walls,
+        pair_a=tuple(pair_a),
+        pair_b=tuple(pair_b),
+        trap_sphere=trap_sphere,
+        sphere_body=tuple(sphere_body),
+        body_pairs=tuple(body_pairs),
+        body_names=tuple(names),
+        body_kinds=tuple(int(b.kind) for b in bodies),
+        trap_law=config.trap_law,
+        substeps=config.substeps,
+    )
+
+
+def sphere_positions_um(model: Model, pose):
+    """World positions (..., N, 2) of every sphere for body poses (..., B, 3)."""
+    per_sphere = model.body_of_sphere @ pose  # (..., N, 3)
+    cos, sin = jnp.cos(per_sphere[..., 2]), jnp.sin(per_sphere[..., 2])
+    ox, oy = model.sphere_offset_um[:, 0], model.sphere_offset_um[:, 1]
+    rotated = jnp.stack([cos * ox - sin * oy, sin * ox + cos * oy], axis=-1)
+    return per_sphere[..., :2] + rotated
+
+
+def initial_state(model: Model, pose, trap_xy_um=None) -> PhysicsState:
+    """A state with the given body poses (B, 3); traps start centred on their handles
+    unless ``trap_xy_um`` (T, 2) is given."""
+    dtype = model.sphere_radius_um.dtype
+    pose = np.asarray(pose, float)
+    require_shape("pose", pose, (model.n_bodies, 3))
+    if not np.all(np.isfinite(pose)):
+        raise ValueError("pose must be finite")
+    pose = jnp.asarray(pose, dtype)
+    if trap_xy_um is None:
+        trap_xy_um = sphere_positions_um(model, pose)[jnp.array(model.trap_sphere, int)] \
+            if model.n_traps else jnp.zeros((0, 2), dtype)
+    else:
+        trap_xy_um = np.asarray(trap_xy_um, float)
+        require_shape("trap_xy_um", trap_xy_um, (model.n_traps, 2))
+    return PhysicsState(pose=pose, trap_xy_um=jnp.asarray(trap_xy_um, dtype))
