@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-CONTACT_STEP_FRACTION = 0.4
+CONTACT_STEP_FRACTION = 0.5
 """kappa: fraction of an overlap removed per step (stable below 2 / number of contacts)."""
 
 

@@ -66,8 +66,9 @@ class BodyDrag:
 
     drag_centre_um: the drag centre in the body's input frame (offsets are shifted
     by it); translational_pn_s_per_um, rotational_pn_s_um: diagonal resistance;
-    max_point_mobility_um_per_pn_s: the largest mobility of any point of the body,
-    1/gamma_t + R^2/gamma_r with R the reach of the farthest sphere surface.
+    max_point_mobility_um_per_pn_s: the largest mobility of the body under a force
+    applied through a sphere centre, 1/gamma_t + R^2/gamma_r with R the distance of the
+    farthest sphere centre (contact and trap forces act along lines through centres).
     """
 
     drag_centre_um: np.ndarray
@@ -86,5 +87,5 @@ def body_drag(offsets_um, radii_um, viscosity_pa_s: float,
     centre = (gamma_i[:, None] * offsets).sum(axis=0) / gamma_t
     lever = offsets - centre
     gamma_r = float(np.sum(gamma_rot_i + gamma_i * np.sum(lever**2, axis=1)))
-    reach = float(np.max(np.linalg.norm(lever, axis=1) + radii))
+    reach = float(np.max(np.linalg.norm(lever, axis=1)))
     return BodyDrag(centre, gamma_t, gamma_r, 1.0 / gamma_t + reach**2 / gamma_r)

@@ -1,0 +1,149 @@
+"""Contact: non-penetration between bodies, reported contact forces, van der Waals."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from otgym import physics as ph
+from otgym.physics.interactions import sphere_pair_forces
+from tests.physics.helpers import batch_state, run_batch, step
+
+DENSE_BODIES = [ph.two_handle_robot("r1"), ph.two_handle_robot("r2"), ph.four_arm_robot("r3"),
+                ph.cell("cell"), ph.cell("cell2", radius_um=3.0), ph.bead("bead"),
+                ph.obstacle("obstacle")]
+DENSE_CONFIG = ph.PhysicsConfig(dt_s=5e-5, substeps=100)
+DENSE_MODEL = ph.build_model(DENSE_BODIES, DENSE_CONFIG)
+N_ENV = 4
+
+
+def settled_overlap_bound_um(model):
+    """With nothing pressing bodies together but van der Waals (clamped at the minimum
+    gap, so it keeps pulling while spheres overlap) and thermal kicks, the penalty
+    contact settles at overlap F_vdw / k_c: bound it by twice the largest pair vdW force
+    (two contacts adding up) over the softest contact, plus three standard deviations of
+    one step's thermal displacement of the most mobile body."""
+    radius = np.asarray(model.sphere_radius_um, float)
+    a, b = np.array(model.pair_a), np.array(model.pair_b)
+    reduced = radius[a] * radius[b] / (radius[a] + radius[b])
+    vdw_max = float(model.hamaker_pn_um) * reduced.max() / (6 * float(model.min_gap_um) ** 2)
+    stiffness = float(model.pair_stiffness_pn_per_um.min())
+    return 2 * vdw_max / stiffness + 3 * float(np.asarray(model.body_noise_um)[:, :2].max())
+
+
+SETTLED_OVERLAP_UM = settled_overlap_bound_um(DENSE_MODEL)  # 0.08 um here
+
+
+def random_dense_pose(rng, box_um):
+    """Bodies placed one by one at random poses in a box, rejecting any placement whose
+    spheres touch those already placed (the box grows 10 % when it is too full)."""
+    placed_xy, placed_r, poses = np.zeros((0, 2)), np.zeros(0), []
+    for body in DENSE_BODIES:
+        for attempt in range(10_000):
+            size = box_um * 1.1 ** (attempt // 200)
+            x, y, theta = *rng.uniform(-size / 2, size / 2, 2), rng.uniform(-np.pi, np.pi)
+            rotation = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+            xy = body.offsets_um @ rotation.T + [x, y]
+            gaps = np.linalg.norm(xy[:, None] - placed_xy[None], axis=-1) - body.radii_um[:, None] - placed_r
+            if gaps.size == 0 or gaps.min() > 0.1:
+                break
+        placed_xy = np.vstack([placed_xy, xy])
+        placed_r = np.concatenate([placed_r, body.radii_um])
+        poses.append((x, y, theta))
+    drag_centres = [ph.mobility.body_drag(b.offsets_um, b.radii_um, 8.9e-4).drag_centre_um for b in DENSE_BODIES]
+    poses = np.array(poses)
+    for pose, centre in zip(poses, drag_centres):  # poses are of drag centres
+        c, s_ = np.cos(pose[2]), np.sin(pose[2])
+        pose[:2] += [c * centre[0] - s_ * centre[1], s_ * centre[0] + c * centre[1]]
+    return poses
+
+
+OBSTACLE_SPEED_UM_S = 50.0
+
+
+def run_dense(seed, box_um, trap_speed_um_s, obstacle_speed_um_s, n_steps=20):
+    rng = np.random.default_rng(seed)
+    state = batch_state(DENSE_MODEL, random_dense_pose(rng, box_um), N_ENV)
+    initial_overlap = run_batch(DENSE_MODEL, state, ph.Controls.zeros(DENSE_MODEL, N_ENV),
+                                jax.random.PRNGKey(0), 1)[1][1].max_overlap_um
+    assert float(np.max(np.asarray(initial_overlap))) < SETTLED_OVERLAP_UM  # placement is clean
+    direction = rng.normal(size=(N_ENV, DENSE_MODEL.n_traps, 2))
+    velocity = trap_speed_um_s * direction / np.linalg.norm(direction, axis=-1, keepdims=True)
+    body_velocity = np.zeros((N_ENV, len(DENSE_BODIES), 3))
+    heading = rng.uniform(-np.pi, np.pi)
+    body_velocity[:, -1, :2] = obstacle_speed_um_s * np.array([np.cos(heading), np.sin(heading)])
+    controls = ph.Controls.zeros(DENSE_MODEL, N_ENV).replace(
+        trap_velocity_um_s=jnp.asarray(velocity, jnp.float32),
+        body_velocity=jnp.asarray(body_velocity, jnp.float32))
+    final, (states, reports) = run_batch(DENSE_MODEL, state, controls, jax.random.PRNGKey(seed), n_steps)
+    assert np.all(np.isfinite(np.asarray(states.pose)))
+    assert np.all(np.isfinite(np.asarray(reports.contact_force_pn)))
+    return np.asarray(reports.max_overlap_um)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), box_um=st.floats(14.0, 24.0))
+def test_free_bodies_in_dense_random_configurations_do_not_penetrate(seed, box_um):
+    """Three robots, two cells, a bead and an immovable obstacle packed at random into
+    a small box, free (no trap pulls, the obstacle still): over 0.1 s no overlap
+    exceeds SETTLED_OVERLAP_UM and nothing becomes NaN."""
+    overlap = run_dense(seed, box_um, trap_speed_um_s=0.0, obstacle_speed_um_s=0.0)
+    assert overlap.max() < SETTLED_OVERLAP_UM
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), box_um=st.floats(14.0, 24.0), speed=st.floats(20.0, 200.0))
+def test_traps_driving_bodies_into_each_other_stay_within_the_contact_compliance(seed, box_um, speed):
+    """The same packings with every trap moving off in a random direction, dragging
+    the robots and the bead into their neighbours with up to the traps' maximum force,
+    and the obstacle sweeping through at 50 um/s. The overlap is bounded by the contact
+    compliance: the largest force that can press on one contact (all trap forces plus
+    the obstacle shoving every free body, v * sum(gamma_t)) over the softest contact
+    stiffness, plus SETTLED_OVERLAP_UM."""
+    overlap = run_dense(seed, box_um, trap_speed_um_s=speed, obstacle_speed_um_s=OBSTACLE_SPEED_UM_S)
+    mobility = np.asarray(DENSE_MODEL.body_mobility)[:, 0]
+    shove_pn = OBSTACLE_SPEED_UM_S * np.sum(1 / mobility[mobility > 0])
+    pressing_pn = DENSE_MODEL.n_traps * DENSE_MODEL.trap_law.max_force_pn + shove_pn
+    bound = pressing_pn / float(DENSE_MODEL.pair_stiffness_pn_per_um.min()) + SETTLED_OVERLAP_UM
+    assert overlap.max() < bound
+
+
+def test_reported_contact_force_equals_the_push_in_steady_contact():
+    """Two beads at T = 0, one pushed against the other held by a stiff harmonic trap:
+    overdamped force balance makes the contact force equal the push (3 pN)."""
+    config = ph.PhysicsConfig(dt_s=1e-5, substeps=200, temperature_k=0.0, hamaker_pn_um=0.0,
+                              trap_law=ph.TrapLaw("harmonic", 100.0))
+    model = ph.build_model([ph.bead("held"), ph.bead("pushed", radius_um=1.0)], config,
+                           traps=[(0, 0)])
+    state = ph.initial_state(model, [[0, 0, 0], [1.6, 0, 0]])
+    controls = ph.Controls.zeros(model).replace(external_force=jnp.array([[0, 0, 0], [-3.0, 0, 0]]))
+    for _ in range(10):
+        state, report = step(model, state, controls, jax.random.PRNGKey(0))
+    pair = model.body_pair_index("held", "pushed")
+    assert float(report.contact_force_pn[pair]) == pytest.approx(3.0, rel=1e-3)
+    assert bool(report.contact[pair])
+    # the penalty's compliance: overlap = F / k_c with k_c = kappa / (dt (mu_a + mu_b))
+    stiffness = float(model.pair_stiffness_pn_per_um[0])
+    assert float(report.max_overlap_um) == pytest.approx(3.0 / stiffness, rel=0.01)
+
+
+def test_van_der_waals_force_is_minus_gradient_of_derjaguin_energy():
+    a, b, hamaker = 1.0, 2.0, 9.5e-3
+    reduced = a * b / (a + b)
+
+    def energy(gap):  # U = -A a1 a2 / (6 (a1 + a2) D)
+        return -hamaker * reduced / (6 * gap)
+
+    for gap in (0.1, 0.3, 1.0):
+        on_a_x, _, _, _, _ = sphere_pair_forces(jnp.array(a + b + gap), jnp.array(0.0), a, b,
+                                                1.0, hamaker, 0.05)
+        derivative = (energy(gap + 1e-4) - energy(gap - 1e-4)) / 2e-4
+        assert float(on_a_x) == pytest.approx(derivative, rel=1e-4)  # attraction towards b
+
+
+def test_coincident_spheres_give_finite_forces():
+    forces = sphere_pair_forces(jnp.zeros(3), jnp.zeros(3), 1.0, 1.0, 5.0, 9.5e-3, 0.05)
+    assert all(np.all(np.isfinite(np.asarray(f))) for f in forces)
+    assert float(forces[0][0]) == pytest.approx(-2 * 5.0 + 9.5e-3 * 0.5 / (6 * 0.05**2))
