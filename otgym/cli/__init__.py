@@ -1,0 +1,1 @@
+"""Command-line interface (top layer): ``otgym demo|plan|chip ...``."""

@@ -1,0 +1,1 @@
+"""Experiments: end-to-end jobs that produce files (figures, tables, CSV) for people."""
