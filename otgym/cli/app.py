@@ -27,9 +27,10 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import demo
+    from otgym.cli import demo, plan
 
     demo.register(app)
+    plan.register(app)
 
 
 _registered = False

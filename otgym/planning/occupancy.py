@@ -25,43 +25,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
 from scipy import ndimage
 from skimage.filters import threshold_otsu
-
-_BIT_DEPTH_MAX = {"1": 1.0, "L": 255.0, "LA": 255.0, "P": 255.0, "I;16": 65535.0, "I;16B": 65535.0}
-
-
-def load_grayscale(path: str | Path) -> np.ndarray:
-    """Read an image file as a float grayscale array in [0, 1] (channels bright).
-
-    Raises ``FileNotFoundError`` for a missing file and ``ValueError`` for an empty
-    file, a file that is not an image, or an image with no pixels.
-    """
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"chip image {str(path)!r} does not exist")
-    if path.is_dir():
-        raise ValueError(f"chip image {str(path)!r} is a directory, not an image file")
-    if path.stat().st_size == 0:
-        raise ValueError(f"chip image {str(path)!r} is an empty file")
-    try:
-        with Image.open(path) as image:
-            image.load()
-            if image.mode in ("RGB", "RGBA", "CMYK", "YCbCr", "P", "LA", "PA", "HSV", "LAB"):
-                image = image.convert("L")
-            scale = _BIT_DEPTH_MAX.get(image.mode)
-            array = np.asarray(image, dtype=np.float64)
-    except (UnidentifiedImageError, OSError, SyntaxError) as error:
-        raise ValueError(f"chip image {str(path)!r} is not a readable image ({error})") from None
-    if array.ndim != 2 or array.size == 0:
-        raise ValueError(f"chip image {str(path)!r} has no pixels")
-    if scale is None:  # 32-bit integer or float images: scale by their own range
-        scale = max(float(array.max()), 1.0)
-    return array / scale
 
 
 def binarise(image: np.ndarray, threshold: float | str = "otsu") -> np.ndarray:
@@ -188,11 +155,6 @@ def pixels_to_um(rows_cols: np.ndarray, pixel_size_um: float) -> np.ndarray:
     """Pixel (row, col) indices -> (x_um, y_um) of the pixel centres."""
     rows_cols = np.asarray(rows_cols, dtype=np.float64).reshape(-1, 2)
     return (rows_cols[:, ::-1] + 0.5) * pixel_size_um
-
-
-def um_to_pixel_units(points_um: np.ndarray, pixel_size_um: float) -> np.ndarray:
-    """(x_um, y_um) -> continuous (x, y) in pixel units (pixel (r, c) spans [c, c+1) x [r, r+1))."""
-    return np.asarray(points_um, dtype=np.float64) / pixel_size_um
 
 
 def _as_point(point, name: str) -> tuple[float, float]:

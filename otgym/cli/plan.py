@@ -1,0 +1,82 @@
+"""``otgym plan``: plan on a chip and write the paper's Table I with its figures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+# The simulator defines a pixel as fluid when its gray value is above one half; the
+# planner binarises chips the same way so both agree on where the walls are.
+CHIP_FLUID_THRESHOLD = 0.5
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def plan(
+        chip: str = typer.Option(..., "--chip", help="Shipped chip name (e.g. default) or a PNG file."),
+        pixel_size_um: float = typer.Option(
+            None, "--pixel-size-um", help="Pixel size in um; required for a PNG without a JSON sidecar."
+        ),
+        start: str = typer.Option(..., "--start", help="Start X,Y in um (origin top-left, y down)."),
+        goal: str = typer.Option(..., "--goal", help="Goal X,Y in um (origin top-left, y down)."),
+        robot_radius_um: float = typer.Option(5.0, "--robot-radius-um", help="Robot radius in um."),
+        margin_um: float = typer.Option(
+            None, "--margin-um", help="Safety margin in um added to the radius [default: sqrt(2) pixels]."
+        ),
+        manual: Path = typer.Option(
+            None, "--manual", help="Recorded manual trajectory, CSV with columns x_um,y_um "
+            "[default: a simulated human operator]."
+        ),
+        out: Path = typer.Option(..., "--out", help="Folder for the results."),
+        seed: int = typer.Option(0, "--seed", help="Seed of the simulated operator."),
+    ) -> None:
+        """A* + B-spline path on a chip; writes path.csv, astar.csv, manual.csv, metrics.csv,
+        metrics.md (Table I: manual, A*, B-spline), paths.png and spectrum.png."""
+        from otgym.planning.pipeline import load_path_csv, metrics_markdown, write_plan
+
+        start_um = parse_point("--start", start)
+        goal_um = parse_point("--goal", goal)
+        manual_um = load_path_csv(manual) if manual is not None else None
+        loaded = load_chip_arrays(chip, pixel_size_um)
+        metrics = write_plan(
+            loaded.image,
+            loaded.pixel_size_um,
+            start_um,
+            goal_um,
+            out,
+            robot_radius_um=robot_radius_um,
+            margin_um=margin_um,
+            manual_um=manual_um,
+            threshold=CHIP_FLUID_THRESHOLD,
+            seed=seed,
+        )
+        console = Console()
+        console.print(
+            f"[bold]otgym plan[/bold] wrote {out}/path.csv, astar.csv, manual.csv, metrics.csv, metrics.md, "
+            "paths.png, spectrum.png",
+            soft_wrap=True,
+        )
+        console.print(metrics_markdown(metrics), markup=False, soft_wrap=True)
+
+
+def parse_point(option: str, text: str) -> tuple[float, float]:
+    """``"X,Y"`` -> (x, y); a ValueError naming the option otherwise."""
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return float(parts[0]), float(parts[1])
+    except ValueError:
+        raise ValueError(f"{option} must be two numbers X,Y in um, got {text!r}") from None
+
+
+def load_chip_arrays(name_or_png: str, pixel_size_um: float | None):
+    """The chip (``.image``, ``.pixel_size_um``) from ``otgym.sim.chip``, imported here
+    only, so that the planning package itself never depends on the simulator."""
+    try:
+        from otgym.sim.chip import load_chip
+    except ImportError as error:
+        raise ValueError(f"loading chips needs otgym.sim.chip, which cannot be imported here ({error})") from None
+    return load_chip(name_or_png, pixel_size_um)
