@@ -1,0 +1,149 @@
+"""RGB top-down view of a scene for people: channels, optional flow arrows, robots
+(handles darker), traps (red rings), cell, obstacles, beads and a path.
+
+Speed: the chip background (and the flow arrows) are drawn once per ``SceneRenderer``;
+a frame copies it and blends anti-aliased discs, rings and the path into small
+windows with numpy. Inputs are plain numpy (um; origin at the chip's top-left corner,
+x right, y down), so rendering does not depend on the physics state.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from otgym.physics.bodies import BodyKind
+from otgym.sim.chip import Chip
+
+CHANNEL_RGB = np.array([236, 242, 248], np.float32)
+SOLID_RGB = np.array([70, 76, 88], np.float32)
+ARROW_RGB = np.array([120, 160, 215], np.float32)
+KIND_RGB = {
+    BodyKind.ROBOT: np.array([235, 150, 50], np.float32),
+    BodyKind.CELL: np.array([90, 185, 100], np.float32),
+    BodyKind.OBSTACLE: np.array([130, 100, 170], np.float32),
+    BodyKind.BEAD: np.array([230, 200, 60], np.float32),
+}
+HANDLE_RGB = np.array([185, 70, 30], np.float32)
+TRAP_RGB = np.array([220, 30, 40], np.float32)
+PATH_RGB = np.array([200, 40, 200], np.float32)
+ARROW_SPACING_PX = 24
+LINE_WIDTH_PX = 1.2
+
+
+class SceneRenderer:
+    """Renders frames of ``size_px`` = (width, height) pixels showing ``region_um`` =
+    (x0, y0, x1, y1) of the chip (default: all of it), aspect ratio kept, centred.
+    ``flow_velocity_um_s``: optional node velocity grid (H+1, W+1, 2) of the chip
+    (``FlowSolution.node_velocity_um_s``) to draw arrows."""
+
+    def __init__(self, chip: Chip, size_px: tuple[int, int] = (512, 512), flow_velocity_um_s=None,
+                 region_um: tuple[float, float, float, float] | None = None):
+        width, height = size_px
+        if width < 16 or height < 16:
+            raise ValueError(f"size_px must be at least 16 x 16, got {size_px}")
+        x0, y0, x1, y1 = region_um if region_um is not None else (0.0, 0.0) + chip.size_um
+        if not (x1 > x0 and y1 > y0):
+            raise ValueError(f"region_um must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {region_um}")
+        self.scale = min(width / (x1 - x0), height / (y1 - y0))
+        self.offset = np.array([(width - (x1 - x0) * self.scale) / 2 - x0 * self.scale,
+                                (height - (y1 - y0) * self.scale) / 2 - y0 * self.scale])
+        self.background = self._background(chip, (height, width))
+        if flow_velocity_um_s is not None:
+            _draw_arrows(self.background, self, np.asarray(flow_velocity_um_s), chip.pixel_size_um)
+        self.background = np.round(self.background).astype(np.uint8)
+
+    def to_px(self, xy_um) -> np.ndarray:
+        return self.offset + np.asarray(xy_um, float) * self.scale
+
+    def _background(self, chip: Chip, shape) -> np.ndarray:
+        rows, cols = np.mgrid[0:shape[0], 0:shape[1]]
+        x_um = (cols + 0.5 - self.offset[0]) / self.scale
+        y_um = (rows + 0.5 - self.offset[1]) / self.scale
+        index = [y_um / chip.pixel_size_um - 0.5, x_um / chip.pixel_size_um - 0.5]
+        gray = ndimage.map_coordinates(chip.image, index, order=1, mode="constant", cval=0.0)
+        return SOLID_RGB + gray[..., None] * (CHANNEL_RGB - SOLID_RGB)
+
+    def render(self, sphere_xy_um, sphere_radius_um, sphere_kind, handle_mask, trap_xy_um, path_um=None) -> np.ndarray:
+        """One RGB frame (height, width, 3) uint8. Spheres (N, 2), (N,), (N,) kinds
+        (``BodyKind``), handles (N,) bool, traps (T, 2), path (M, 2) or None."""
+        frame = self.background.astype(np.float32)
+        if path_um is not None and len(path_um) > 1:
+            _draw_polyline(frame, self.to_px(path_um), PATH_RGB, LINE_WIDTH_PX)
+        centres = self.to_px(np.asarray(sphere_xy_um, float).reshape(-1, 2))
+        radii = np.asarray(sphere_radius_um, float).reshape(-1) * self.scale
+        kinds = np.asarray(sphere_kind).reshape(-1)
+        handles = np.asarray(handle_mask, bool).reshape(-1)
+        for order in (BodyKind.OBSTACLE, BodyKind.CELL, BodyKind.BEAD, BodyKind.ROBOT):
+            for index in np.flatnonzero(kinds == order):
+                colour = HANDLE_RGB if handles[index] else KIND_RGB[BodyKind(order)]
+                _blend_disc(frame, centres[index], radii[index], colour)
+        trap_radius = max(3.0, 0.6 * self.scale)
+        for centre in self.to_px(np.asarray(trap_xy_um, float).reshape(-1, 2)):
+            _blend_disc(frame, centre, trap_radius, TRAP_RGB, ring_width=LINE_WIDTH_PX)
+        return frame.astype(np.uint8)
+
+
+def _blend_disc(frame, centre, radius, colour, ring_width=None):
+    """Anti-aliased disc (or ring of ``ring_width``) blended into ``frame`` in place."""
+    height, width = frame.shape[:2]
+    reach = radius + 1.5
+    r0, r1 = max(int(centre[1] - reach), 0), min(int(centre[1] + reach) + 2, height)
+    c0, c1 = max(int(centre[0] - reach), 0), min(int(centre[0] + reach) + 2, width)
+    if r0 >= r1 or c0 >= c1:
+        return
+    dy = np.arange(r0, r1) + 0.5 - centre[1]
+    dx = np.arange(c0, c1) + 0.5 - centre[0]
+    distance = np.sqrt(dy[:, None] ** 2 + dx[None, :] ** 2)
+    if ring_width is None:
+        alpha = np.clip(radius - distance + 0.5, 0.0, 1.0)
+    else:
+        alpha = np.clip(ring_width / 2 - np.abs(distance - radius) + 0.5, 0.0, 1.0)
+    window = frame[r0:r1, c0:c1]
+    window += alpha[..., None] * (colour - window)
+
+
+def _line_points(points_px, spacing=0.5):
+    """Points every ``spacing`` pixels along a polyline (M, 2)."""
+    start, end = points_px[:-1], points_px[1:]
+    counts = np.maximum(np.ceil(np.linalg.norm(end - start, axis=1) / spacing).astype(int), 1)
+    owner = np.repeat(np.arange(start.shape[0]), counts)
+    fraction = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / counts[owner]
+    return start[owner] + fraction[:, None] * (end - start)[owner]
+
+
+def _draw_polyline(frame, points_px, colour, width_px):
+    """Stamp the nearest pixels of densely sampled points (a line about one pixel wide)."""
+    samples = _line_points(points_px)
+    offsets = np.array([(0, 0), (0.5, 0), (-0.5, 0), (0, 0.5), (0, -0.5)]) * (width_px - 1.0)
+    stamped = (samples[:, None, :] + offsets[None]).reshape(-1, 2)
+    cols = np.floor(stamped[:, 0]).astype(int)
+    rows = np.floor(stamped[:, 1]).astype(int)
+    inside = (rows >= 0) & (rows < frame.shape[0]) & (cols >= 0) & (cols < frame.shape[1])
+    frame[rows[inside], cols[inside]] = colour
+
+
+def _draw_arrows(background, renderer: SceneRenderer, node_velocity, pixel_size_um):
+    """Arrows on a lattice of ARROW_SPACING_PX, length proportional to the local speed
+    (the fastest arrow spans 0.9 lattice steps), where the flow is non-zero."""
+    height, width = background.shape[:2]
+    speed = np.linalg.norm(node_velocity, axis=-1)
+    peak = speed.max()
+    if peak <= 0:
+        return
+    rows, cols = np.mgrid[ARROW_SPACING_PX // 2:height:ARROW_SPACING_PX, ARROW_SPACING_PX // 2:width:ARROW_SPACING_PX]
+    base_px = np.stack([cols.ravel(), rows.ravel()], axis=-1).astype(float)
+    base_um = (base_px - renderer.offset) / renderer.scale
+    index = [base_um[:, 1] / pixel_size_um, base_um[:, 0] / pixel_size_um]
+    velocity = np.stack([ndimage.map_coordinates(node_velocity[..., k], index, order=1, cval=0.0) for k in (0, 1)], -1)
+    length = np.linalg.norm(velocity, axis=-1)
+    for start, v, size in zip(base_px, velocity, length):
+        if size < 0.05 * peak:
+            continue
+        tip = start + v / peak * 0.9 * ARROW_SPACING_PX
+        direction = v / size
+        side = np.array([-direction[1], direction[0]])
+        head = 0.3 * np.linalg.norm(tip - start)
+        for wing in (tip - head * (direction + 0.6 * side), tip - head * (direction - 0.6 * side)):
+            _draw_polyline(background, np.array([tip, wing]), ARROW_RGB, 1.0)
+        _draw_polyline(background, np.array([start, tip]), ARROW_RGB, 1.0)
