@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
 from otgym.physics.model import Model, PhysicsState, sphere_positions_um
 
@@ -85,13 +86,21 @@ def _sphere_xy(model: Model, px, py, theta):
     return px[body] + lever_x, py[body] + lever_y, lever_x, lever_y
 
 
+def _samples_fields(model: Model) -> bool:
+    return not (isinstance(model.flow, UniformFlow) and isinstance(model.walls, NoWalls))
+
+
 def _forces(model: Model, px, py, theta, trap_x, trap_y, external):
     """Generalised forces (3 arrays (B, E)) and the contact details for reporting."""
     x, y, lever_x, lever_y = _sphere_xy(model, px, py, theta)
-    points = jnp.stack([x, y], axis=-1)
+    points = jnp.stack([x, y], axis=-1) if _samples_fields(model) else None
     drag = model.sphere_drag_pn_s_per_um[:, None]
-    flow = model.flow.velocity_um_s(points)
-    fx, fy = drag * flow[..., 0], drag * flow[..., 1]
+    if isinstance(model.flow, UniformFlow):  # no sampling, and no torque about the drag centre
+        fx = drag * model.flow.velocity[0].astype(x.dtype) + jnp.zeros_like(x)
+        fy = drag * model.flow.velocity[1].astype(x.dtype) + jnp.zeros_like(y)
+    else:
+        flow = model.flow.velocity_um_s(points)
+        fx, fy = drag * flow[..., 0], drag * flow[..., 1]
     traps = np.asarray(model.trap_sphere, dtype=int)
     to_trap_x, to_trap_y = trap_x - x[traps], trap_y - y[traps]
     trap_distance = jnp.sqrt(to_trap_x**2 + to_trap_y**2)
@@ -111,18 +120,23 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external):
         fx = fx + model.pair_incidence @ on_a_x
         fy = fy + model.pair_incidence @ on_a_y
         overlap_max = jnp.max(overlap, axis=0)
-    distance, normal = model.walls.distance_and_normal(points)
-    wall_x, wall_y, wall_contact, wall_overlap = sphere_wall_forces(
-        distance, normal[..., 0], normal[..., 1], model.sphere_radius_um[:, None],
-        model.wall_stiffness_pn_per_um[:, None], model.hamaker_pn_um, model.min_gap_um)
-    fx, fy = fx + wall_x, fy + wall_y
-    dynamic = (model.wall_stiffness_pn_per_um > 0)[:, None]
-    overlap_max = jnp.maximum(overlap_max, jnp.max(wall_overlap * dynamic, axis=0))
+    if isinstance(model.walls, NoWalls):
+        wall_touch = jnp.zeros(x.shape, bool)
+    else:
+        distance, normal = model.walls.distance_and_normal(points)
+        wall_x, wall_y, wall_contact, wall_overlap = sphere_wall_forces(
+            distance, normal[..., 0], normal[..., 1], model.sphere_radius_um[:, None],
+            model.wall_stiffness_pn_per_um[:, None], model.hamaker_pn_um, model.min_gap_um)
+        fx, fy = fx + wall_x, fy + wall_y
+        dynamic = (model.wall_stiffness_pn_per_um > 0)[:, None]
+        overlap_max = jnp.maximum(overlap_max, jnp.max(wall_overlap * dynamic, axis=0))
+        wall_touch = (wall_contact > 0) & dynamic
     torque = lever_x * fy - lever_y * fx
-    torque = torque + model.sphere_rotational_drag_pn_s_um[:, None] * model.flow.vorticity_per_s(points) / 2
+    if not isinstance(model.flow, UniformFlow):
+        vorticity = model.flow.vorticity_per_s(points)
+        torque = torque + model.sphere_rotational_drag_pn_s_um[:, None] * vorticity / 2
     to_body = model.body_of_sphere.T
     generalised = (to_body @ fx + external[0], to_body @ fy + external[1], to_body @ torque + external[2])
-    wall_touch = wall_contact > 0
     return generalised, contact_x, contact_y, wall_touch, overlap_max, trap_distance
 
 
@@ -147,12 +161,14 @@ def _substep(model: Model, controls, trap_start, carry, inputs):
             jnp.maximum(distance_max, distance), jnp.maximum(overlap_max, overlap)), None
 
 
-def control_step_batch(model: Model, state: PhysicsState, controls: Controls, keys):
-    """Advance E environments (leading batch axis on state, controls, keys) by one
+def control_step_batch(model: Model, state: PhysicsState, controls: Controls, key):
+    """Advance E environments (leading batch axis on state and controls) by one
     control step of ``model.substeps`` Euler-Maruyama steps.
 
-    Returns (state, StepReport), both with a leading batch axis. Each environment's
-    noise comes from its own key, so results equal E separate ``control_step`` calls."""
+    ``key`` is one PRNG key for the whole batch: the noise of all environments is drawn
+    in one call, directly in the batch-last layout (3x faster on CPU than one key per
+    environment, which is what ``vmap(control_step)`` does).
+    Returns (state, StepReport), both with a leading batch axis."""
     pose, trap_xy = state.pose, state.trap_xy_um
     if pose.ndim != 3 or pose.shape[1:] != (model.n_bodies, 3):
         raise ValueError(f"state.pose must have shape (E, {model.n_bodies}, 3), got {pose.shape}")
@@ -161,8 +177,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         raise ValueError(f"state.trap_xy_um must have shape {(n_env, model.n_traps, 2)}, got {trap_xy.shape}")
     _check_controls(model, controls, (n_env,))
     dtype = pose.dtype
-    noise = jax.vmap(lambda k: jax.random.normal(k, (model.substeps, model.n_bodies, 3), dtype))(keys)
-    noise = jnp.transpose(noise, (1, 3, 2, 0))  # (substeps, 3, B, E)
+    noise = jax.random.normal(key, (model.substeps, 3, model.n_bodies, n_env), dtype)
     last = lambda a: jnp.moveaxis(a, 0, -1)  # noqa: E731  (E, K, ...) -> (K, ..., E)
     pose_t, trap_t = last(pose), last(trap_xy)
     body_velocity, external = last(controls.body_velocity), last(controls.external_force)
@@ -205,7 +220,7 @@ def control_step(model: Model, state: PhysicsState, controls: Controls, key):
     """Advance one environment by ``model.substeps`` steps; returns (state, StepReport)."""
     _check_controls(model, controls, ())
     expand = lambda tree: jax.tree.map(lambda a: a[None], tree)  # noqa: E731
-    new_state, report = control_step_batch(model, expand(state), expand(controls), key[None])
+    new_state, report = control_step_batch(model, expand(state), expand(controls), key)
     squeeze = lambda tree: jax.tree.map(lambda a: a[0], tree)  # noqa: E731
     return squeeze(new_state), squeeze(report)
 

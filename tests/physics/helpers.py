@@ -15,8 +15,7 @@ def run_batch(model, state, controls, key, n_steps: int):
     """Scan ``n_steps`` control steps of a batch; returns (final state, (states stacked
     (n, E, ...), reports stacked))."""
     def body(carry, step_key):
-        new_state, report = ph.control_step_batch(
-            model, carry, controls, jax.random.split(step_key, carry.pose.shape[0]))
+        new_state, report = ph.control_step_batch(model, carry, controls, step_key)
         return new_state, (new_state, report)
 
     return jax.lax.scan(body, state, jax.random.split(key, n_steps))
