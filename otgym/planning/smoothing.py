@@ -57,7 +57,8 @@ def smooth_path(
 
     ``path_um``: ``(n, 2)`` points (x_um, y_um), typically the A* path; every segment
     must be free in ``free`` (the dilated map, True = free). ``step_um`` is the
-    spacing of the output samples along the arc (default: a quarter pixel). Returns
+    spacing of the output samples along the arc (default: a quarter pixel; uniform to
+    within 1 %, as arc length is inverted on a grid 8 times finer). Returns
     the ``(m, 2)`` samples in um, starting and ending exactly at the path's ends.
     """
     pixel_size_um = float(pixel_size_um)
