@@ -97,7 +97,7 @@ def microscope_images(
         np.minimum(distance, np.sqrt(dx2 + dy2) - radii[:, index, None, None], out=distance)
     illumination = _illumination(origin, shape, params, chip)
     coverage = np.clip(0.5 - distance / params.pixel_size_um, 0.0, 1.0)
-    halo_d = np.maximum(distance, 0.0) / params.halo_width_um
+    halo_d = np.clip(distance / params.halo_width_um, 0.0, 50.0)
     halo = params.halo_strength * halo_d * np.exp(1.0 - halo_d)
     intensity = illumination * (1.0 - (1.0 - params.body_transmission) * coverage) + params.background * halo
     sigma_px = params.defocus_sigma_um / params.pixel_size_um

@@ -39,6 +39,11 @@ from otgym.physics.traps import TrapLaw
 from otgym.physics.validation import require_positive_scalar
 
 OUTLIER_SIGMAS = 3.0
+MIN_CONTRAST = 0.2
+"""A handle must be darker than its surroundings by this fraction of the background."""
+RADIUS_TOLERANCE = 0.25
+"""The fitted outline's radius must be within 25 % of the handle radius (blur and the
+half-way threshold move it by a few per cent)."""
 RAY_REACH = 1.4
 """Rays end at 1.4 handle radii: past the handle's own outline, short of the far side
 of a touching sphere."""
@@ -51,7 +56,9 @@ MIN_EDGE_POINTS = 8
 @dataclasses.dataclass(frozen=True)
 class SensorReading:
     """Estimates per frame and trap: handle positions (B, K, 2) um, forces (B, K, 2) pN,
-    and ``valid`` (B, K): False where no handle outline was found near the trap."""
+    and ``valid`` (B, K): False where no handle outline was found near the trap (too
+    little contrast, too few edge points, or an outline of the wrong size); the force
+    is NaN there."""
 
     handle_xy_um: np.ndarray
     force_pn: np.ndarray
@@ -101,11 +108,13 @@ class VisionForceSensor:
         start = self._detect(smoothed, traps_px.reshape(-1, 2), pixel_size_um)
         dark = smoothed(start[:, None, :])[:, 0]
         bright = _background(sampler, start, radius_px)
-        centre, valid = start, np.ones(start.shape[0], bool)
+        contrast_ok = bright - dark > MIN_CONTRAST * bright
+        centre, valid = start, contrast_ok
         for _ in range(2):
             points, ok = self._edges(sampler, centre, radius_px, dark, bright)
-            fitted, fit_ok = _robust_circle(points, ok)
-            valid = fit_ok & (np.linalg.norm(fitted - start, axis=-1) < 0.5 * radius_px)
+            fitted, radius, fit_ok = _robust_circle(points, ok)
+            valid = (contrast_ok & fit_ok & (np.abs(radius - radius_px) < RADIUS_TOLERANCE * radius_px)
+                     & (np.linalg.norm(fitted - start, axis=-1) < 0.5 * radius_px))
             centre = np.where(valid[:, None], fitted, centre)
         return centre.reshape(frames, k, 2), valid.reshape(frames, k)
 
@@ -195,10 +204,11 @@ def _robust_circle(points, found):
         centre, radius = _circle_fit(points, keep)
         residual = np.linalg.norm(points - centre[:, None, :], axis=-1) - radius[:, None]
         kept_residual = np.where(keep > 0, np.abs(residual), np.nan)
+        kept_residual[keep.sum(axis=1) == 0] = 0.0
         mad = 1.4826 * np.nanmedian(kept_residual, axis=1)
         keep = (found & (np.abs(residual) <= np.maximum(OUTLIER_SIGMAS * mad, 0.1)[:, None])).astype(float)
     centre, radius = _circle_fit(points, keep)
-    return centre, keep.sum(axis=1) >= MIN_EDGE_POINTS
+    return centre, radius, keep.sum(axis=1) >= MIN_EDGE_POINTS
 
 
 def sensor_errors(reading: SensorReading, true_handle_xy_um, true_force_pn) -> dict[str, np.ndarray]:
