@@ -23,11 +23,11 @@ def register(app: typer.Typer) -> None:
         goal: str = typer.Option(..., "--goal", help="Goal X,Y in um (origin top-left, y down)."),
         robot_radius_um: float = typer.Option(5.0, "--robot-radius-um", help="Robot radius in um."),
         margin_um: float = typer.Option(
-            None, "--margin-um", help="Safety margin in um added to the radius [default: sqrt(2) pixels]."
+            None, "--margin-um", help="Safety margin in um added to the radius (default: sqrt(2) pixels)."
         ),
         manual: Path = typer.Option(
             None, "--manual", help="Recorded manual trajectory, CSV with columns x_um,y_um "
-            "[default: a simulated human operator]."
+            "(default: a simulated human operator)."
         ),
         out: Path = typer.Option(..., "--out", help="Folder for the results."),
         seed: int = typer.Option(0, "--seed", help="Seed of the simulated operator."),
