@@ -11,6 +11,7 @@ Quick use::
 
 from otgym.physics.bodies import (
     ROBOT_DESIGNS,
+    TWO_HANDLE_GRIPPER_SPHERES,
     BodyKind,
     BodySpec,
     bead,
@@ -35,7 +36,7 @@ from otgym.physics.model import (
 from otgym.physics.traps import TrapLaw
 
 __all__ = [
-    "ROBOT_DESIGNS", "BodyKind", "BodySpec", "bead", "cell", "custom_body", "four_arm_robot",
+    "ROBOT_DESIGNS", "TWO_HANDLE_GRIPPER_SPHERES", "BodyKind", "BodySpec", "bead", "cell", "custom_body", "four_arm_robot",
     "obstacle", "two_handle_robot", "simulate_trapped_bead", "NoWalls", "UniformFlow",
     "Controls", "StepReport", "control_step", "control_step_batch", "rollout", "Model",
     "PhysicsConfig", "PhysicsState", "build_model", "initial_state", "max_stable_dt_s",

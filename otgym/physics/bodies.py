@@ -85,19 +85,27 @@ def custom_body(
                     tuple(handle_indices), kinematic)
 
 
+TWO_HANDLE_GRIPPER_SPHERES = (5, 6)
+"""Indices of the two gripper spheres of ``two_handle_robot`` (the notch that holds a cell)."""
+
+
 def two_handle_robot(
     name: str = "robot",
     *,
     handle_radius_um: float = 1.25,
     handle_separation_um: float = 7.0,
     body_sphere_radius_um: float = 1.0,
+    gripper_spacing_um: float = 4.0,
 ) -> BodySpec:
-    """The paper's microrobot: a bar with a trapping handle at each end and a tip
-    sphere on +y that touches the cell. About 9.5 um across, handles 2.5 um wide."""
+    """The paper's microrobot: a bar with a trapping handle at each end (spheres 0, 1)
+    and, on its +y side, two gripper spheres ``gripper_spacing_um`` apart (spheres 5, 6)
+    forming a notch in which a cell sits, so that two robots facing each other hold a
+    cell at four points. About 9.5 um across, handles 2.5 um wide."""
     half = handle_separation_um / 2
+    grip = gripper_spacing_um / 2
     offsets = [(-half, 0.0), (half, 0.0), (-half / 2, 0.0), (0.0, 0.0), (half / 2, 0.0),
-               (0.0, 2 * body_sphere_radius_um)]
-    radii = [handle_radius_um, handle_radius_um] + [body_sphere_radius_um] * 4
+               (-grip, 2 * body_sphere_radius_um), (grip, 2 * body_sphere_radius_um)]
+    radii = [handle_radius_um, handle_radius_um] + [body_sphere_radius_um] * 5
     return custom_body(name, offsets, radii, handle_indices=(0, 1))
 
 
