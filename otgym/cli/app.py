@@ -27,10 +27,11 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import demo, plan
+    from otgym.cli import chip, demo, plan
 
     demo.register(app)
     plan.register(app)
+    chip.register(app)
 
 
 _registered = False

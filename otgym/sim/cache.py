@@ -19,7 +19,7 @@ from otgym.sim.chip import Chip
 from otgym.sim.flow import FlowSolution, mid_height_factor, solve_flow
 from otgym.sim.walls import channel_widths_um, signed_distance_um, wall_normals
 
-FIELDS_VERSION = "1"
+FIELDS_VERSION = "2"
 """Bump when walls.py or flow.py change what they compute."""
 
 

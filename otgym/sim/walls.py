@@ -56,5 +56,12 @@ def wall_normals(distance_um: np.ndarray) -> np.ndarray:
 
 def channel_widths_um(chip: Chip, distance_um: np.ndarray) -> np.ndarray:
     """Local channel widths: twice the wall distance along the fluid's skeleton
-    (medial axis), one value per skeleton pixel."""
-    return 2.0 * distance_um[skeletonize(chip.fluid)]
+    (medial axis), one value per skeleton pixel. Skeleton pixels nearer the image
+    border than to a wall are left out (there the border, open at the ports, would
+    count as a wall), unless that leaves none."""
+    skeleton = skeletonize(chip.fluid)
+    rows, cols = np.indices(chip.shape)
+    to_border = chip.pixel_size_um * (np.minimum(np.minimum(rows, chip.shape[0] - 1 - rows),
+                                                 np.minimum(cols, chip.shape[1] - 1 - cols)) + 0.5)
+    inner = skeleton & (to_border > distance_um)
+    return 2.0 * distance_um[inner if inner.any() else skeleton]
