@@ -8,7 +8,7 @@ Kinds:
   robots' tips onto it (the grip force).
 * ``navigation``: one two-handle robot in its two traps.
 * ``bead``: one calibration bead in one trap.
-All kinds add ``n_obstacles`` kinematic obstacles (``otgym.sim.obstacles``).
+All kinds add ``n_obstacles`` self-propelled obstacles (``otgym.sim.obstacles``).
 
 A ``Scene`` is a pytree; ``reset``/``step`` are pure functions of it and of PRNG keys,
 jittable, with ``step_batch`` stepping E environments at once in the physics core's
@@ -29,7 +29,7 @@ from otgym import physics as ph
 from otgym.physics.validation import require_non_negative, require_positive_scalar
 from otgym.sim.chip import Chip, load_chip
 from otgym.sim.fields import GridFlow, chip_fields
-from otgym.sim.obstacles import ObstacleMotion, obstacle_velocities
+from otgym.sim.obstacles import ObstacleMotion, next_propulsion
 
 SCENE_KINDS = ("transport", "navigation", "bead")
 GRIPPER = ph.TWO_HANDLE_GRIPPER_SPHERES
@@ -97,7 +97,7 @@ class Scene:
 @struct.dataclass
 class SceneState:
     physics: ph.PhysicsState
-    obstacle_drift_um_s: jnp.ndarray  # (K, 2)
+    obstacle_propulsion_um_s: jnp.ndarray  # (K, 2)
     time_s: jnp.ndarray  # ()
 
 
@@ -126,7 +126,8 @@ def _bodies(config: SceneConfig):
         bodies = [ph.two_handle_robot("robot")]
     else:
         bodies = [ph.bead("bead", radius_um=config.bead_radius_um)]
-    bodies += [ph.obstacle(f"obstacle_{i}", radius_um=config.obstacle_radius_um) for i in range(config.n_obstacles)]
+    bodies += [ph.obstacle(f"obstacle_{i}", radius_um=config.obstacle_radius_um, kinematic=False)
+               for i in range(config.n_obstacles)]
     return bodies
 
 
@@ -217,8 +218,8 @@ def reset_at(scene: Scene, key, start_um, heading_rad) -> SceneState:
         normal = jnp.array([-jnp.sin(heading), jnp.cos(heading)])
         towards_cell = jnp.stack([normal, normal, -normal, -normal])  # traps of robot a, then b
         trap_xy = trap_xy + config.grip_squeeze_um * towards_cell
-    drift = config.obstacle_motion.speed_um_s * jax.random.normal(drift_key, (n_obstacles, 2), dtype)
-    return SceneState(ph.PhysicsState(pose, trap_xy), drift, jnp.zeros((), dtype))
+    propulsion = config.obstacle_motion.speed_um_s * jax.random.normal(drift_key, (n_obstacles, 2), dtype)
+    return SceneState(ph.PhysicsState(pose, trap_xy), propulsion, jnp.zeros((), dtype))
 
 
 def reset(scene: Scene, key) -> SceneState:
@@ -238,20 +239,22 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key):
     config, model = scene.config, scene.model
     n_env = state.physics.pose.shape[0]
     obstacle_key, physics_key = jax.random.split(key)
-    body_velocity = jnp.zeros((n_env, model.n_bodies, 3), state.physics.pose.dtype)
-    drift = state.obstacle_drift_um_s
+    dtype = state.physics.pose.dtype
+    external = jnp.zeros((n_env, model.n_bodies, 3), dtype)
+    propulsion = state.obstacle_propulsion_um_s
     if scene.obstacles:
         obstacles = np.asarray(scene.obstacles)
         keys = jax.random.split(obstacle_key, n_env)
-        drift, velocity = jax.vmap(
-            lambda k, xy, d: obstacle_velocities(k, xy, d, config.obstacle_radius_um, model.flow, model.walls,
-                                                 config.obstacle_motion, config.control_period_s)
-        )(keys, state.physics.pose[:, obstacles, :2], drift)
-        body_velocity = body_velocity.at[:, obstacles, :2].set(velocity)
-    controls = ph.Controls(trap_velocity_um_s=jnp.asarray(trap_velocity_um_s, body_velocity.dtype),
-                           body_velocity=body_velocity, external_force=jnp.zeros_like(body_velocity))
+        propulsion = jax.vmap(
+            lambda k, xy, u: next_propulsion(k, xy, u, config.obstacle_radius_um, model.walls,
+                                             config.obstacle_motion, config.control_period_s)
+        )(keys, state.physics.pose[:, obstacles, :2], propulsion)
+        drag = 1.0 / model.body_mobility[obstacles, 0]
+        external = external.at[:, obstacles, :2].set(propulsion * drag[None, :, None])
+    controls = ph.Controls(trap_velocity_um_s=jnp.asarray(trap_velocity_um_s, dtype),
+                           body_velocity=jnp.zeros_like(external), external_force=external)
     physics, report = ph.control_step_batch(model, state.physics, controls, physics_key)
-    new_state = SceneState(physics, drift, state.time_s + config.control_period_s)
+    new_state = SceneState(physics, propulsion, state.time_s + config.control_period_s)
     return new_state, _events(scene, physics, report)
 
 

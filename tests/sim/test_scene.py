@@ -1,0 +1,136 @@
+"""Scenes on the default chip: placement, grip, transport, walls and obstacles."""
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from otgym import physics as ph
+from otgym.sim import scene as sc
+
+PAPER_LIKE = dict(trap_law=ph.TrapLaw.paper(), dt_s=2e-3, flow_scale=0.1)
+"""Weak traps of the paper's law (0.3 pN at most): a 2 ms step resolves them, so
+long runs stay cheap."""
+
+
+@pytest.fixture(scope="module")
+def transport():
+    return sc.build_scene(sc.SceneConfig())
+
+
+@pytest.fixture(scope="module")
+def transport_paper():
+    return sc.build_scene(sc.SceneConfig(**PAPER_LIKE))
+
+
+step = jax.jit(sc.step)
+step_batch = jax.jit(sc.step_batch)
+reset_batch = jax.jit(jax.vmap(sc.reset, in_axes=(None, 0)))
+
+
+def wall_distance(scene, xy):
+    distance, _ = scene.model.walls.distance_and_normal(jnp.asarray(xy))
+    return np.asarray(distance)
+
+
+def test_reset_places_the_cell_in_both_grippers_clear_of_walls_and_obstacles(transport):
+    states = reset_batch(transport, jax.random.split(jax.random.PRNGKey(0), 64))
+    xy = np.asarray(ph.sphere_positions_um(transport.model, states.physics.pose))
+    radius = np.asarray(transport.model.sphere_radius_um)
+    assert np.all(wall_distance(transport, xy) > radius)  # every sphere clear of the walls
+    cell = np.asarray(states.physics.pose[:, transport.payload, :2])
+    for robot_spheres in transport.gripper_spheres:
+        for sphere in robot_spheres:
+            gap = np.linalg.norm(xy[:, sphere] - cell, axis=-1) - radius[sphere] - transport.config.cell_radius_um
+            assert np.allclose(gap, 0.0, atol=1e-4)
+    obstacles = np.asarray(states.physics.pose[:, list(transport.obstacles), :2])
+    assert np.all(np.linalg.norm(obstacles - cell[:, None], axis=-1) > transport.config.min_obstacle_distance_um)
+    assert len(np.unique(cell.round(1), axis=0)) > 50  # randomised from the key
+
+
+def test_grip_holds_the_cell_and_reports_the_grip_force(transport):
+    """Traps still, flow on: over 4 s the cell stays in the grip and each robot presses
+    on it with about its traps' force at the squeeze offset (two handles at 0.05 um on a
+    50 pN/um Gaussian trap: 2 * 2.5 pN, less what the contact compliance takes up)."""
+    state = sc.reset(transport, jax.random.PRNGKey(1))
+    forces = []
+    for index in range(20):
+        state, events = step(transport, state, jnp.zeros((4, 2)), jax.random.PRNGKey(index))
+        assert not bool(events.failed)
+        forces.append(np.asarray(events.contact_force_pn))
+    forces = np.array(forces)
+    trap_force_at_squeeze = 2 * float(transport.model.trap_law.magnitude_pn(0.05))
+    assert np.all(forces > 0.3 * trap_force_at_squeeze)
+    assert np.all(forces < trap_force_at_squeeze * 1.5)
+
+
+def test_traps_carry_the_cell_along_the_channel(transport):
+    """Start in the straight top-left branch heading +x (the flow's direction) and move
+    all traps at 3 um/s for 5 s: the cell follows the traps by contact alone."""
+    state = sc.reset_at(transport, jax.random.PRNGKey(2), jnp.array([20.0, 40.0]), jnp.array(0.0))
+    start = np.asarray(state.physics.pose[transport.payload, :2])
+    velocity = jnp.tile(jnp.array([[3.0, 0.0]]), (4, 1))
+    for index in range(25):
+        state, events = step(transport, state, velocity, jax.random.PRNGKey(index))
+        assert not bool(events.failed)
+    moved = np.asarray(state.physics.pose[transport.payload, :2]) - start
+    assert moved == pytest.approx([15.0, 0.0], abs=0.5)
+
+
+@functools.partial(jax.jit, static_argnames=("n_steps",))
+def random_walk(scene, states, key, n_steps):
+    """Random trap commands (each robot's traps together, up to 6 um/s in a random
+    direction each step); returns the smallest wall clearance of any sphere centre,
+    scaled by its radius, per environment and step."""
+    n_env = states.time_s.shape[0]
+    radius = scene.model.sphere_radius_um
+
+    def body(carry, step_key):
+        command_key, step_key = jax.random.split(step_key)
+        command = jax.random.uniform(command_key, (n_env, 1, 2), minval=-6.0, maxval=6.0)
+        new_states, events = sc.step_batch(scene, carry, jnp.tile(command, (1, scene.n_traps, 1)), step_key)
+        xy = ph.sphere_positions_um(scene.model, new_states.physics.pose)
+        distance, _ = scene.model.walls.distance_and_normal(xy)
+        return new_states, jnp.min(distance / radius, axis=-1)
+
+    return jax.lax.scan(body, states, jax.random.split(key, n_steps))
+
+
+def test_no_body_crosses_a_wall_over_1e5_random_steps(transport_paper):
+    """500 environments x 200 random control steps = 1e5 steps (1e7 physics steps):
+    no sphere centre of any body (robots, cell, obstacles) ever gets within half its
+    radius of a wall, let alone into it, and nothing becomes NaN."""
+    states = reset_batch(transport_paper, jax.random.split(jax.random.PRNGKey(3), 500))
+    final, clearance = random_walk(transport_paper, states, jax.random.PRNGKey(4), 200)
+    assert np.all(np.isfinite(np.asarray(final.physics.pose)))
+    assert float(np.min(np.asarray(clearance))) > 0.5
+
+
+def test_navigation_and_bead_scenes_run():
+    for kind in ("navigation", "bead"):
+        scene = sc.build_scene(sc.SceneConfig(kind=kind, n_obstacles=2, **PAPER_LIKE))
+        state = sc.reset(scene, jax.random.PRNGKey(5))
+        state, events = step(scene, state, jnp.zeros((scene.n_traps, 2)), jax.random.PRNGKey(6))
+        assert events.trap_lost.shape == (scene.n_traps,)
+        assert not bool(events.failed)
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    ({"kind": "juggling"}, "kind"),
+    ({"n_obstacles": -1}, "n_obstacles"),
+    ({"cell_radius_um": 0.0}, "cell_radius_um"),
+    ({"dt_s": 1.0}, "dt_s"),
+    ({"flow_scale": float("nan")}, "flow_scale"),
+])
+def test_bad_scene_configuration_names_the_parameter(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        sc.SceneConfig(**kwargs)
+
+
+def test_a_chip_too_narrow_for_the_assembly_is_refused():
+    from tests.sim.conftest import straight_duct
+
+    with pytest.raises(ValueError, match="no place"):
+        sc.build_scene(sc.SceneConfig(chip=straight_duct(width_um=12.0)))
