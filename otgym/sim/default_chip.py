@@ -24,8 +24,11 @@ CHANNEL_HEIGHT_UM = 50.0
 INLET_FLOW_UM3_S = 5000.0
 CHAMBER_CENTRE_UM = (150.0, 100.0)
 CHAMBER_RADIUS_UM = 40.0
-PILLARS_UM = ((150.0, 80.0, 6.0), (128.0, 112.0, 6.0), (172.0, 112.0, 6.0))
-"""(x, y, radius) of the static pillars in the chamber."""
+PILLARS_UM = ((150.0, 72.0, 5.0), (150.0, 128.0, 5.0), (122.0, 100.0, 4.0))
+"""(x, y, radius) of the static pillars in the chamber. They stand between the branch
+mouths, not in them, so the cooperative-transport assembly (two robots and a cell,
+about 17.4 um across) can pass from any branch to any other: every pillar is at least
+12.8 um from every branch axis, at most one pillar per side of the chamber's centre."""
 BRANCHES_UM = (
     ((0.0, 40.0), (70.0, 40.0)),
     ((0.0, 160.0), (70.0, 160.0)),

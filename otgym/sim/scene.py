@@ -34,6 +34,9 @@ from otgym.sim.obstacles import ObstacleMotion, next_propulsion
 SCENE_KINDS = ("transport", "navigation", "bead")
 GRIPPER = ph.TWO_HANDLE_GRIPPER_SPHERES
 PLACEMENT_MARGIN_UM = 0.5
+PORT_ZONE_UM = 15.0
+"""An obstacle within this distance of an outlet has left the chip: it re-enters at a
+random spot within this distance of an inlet (debris keeps flowing in)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,7 +86,10 @@ class Scene:
     model: ph.Model
     start_candidates_um: jnp.ndarray  # (M, 2) payload centres with room for the assembly
     obstacle_candidates_um: jnp.ndarray  # (K, 2) obstacle centres clear of the walls
+    outlets_um: jnp.ndarray  # (O, 2) outlet positions (O may be 0)
+    inlet_spawns_um: jnp.ndarray  # (S, 2) re-entry spots near the inlets
     config: SceneConfig = struct.field(pytree_node=False)
+    assembly_radius_um: float = struct.field(pytree_node=False, default=0.0)
     robots: tuple = struct.field(pytree_node=False, default=())
     payload: int = struct.field(pytree_node=False, default=0)
     obstacles: tuple = struct.field(pytree_node=False, default=())
@@ -180,6 +186,12 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     obstacle_spots = centres[free > config.obstacle_radius_um + 2 * config.obstacle_motion.wall_margin_um]
     if config.n_obstacles and obstacle_spots.size == 0:
         raise ValueError(f"chip {chip.name!r} has no room for obstacles of radius {config.obstacle_radius_um} um")
+    ports = {kind: np.array([p.xy_um for p in chip.ports if p.kind == kind]).reshape(-1, 2)
+             for kind in ("inlet", "outlet")}
+    near_inlet = np.zeros(len(obstacle_spots), bool)
+    for inlet in ports["inlet"]:
+        near_inlet |= np.linalg.norm(obstacle_spots - inlet, axis=1) < PORT_ZONE_UM
+    spawns = obstacle_spots[near_inlet]
     robots = tuple(range(2)) if config.kind == "transport" else ((0,) if config.kind == "navigation" else ())
     sphere_start = [model.sphere_body.index(r) for r in robots]
     dtype = model.sphere_radius_um.dtype
@@ -187,7 +199,10 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
         model=model,
         start_candidates_um=jnp.asarray(starts, dtype),
         obstacle_candidates_um=jnp.asarray(obstacle_spots if obstacle_spots.size else np.zeros((1, 2)), dtype),
+        outlets_um=jnp.asarray(ports["outlet"] if len(spawns) else np.zeros((0, 2)), dtype),
+        inlet_spawns_um=jnp.asarray(spawns if len(spawns) else np.zeros((1, 2)), dtype),
         config=config,
+        assembly_radius_um=clearance - PLACEMENT_MARGIN_UM,
         robots=robots,
         payload=2 if config.kind == "transport" else 0,
         obstacles=tuple(range(n_payload, len(bodies))),
@@ -206,11 +221,9 @@ def reset_at(scene: Scene, key, start_um, heading_rad) -> SceneState:
     heading = jnp.asarray(heading_rad, dtype)
     payload_pose = _assembly_pose(model, config, start, heading).astype(dtype)
     n_obstacles = len(scene.obstacles)
-    spots = scene.obstacle_candidates_um
-    far = jnp.linalg.norm(spots - start, axis=1) > config.min_obstacle_distance_um
-    logits = jnp.where(jnp.any(far), jnp.where(far, 0.0, -jnp.inf), 0.0)
     pick_key, drift_key = jax.random.split(key)
-    chosen = spots[jax.random.categorical(pick_key, logits, shape=(n_obstacles,))]
+    chosen = _spots_away_from(pick_key, scene.obstacle_candidates_um, start, config.min_obstacle_distance_um,
+                              n_obstacles)
     obstacle_pose = jnp.concatenate([chosen, jnp.zeros((n_obstacles, 1), dtype)], axis=1)
     pose = jnp.concatenate([payload_pose, obstacle_pose])
     trap_xy = ph.sphere_positions_um(model, pose)[np.asarray(model.trap_sphere, int)]
@@ -220,6 +233,24 @@ def reset_at(scene: Scene, key, start_um, heading_rad) -> SceneState:
         trap_xy = trap_xy + config.grip_squeeze_um * towards_cell
     propulsion = config.obstacle_motion.speed_um_s * jax.random.normal(drift_key, (n_obstacles, 2), dtype)
     return SceneState(ph.PhysicsState(pose, trap_xy), propulsion, jnp.zeros((), dtype))
+
+
+def _spots_away_from(key, spots, centre, distance_um, count):
+    """``count`` random rows of ``spots`` farther than ``distance_um`` from ``centre``
+    (any row if none is that far)."""
+    far = jnp.linalg.norm(spots - centre, axis=-1) > distance_um
+    logits = jnp.where(jnp.any(far), jnp.where(far, 0.0, -jnp.inf), 0.0)
+    return spots[jax.random.categorical(key, logits, shape=(count,))]
+
+
+def _recirculate(scene: Scene, key, pose):
+    """Obstacles that reached an outlet re-enter near an inlet, away from the payload."""
+    obstacles = np.asarray(scene.obstacles)
+    xy = pose[obstacles, :2]
+    at_exit = jnp.min(jnp.linalg.norm(xy[:, None] - scene.outlets_um[None], axis=-1), axis=1) < PORT_ZONE_UM
+    fresh = _spots_away_from(key, scene.inlet_spawns_um, pose[scene.payload, :2],
+                             scene.config.min_obstacle_distance_um, len(obstacles))
+    return pose.at[obstacles, :2].set(jnp.where(at_exit[:, None], fresh, xy))
 
 
 def reset(scene: Scene, key) -> SceneState:
@@ -238,7 +269,7 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key):
     velocities (E, T, 2) in um/s; returns (state, SceneEvents)."""
     config, model = scene.config, scene.model
     n_env = state.physics.pose.shape[0]
-    obstacle_key, physics_key = jax.random.split(key)
+    obstacle_key, physics_key, spawn_key = jax.random.split(key, 3)
     dtype = state.physics.pose.dtype
     external = jnp.zeros((n_env, model.n_bodies, 3), dtype)
     propulsion = state.obstacle_propulsion_um_s
@@ -254,6 +285,9 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key):
     controls = ph.Controls(trap_velocity_um_s=jnp.asarray(trap_velocity_um_s, dtype),
                            body_velocity=jnp.zeros_like(external), external_force=external)
     physics, report = ph.control_step_batch(model, state.physics, controls, physics_key)
+    if scene.obstacles and scene.outlets_um.shape[0]:
+        pose = jax.vmap(lambda k, p: _recirculate(scene, k, p))(jax.random.split(spawn_key, n_env), physics.pose)
+        physics = physics.replace(pose=pose)
     new_state = SceneState(physics, propulsion, state.time_s + config.control_period_s)
     return new_state, _events(scene, physics, report)
 

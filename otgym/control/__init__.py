@@ -1,0 +1,1 @@
+"""Control layer: turning plans and policies into trap commands."""
