@@ -1,6 +1,6 @@
 """The default chip, generated in code (paper section II-B): four branches, two inlets
 on the left edge and two outlets on the right edge, channels 25 um wide and 50 um tall,
-meeting in a central chamber that holds three static pillars. 300 x 200 um at 0.5 um
+meeting in a central chamber that holds four static pillars. 300 x 200 um at 0.5 um
 per pixel.
 
 Each inlet carries 5000 um^3/s (0.3 nL/min): a mean speed of 4 um/s in a branch
@@ -24,11 +24,11 @@ CHANNEL_HEIGHT_UM = 50.0
 INLET_FLOW_UM3_S = 5000.0
 CHAMBER_CENTRE_UM = (150.0, 100.0)
 CHAMBER_RADIUS_UM = 40.0
-PILLARS_UM = ((150.0, 72.0, 5.0), (150.0, 128.0, 5.0), (122.0, 100.0, 4.0))
+PILLARS_UM = ((150.0, 72.0, 5.0), (150.0, 128.0, 5.0), (122.0, 100.0, 4.0), (178.0, 100.0, 4.0))
 """(x, y, radius) of the static pillars in the chamber. They stand between the branch
 mouths, not in them, so the cooperative-transport assembly (two robots and a cell,
 about 17.4 um across) can pass from any branch to any other: every pillar is at least
-12.8 um from every branch axis, at most one pillar per side of the chamber's centre."""
+12.8 um from every branch axis. The layout keeps the chip mirror-symmetric."""
 BRANCHES_UM = (
     ((0.0, 40.0), (70.0, 40.0)),
     ((0.0, 160.0), (70.0, 160.0)),
