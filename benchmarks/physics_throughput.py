@@ -1,6 +1,9 @@
 """Physics throughput: environment-substeps per second of the standard scene.
 
-Standard scene (issue 2): two two-handle robots (4 traps), one cell, four obstacles.
+Standard scene (issue 2): two two-handle robots (4 traps), one cell, four obstacles
+(dynamic, as in the transport scene), in free fluid. A second table times the full
+transport scene of ``otgym.sim.scene`` on the default chip (walls and flow sampled from
+grids, obstacle propulsion and events), which is what environments step.
 Reference, measured in the same run: the same dynamics written as a plain NumPy loop
 (``numpy_substep`` below: Euler-Maruyama over the same model arrays, vectorised over
 spheres and environments). Before timing, both run 50 steps from the same state at
@@ -27,7 +30,7 @@ SUBSTEPS = 100
 
 def standard_model(temperature_k=298.15):
     bodies = [ph.two_handle_robot("robot_a"), ph.two_handle_robot("robot_b"), ph.cell("cell")]
-    bodies += [ph.obstacle(f"obstacle_{i}") for i in range(4)]
+    bodies += [ph.obstacle(f"obstacle_{i}", kinematic=False) for i in range(4)]
     config = ph.PhysicsConfig(dt_s=1e-4, substeps=SUBSTEPS, temperature_k=temperature_k)
     pose = np.array([[0, -6.0, 0], [0, 6.0, np.pi], [0, 0, 0], [25, 0, 0], [-25, 0, 0],
                      [0, 25, 0], [0, -25, 0]], float)
@@ -126,10 +129,29 @@ def time_numpy(model, pose, n_env, min_seconds):
     return steps * n_env / (time.perf_counter() - start)
 
 
+def time_scene(n_env, min_seconds):
+    from otgym.sim import scene as sc
+
+    scene = sc.build_scene(sc.SceneConfig(kind="transport"))
+    states = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), n_env))
+    velocity = jnp.zeros((n_env, scene.n_traps, 2))
+    step = jax.jit(sc.step_batch)
+    key = jax.random.PRNGKey(1)
+    jax.block_until_ready(step(scene, states, velocity, key))
+    calls, start = 0, time.perf_counter()
+    while time.perf_counter() - start < min_seconds:
+        key, step_key = jax.random.split(key)
+        states, _ = step(scene, states, velocity, step_key)
+        jax.block_until_ready(states)
+        calls += 1
+    return calls * scene.model.substeps * n_env / (time.perf_counter() - start)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="shorter timings")
     parser.add_argument("--sizes", default="1,64,1024,4096")
+    parser.add_argument("--scene-sizes", default="1,64,1024")
     args = parser.parse_args()
     seconds = 1.0 if args.quick else 3.0
     print(f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}), "
@@ -143,6 +165,11 @@ def main():
         jax_rate = time_jax(model, pose, n_env, seconds)
         numpy_rate = time_numpy(model, pose, n_env, seconds)
         print(f"{n_env:>6} {jax_rate:>26.3e} {numpy_rate:>27.3e} {jax_rate / numpy_rate:>7.1f}x")
+    print("transport scene on the default chip (walls + grid flow + obstacles), 2000 substeps per control step")
+    print(f"{'envs':>6} {'env-substeps/s':>16} {'control steps/s (5 Hz, 0.2 s each)':>36}")
+    for n_env in [int(s) for s in args.scene_sizes.split(",")]:
+        rate = time_scene(n_env, seconds)
+        print(f"{n_env:>6} {rate:>16.3e} {rate / 2000:>36.1f}")
 
 
 if __name__ == "__main__":

@@ -24,65 +24,91 @@ from otgym.sim.chip import Chip
 
 
 def _bilinear(grid, index_xy):
-    """Interpolate ``grid`` (R, C, ...) at fractional (col, row) indices (..., 2),
-    clamped to the grid."""
+    """Interpolate ``grid`` (R, C, K) at fractional (col, row) indices (..., 2),
+    clamped to the grid; returns (..., K). The four corners are gathered from the
+    flattened grid with one flat index each (cheaper on CPU than 2-D gathers)."""
     rows, cols = grid.shape[0], grid.shape[1]
     col = jnp.clip(index_xy[..., 0], 0.0, cols - 1.0)
     row = jnp.clip(index_xy[..., 1], 0.0, rows - 1.0)
     c0 = jnp.clip(jnp.floor(col).astype(jnp.int32), 0, cols - 2)
     r0 = jnp.clip(jnp.floor(row).astype(jnp.int32), 0, rows - 2)
-    tc = (col - c0)
-    tr = (row - r0)
-    extra = (None,) * (grid.ndim - 2)
-    tc, tr = tc[(...,) + extra], tr[(...,) + extra]
-    top = grid[r0, c0] * (1 - tc) + grid[r0, c0 + 1] * tc
-    bottom = grid[r0 + 1, c0] * (1 - tc) + grid[r0 + 1, c0 + 1] * tc
+    tc = (col - c0)[..., None]
+    tr = (row - r0)[..., None]
+    flat = grid.reshape(rows * cols, grid.shape[2])
+    corner = r0 * cols + c0
+    top = flat[corner] * (1 - tc) + flat[corner + 1] * tc
+    bottom = flat[corner + cols] * (1 - tc) + flat[corner + cols + 1] * tc
     return top * (1 - tr) + bottom * tr
 
 
 @struct.dataclass
 class GridFlow:
-    """Focal-plane flow on the pixel corners: ``velocity`` (H+1, W+1, 2) in um/s,
-    ``vorticity`` (H+1, W+1) in 1/s."""
+    """Focal-plane flow on the pixel corners, packed as (H+1, W+1, 3): velocity
+    (um/s, 2 channels) and vorticity (1/s), so one interpolation serves both."""
 
-    velocity: jnp.ndarray
-    vorticity: jnp.ndarray
+    packed: jnp.ndarray
     pixel_size_um: float = struct.field(pytree_node=False)
 
-    def _inside(self, xy_um):
-        rows, cols = self.vorticity.shape
+    @classmethod
+    def from_arrays(cls, velocity, vorticity, pixel_size_um: float) -> "GridFlow":
+        return cls(jnp.concatenate([velocity, vorticity[..., None]], axis=-1), pixel_size_um)
+
+    @property
+    def velocity(self):
+        return self.packed[..., :2]
+
+    @property
+    def vorticity(self):
+        return self.packed[..., 2]
+
+    def scaled(self, factor: float) -> "GridFlow":
+        """The same flow with every rate multiplied by ``factor`` (creeping flow is linear)."""
+        return self.replace(packed=self.packed * factor)
+
+    def _sample(self, xy_um):
+        rows, cols = self.packed.shape[:2]
         size = jnp.array([cols - 1, rows - 1], xy_um.dtype) * self.pixel_size_um
-        return jnp.all((xy_um >= 0) & (xy_um <= size), axis=-1)
+        inside = jnp.all((xy_um >= 0) & (xy_um <= size), axis=-1)
+        sample = _bilinear(self.packed, xy_um / self.pixel_size_um).astype(xy_um.dtype)
+        return jnp.where(inside[..., None], sample, 0.0)
 
     def velocity_um_s(self, xy_um):
-        sample = _bilinear(self.velocity, xy_um / self.pixel_size_um).astype(xy_um.dtype)
-        return jnp.where(self._inside(xy_um)[..., None], sample, 0.0)
+        return self._sample(xy_um)[..., :2]
 
     def vorticity_per_s(self, xy_um):
-        sample = _bilinear(self.vorticity, xy_um / self.pixel_size_um).astype(xy_um.dtype)
-        return jnp.where(self._inside(xy_um), sample, 0.0)
+        return self._sample(xy_um)[..., 2]
 
 
 @struct.dataclass
 class GridWalls:
-    """Signed wall distance ``distance`` (H, W) in um and unit normals ``normal``
-    (H, W, 2) on the pixel centres."""
+    """Signed wall distance (um) and unit normals on the pixel centres, packed as
+    (H, W, 3): distance, normal x, normal y."""
 
-    distance: jnp.ndarray
-    normal: jnp.ndarray
+    packed: jnp.ndarray
     pixel_size_um: float = struct.field(pytree_node=False)
 
+    @classmethod
+    def from_arrays(cls, distance, normal, pixel_size_um: float) -> "GridWalls":
+        return cls(jnp.concatenate([distance[..., None], normal], axis=-1), pixel_size_um)
+
+    @property
+    def distance(self):
+        return self.packed[..., 0]
+
+    @property
+    def normal(self):
+        return self.packed[..., 1:]
+
     def distance_and_normal(self, xy_um):
-        rows, cols = self.distance.shape
+        rows, cols = self.packed.shape[:2]
         half = 0.5 * self.pixel_size_um
         high = jnp.array([cols, rows], xy_um.dtype) * self.pixel_size_um - half
         clamped = jnp.clip(xy_um, half, high)
         offset = clamped - xy_um
         outside = jnp.sqrt(jnp.sum(offset**2, axis=-1))
-        index = clamped / self.pixel_size_um - 0.5
-        distance = _bilinear(self.distance, index).astype(xy_um.dtype) - outside
-        normal = _bilinear(self.normal, index).astype(xy_um.dtype)
-        normal = jnp.where((outside > 0)[..., None], offset / jnp.maximum(outside, 1e-12)[..., None], normal)
+        sample = _bilinear(self.packed, clamped / self.pixel_size_um - 0.5).astype(xy_um.dtype)
+        distance = sample[..., 0] - outside
+        normal = jnp.where((outside > 0)[..., None], offset / jnp.maximum(outside, 1e-12)[..., None], sample[..., 1:])
         norm = jnp.sqrt(jnp.sum(normal**2, axis=-1, keepdims=True))
         fallback = jnp.zeros_like(normal).at[..., 0].set(1.0)
         normal = jnp.where(norm > 1e-6, normal / jnp.maximum(norm, 1e-6), fallback)
@@ -93,12 +119,13 @@ def fields_from(fields: ChipFields, fluid: np.ndarray, dtype=jnp.float32) -> tup
     """Wrap derived numpy fields as JAX samplers; the flow is scaled from the depth
     average to the focal plane (mid-height) by ``fields.mid_height_factor``."""
     factor = fields.mid_height_factor
-    flow = GridFlow(
-        velocity=jnp.asarray(factor * fields.flow.node_velocity_um_s(fluid), dtype),
-        vorticity=jnp.asarray(factor * fields.flow.node_vorticity_per_s(fluid), dtype),
-        pixel_size_um=fields.flow.pixel_size_um,
+    flow = GridFlow.from_arrays(
+        jnp.asarray(factor * fields.flow.node_velocity_um_s(fluid), dtype),
+        jnp.asarray(factor * fields.flow.node_vorticity_per_s(fluid), dtype),
+        fields.flow.pixel_size_um,
     )
-    walls = GridWalls(jnp.asarray(fields.distance_um, dtype), jnp.asarray(fields.normal, dtype), fields.flow.pixel_size_um)
+    walls = GridWalls.from_arrays(jnp.asarray(fields.distance_um, dtype), jnp.asarray(fields.normal, dtype),
+                                  fields.flow.pixel_size_um)
     return flow, walls
 
 

@@ -28,7 +28,7 @@ from flax import struct
 from otgym import physics as ph
 from otgym.physics.validation import require_non_negative, require_positive_scalar
 from otgym.sim.chip import Chip, load_chip
-from otgym.sim.fields import GridFlow, chip_fields
+from otgym.sim.fields import chip_fields
 from otgym.sim.obstacles import ObstacleMotion, next_propulsion
 
 SCENE_KINDS = ("transport", "navigation", "bead")
@@ -167,7 +167,7 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     physics model of the scene. Raises ValueError if the chip has no room for it."""
     chip = config.chip if isinstance(config.chip, Chip) else load_chip(config.chip)
     flow, walls = chip_fields(chip)
-    flow = GridFlow(flow.velocity * config.flow_scale, flow.vorticity * config.flow_scale, flow.pixel_size_um)
+    flow = flow.scaled(config.flow_scale)
     bodies = _bodies(config)
     physics_config = ph.PhysicsConfig(
         dt_s=config.control_period_s / config.substeps, substeps=config.substeps,
