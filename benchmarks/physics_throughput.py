@@ -101,19 +101,25 @@ def check_same_dynamics():
     assert difference < 1e-4, "the NumPy reference and the JAX core disagree"
 
 
-def time_jax(model, pose, n_env, min_seconds):
-    state = jax.tree.map(lambda a: jnp.broadcast_to(a, (n_env,) + a.shape), ph.initial_state(model, pose))
-    controls = ph.Controls.zeros(model, n_env)
-    key = jax.random.PRNGKey(0)
-    step = jax.jit(ph.control_step_batch)
-    jax.block_until_ready(step(model, state, controls, key))
+def control_steps_per_second(step, first, state, second, min_seconds):
+    """Calls per second of ``step(first, state, second, key) -> (state, _)`` after one
+    compiling call, each call waited for."""
+    key = jax.random.PRNGKey(1)
+    jax.block_until_ready(step(first, state, second, key))
     calls, start = 0, time.perf_counter()
     while time.perf_counter() - start < min_seconds:
         key, step_key = jax.random.split(key)
-        state, _ = step(model, state, controls, step_key)
+        state, _ = step(first, state, second, step_key)
         jax.block_until_ready(state)
         calls += 1
-    return calls * SUBSTEPS * n_env / (time.perf_counter() - start)
+    return calls / (time.perf_counter() - start)
+
+
+def time_jax(model, pose, n_env, min_seconds):
+    state = jax.tree.map(lambda a: jnp.broadcast_to(a, (n_env,) + a.shape), ph.initial_state(model, pose))
+    rate = control_steps_per_second(jax.jit(ph.control_step_batch), model, state,
+                                    ph.Controls.zeros(model, n_env), min_seconds)
+    return rate * SUBSTEPS * n_env
 
 
 def time_numpy(model, pose, n_env, min_seconds):
@@ -135,16 +141,8 @@ def time_scene(n_env, min_seconds):
     scene = sc.build_scene(sc.SceneConfig(kind="transport"))
     states = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), n_env))
     velocity = jnp.zeros((n_env, scene.n_traps, 2))
-    step = jax.jit(sc.step_batch)
-    key = jax.random.PRNGKey(1)
-    jax.block_until_ready(step(scene, states, velocity, key))
-    calls, start = 0, time.perf_counter()
-    while time.perf_counter() - start < min_seconds:
-        key, step_key = jax.random.split(key)
-        states, _ = step(scene, states, velocity, step_key)
-        jax.block_until_ready(states)
-        calls += 1
-    return calls * scene.model.substeps * n_env / (time.perf_counter() - start)
+    rate = control_steps_per_second(jax.jit(sc.step_batch), scene, states, velocity, min_seconds)
+    return rate * scene.model.substeps * n_env
 
 
 def main():

@@ -59,11 +59,17 @@ class PhysicsConfig:
     height_above_floor_um: float | None = None
     trap_law: TrapLaw = TrapLaw()
     dtype: str = "float32"
+    field_refresh_substeps: int = 1
+    """Sample the chip's flow and walls every this many steps (see integrator)."""
 
     def __post_init__(self):
         require_positive_scalar("dt_s", self.dt_s)
         if not isinstance(self.substeps, int) or self.substeps < 1:
             raise ValueError(f"substeps must be a positive integer, got {self.substeps!r}")
+        refresh = self.field_refresh_substeps
+        if not isinstance(refresh, int) or refresh < 1 or self.substeps % refresh:
+            raise ValueError(f"field_refresh_substeps must be a positive integer dividing substeps="
+                             f"{self.substeps}, got {refresh!r}")
         require_non_negative("temperature_k", self.temperature_k)
         require_positive("viscosity_pa_s", self.viscosity_pa_s)
         require_non_negative("hamaker_pn_um", self.hamaker_pn_um)
@@ -114,6 +120,7 @@ class Model:
     body_kinds: tuple = struct.field(pytree_node=False, default=())
     trap_law: TrapLaw = struct.field(pytree_node=False, default=TrapLaw())
     substeps: int = struct.field(pytree_node=False, default=1)
+    field_refresh: int = struct.field(pytree_node=False, default=1)
 
     @property
     def n_bodies(self) -> int:
@@ -300,6 +307,7 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
         body_kinds=tuple(int(b.kind) for b in bodies),
         trap_law=config.trap_law,
         substeps=config.substeps,
+        field_refresh=config.field_refresh_substeps,
     )
 
 

@@ -60,6 +60,9 @@ class SceneConfig:
     bead_radius_um: float = 0.5
     grip_squeeze_um: float = 0.05
     detach_distance_um: float = 1.0
+    field_refresh_substeps: int = 10
+    """Sample flow and walls every this many physics steps (1 ms at the default step);
+    the largest divisor of ``substeps`` not above it is used."""
 
     def __post_init__(self):
         if self.kind not in SCENE_KINDS:
@@ -75,10 +78,16 @@ class SceneConfig:
             require_positive_scalar(name, getattr(self, name))
         require_non_negative("grip_squeeze_um", self.grip_squeeze_um)
         require_non_negative("min_obstacle_distance_um", self.min_obstacle_distance_um)
+        if not isinstance(self.field_refresh_substeps, int) or self.field_refresh_substeps < 1:
+            raise ValueError(f"field_refresh_substeps must be a positive integer, got {self.field_refresh_substeps!r}")
 
     @property
     def substeps(self) -> int:
         return max(1, int(round(self.control_period_s / self.dt_s)))
+
+    @property
+    def field_refresh(self) -> int:
+        return max(d for d in range(1, self.field_refresh_substeps + 1) if self.substeps % d == 0)
 
 
 @struct.dataclass
@@ -171,7 +180,8 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     bodies = _bodies(config)
     physics_config = ph.PhysicsConfig(
         dt_s=config.control_period_s / config.substeps, substeps=config.substeps,
-        temperature_k=config.temperature_k, viscosity_pa_s=config.viscosity_pa_s, trap_law=config.trap_law)
+        temperature_k=config.temperature_k, viscosity_pa_s=config.viscosity_pa_s, trap_law=config.trap_law,
+        field_refresh_substeps=config.field_refresh)
     model = ph.build_model(bodies, physics_config, flow=flow, walls=walls)
     n_payload = len(bodies) - config.n_obstacles
     distance = np.asarray(walls.distance)

@@ -1,5 +1,6 @@
 """Scenes on the default chip: placement, grip, transport, walls and obstacles."""
 
+import dataclasses
 import functools
 
 import jax
@@ -134,3 +135,17 @@ def test_a_chip_too_narrow_for_the_assembly_is_refused():
 
     with pytest.raises(ValueError, match="no place"):
         sc.build_scene(sc.SceneConfig(chip=straight_duct(width_um=12.0)))
+
+
+def test_sampling_fields_every_ten_steps_changes_nothing_that_matters(transport):
+    """At T = 0, the same control step with fields sampled every step and every 10
+    steps (1 ms): the robots and the cell end within 1 nm of each other."""
+    config = dataclasses.replace(transport.config, temperature_k=0.0)
+    every_step = sc.build_scene(dataclasses.replace(config, field_refresh_substeps=1))
+    every_tenth = sc.build_scene(config)
+    assert every_tenth.model.field_refresh == 10 and every_step.model.field_refresh == 1
+    state = sc.reset_at(every_step, jax.random.PRNGKey(7), jnp.array([60.0, 40.0]), jnp.array(0.0))
+    velocity = jnp.tile(jnp.array([[3.0, 1.0]]), (4, 1))
+    ends = [np.asarray(step(scene, state, velocity, jax.random.PRNGKey(8))[0].physics.pose[:3, :2])
+            for scene in (every_step, every_tenth)]
+    assert np.abs(ends[0] - ends[1]).max() < 1e-3
