@@ -24,8 +24,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
+from jax.custom_batching import custom_vmap
 
 from otgym import physics as ph
+from otgym.physics.integrator import batch_key
 from otgym.physics.validation import require_non_negative, require_positive_scalar
 from otgym.sim.chip import Chip, load_chip
 from otgym.sim.fields import chip_fields
@@ -302,12 +304,33 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key):
     return new_state, _events(scene, physics, report)
 
 
-def step(scene: Scene, state: SceneState, trap_velocity_um_s, key):
-    """One scene, one control step (see ``step_batch``)."""
+def _step_one(scene: Scene, state: SceneState, trap_velocity_um_s, key):
     expand = lambda tree: jax.tree.map(lambda a: a[None], tree)  # noqa: E731
     new_state, events = step_batch(scene, expand(state), jnp.asarray(trap_velocity_um_s)[None], key)
     squeeze = lambda tree: jax.tree.map(lambda a: a[0], tree)  # noqa: E731
     return squeeze(new_state), squeeze(events)
+
+
+@custom_vmap
+def step(scene: Scene, state: SceneState, trap_velocity_um_s, key):
+    """One scene, one control step (see ``step_batch``). Under ``jax.vmap`` over states,
+    velocities and keys it runs ``step_batch`` (one noise draw for the batch, from a
+    key derived from all the batch's keys)."""
+    return _step_one(scene, state, trap_velocity_um_s, key)
+
+
+@step.def_vmap
+def _step_vmap(axis_size, in_batched, scene, state, trap_velocity_um_s, key):
+    scene_batched, state_batched, velocity_batched, key_batched = in_batched
+    if any(jax.tree.leaves(scene_batched)):  # a batch of scenes: plain batching
+        axes = tuple(jax.tree.map(lambda b: 0 if b else None, batched) for batched in in_batched)
+        result = jax.vmap(_step_one, in_axes=axes)(scene, state, trap_velocity_um_s, key)
+        return result, jax.tree.map(lambda _: True, result)
+    broadcast = lambda tree, batched: jax.tree.map(  # noqa: E731
+        lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape), tree, batched)
+    result = step_batch(scene, broadcast(state, state_batched), broadcast(trap_velocity_um_s, velocity_batched),
+                        batch_key(key) if key_batched else key)
+    return result, jax.tree.map(lambda _: True, result)
 
 
 def _events(scene: Scene, physics: ph.PhysicsState, report: ph.StepReport) -> SceneEvents:

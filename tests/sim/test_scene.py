@@ -149,3 +149,15 @@ def test_sampling_fields_every_ten_steps_changes_nothing_that_matters(transport)
     ends = [np.asarray(step(scene, state, velocity, jax.random.PRNGKey(8))[0].physics.pose[:3, :2])
             for scene in (every_step, every_tenth)]
     assert np.abs(ends[0] - ends[1]).max() < 1e-3
+
+
+def test_vmap_of_step_is_step_batch_with_the_batch_key(transport_paper):
+    """vmap(step) routes to step_batch (custom batching rule) with one key derived from
+    all the batch's keys: both must agree exactly."""
+    keys = jax.random.split(jax.random.PRNGKey(9), 3)
+    states = reset_batch(transport_paper, keys)
+    velocity = jnp.ones((3, 4, 2))
+    via_vmap, events = jax.jit(jax.vmap(sc.step, in_axes=(None, 0, 0, 0)))(transport_paper, states, velocity, keys)
+    direct, _ = step_batch(transport_paper, states, velocity, ph.integrator.batch_key(keys))
+    assert np.array_equal(np.asarray(via_vmap.physics.pose), np.asarray(direct.physics.pose))
+    assert events.contact_force_pn.shape == (3, 2)
