@@ -1,0 +1,103 @@
+"""Task presets: the scene, the route and the speed levels of the transport tasks.
+
+``paper``: the paper's trap law (equation 3, at most 0.30 pN per handle) and its six
+constant-speed groups, 0.27 to 0.51 um/s (Table II). With water's viscosity the
+robot-cell assembly escapes its traps only near 2 um/s, so at the paper's speeds the
+speed would not matter. The preset therefore uses a medium three times as viscous as
+water (2.7 mPa s, about a 35 % glycerol solution or a dilute methylcellulose medium,
+both used to slow cells down in OT work): the assembly then escapes near 0.4-0.5 um/s,
+so the paper's speed groups straddle the loss of the traps as in Table II. The cell is
+carried upstream (outlet to inlet) against a weak flow (4 % of the chip's nominal flow,
+0.2-0.3 um/s), which varies along the path, so the safe speed varies too. Episodes
+are 15 um segments of the planned path (about 200 control steps, as in the paper) at
+random places; obstacles drift slowly (0.2 um/s) and start at least 80 um away.
+The larger viscosity lets the integrator take 4 ms steps (50 per 0.2 s control step).
+
+``realistic``: literature traps (Gaussian beam, 50 pN/um, 0.6 um waist), water, the
+chip's full flow and 2 um/s obstacles; the cell is carried downstream (as the
+``otgym demo``) over 40 um segments with speeds of 2 to 12 um/s, where obstacles,
+not the traps, are the danger. About 40 times costlier per step than ``paper``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from otgym import physics as ph
+from otgym.physics.validation import require_positive_scalar
+from otgym.sim.obstacles import ObstacleMotion
+from otgym.sim.scene import SceneConfig
+
+PAPER_SPEEDS_UM_S = (0.27, 0.318, 0.366, 0.414, 0.462, 0.51)
+"""The six constant-speed groups of the paper's Table II (0.27 to 0.51 um/s, evenly
+spaced; the paper gives only the ends)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RewardWeights:
+    """Per-step reward terms (paper section II-C, original release): a time cost, a
+    speed bonus, a safe contact-force band, handle deviation, and terminal terms."""
+
+    time: float = -0.05
+    speed: float = 0.05
+    force_in_band: float = 0.01
+    force_out_of_band: float = -0.05
+    handle_deviation: float = -0.02
+    failure: float = -30.0
+    goal: float = 10.0
+
+
+@dataclasses.dataclass(frozen=True)
+class TaskConfig:
+    """A transport task: scene, route (start and goal of the planned path, in um),
+    episode segment length, speed levels and limits, reward weights."""
+
+    name: str
+    scene: SceneConfig
+    start_um: tuple[float, float]
+    goal_um: tuple[float, float]
+    segment_um: float
+    speed_levels_um_s: tuple[float, ...]
+    max_steps: int
+    max_robot_speed_um_s: float
+    force_band_pn: tuple[float, float] = (0.05, 10.0)
+    deviation_limit_um: float = 0.2
+    reward: RewardWeights = RewardWeights()
+
+    def __post_init__(self):
+        require_positive_scalar("segment_um", self.segment_um)
+        require_positive_scalar("max_robot_speed_um_s", self.max_robot_speed_um_s)
+        require_positive_scalar("deviation_limit_um", self.deviation_limit_um)
+        if not self.speed_levels_um_s or any(not (v > 0) for v in self.speed_levels_um_s):
+            raise ValueError(f"speed_levels_um_s must be positive speeds, got {self.speed_levels_um_s}")
+        if not isinstance(self.max_steps, int) or self.max_steps < 1:
+            raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}")
+        low, high = self.force_band_pn
+        if not 0 <= low < high:
+            raise ValueError(f"force_band_pn must be (low, high) with 0 <= low < high, got {self.force_band_pn}")
+
+    @property
+    def n_actions(self) -> int:
+        return len(self.speed_levels_um_s)
+
+
+def paper() -> TaskConfig:
+    scene = SceneConfig(trap_law=ph.TrapLaw.paper(), dt_s=4e-3, viscosity_pa_s=2.7e-3, flow_scale=0.04,
+                        obstacle_motion=ObstacleMotion(speed_um_s=0.2), min_obstacle_distance_um=80.0)
+    return TaskConfig(name="paper", scene=scene, start_um=(285.0, 160.0), goal_um=(15.0, 40.0), segment_um=15.0,
+                      speed_levels_um_s=PAPER_SPEEDS_UM_S, max_steps=300, max_robot_speed_um_s=1.0)
+
+
+def realistic() -> TaskConfig:
+    return TaskConfig(name="realistic", scene=SceneConfig(), start_um=(15.0, 40.0), goal_um=(285.0, 160.0),
+                      segment_um=40.0, speed_levels_um_s=(2.0, 4.0, 6.0, 8.0, 10.0, 12.0), max_steps=100,
+                      max_robot_speed_um_s=15.0)
+
+
+PRESETS = {"paper": paper, "realistic": realistic}
+
+
+def preset(name: str) -> TaskConfig:
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; choose one of {sorted(PRESETS)}")
+    return PRESETS[name]()

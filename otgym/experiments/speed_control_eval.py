@@ -1,0 +1,157 @@
+"""Evaluation of the learned speed controller against constant speeds (paper section
+III-C, Table II; safety as its Fig. 7).
+
+All policies run the same seeded episodes (same path segments, same obstacle
+starts; the thermal noise is drawn per batch): ``RL`` (greedy on the Q-network),
+``G1..Gn`` (each constant speed level, slowest first; the paper's text orders its
+groups by increasing speed) and ``untrained`` (uniform random levels: the policy
+before training, for the safety "before" plots). Per policy: ASR = mean fraction of
+the segment completed, ATCT_s = mean completion time of the successful episodes,
+success rate. Safety samples: every step's robot-cell contact force (per robot) and
+handle-to-trap distance (per handle) while an episode runs.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from otgym.envs import speed_control as spc
+from otgym.envs import transport as tr
+from otgym.rl.network import QNetwork
+
+PAPER_TABLE_II = {"RL": (1.000, 38.92), "G1": (0.209, None), "G2": (0.689, 36.20), "G3": (0.836, 41.41),
+                  "G4": (1.000, 44.80), "G5": (1.000, 53.40), "G6": (1.000, 66.56)}
+"""The paper's Table II as printed (ASR, ATCT s). Its G1 fails most and its G6 is
+slowest, so the printed columns run from fastest to slowest, against its text."""
+
+
+@dataclasses.dataclass
+class Evaluation:
+    names: list[str]
+    speeds_um_s: list[float | None]
+    progress: np.ndarray  # (P, N) fraction of the segment completed
+    success: np.ndarray  # (P, N)
+    time_s: np.ndarray  # (P, N) episode length
+    force_pn: list[np.ndarray]  # per policy, samples
+    distance_um: list[np.ndarray]  # per policy, samples
+
+    def rows(self):
+        for p, name in enumerate(self.names):
+            won = self.success[p]
+            atct = float(self.time_s[p][won].mean()) if won.any() else None
+            yield {"policy": name, "speed_um_s": self.speeds_um_s[p], "ASR": float(self.progress[p].mean()),
+                   "ATCT_s": atct, "success_rate": float(won.mean()), "episodes": int(won.size)}
+
+    def safety(self, name: str, force_limit_pn: float, distance_limit_um: float) -> dict:
+        p = self.names.index(name)
+        return {"force_below_limit": float(np.mean(self.force_pn[p] < force_limit_pn)),
+                "distance_within_limit": float(np.mean(self.distance_um[p] <= distance_limit_um)),
+                "distance_median_um": float(np.median(self.distance_um[p])),
+                "distance_p99_um": float(np.percentile(self.distance_um[p], 99)),
+                "force_p99_pn": float(np.percentile(self.force_pn[p], 99)), "samples": int(self.force_pn[p].size)}
+
+
+def make_rollout(params: tr.TransportParams, hidden, n_episodes: int):
+    """A jitted ``rollout(q_params, key)`` of all policies over ``n_episodes`` seeded
+    episodes each; returns per-step records."""
+    config = params.config
+    n_levels = config.n_actions
+    n_policies = n_levels + 2
+    network = QNetwork(n_levels, tuple(hidden))
+    kind = jnp.repeat(jnp.arange(n_policies), n_episodes)  # 0 RL, 1..n constant, n+1 untrained
+
+    def rollout(q_params, key):
+        reset_key, key = jax.random.split(key)
+        obs, state = spc.reset_batch(reset_key, params, n_episodes)
+        tile = lambda a: jnp.tile(a, (n_policies,) + (1,) * (a.ndim - 1))  # noqa: E731
+        obs, state = tile(obs), jax.tree.map(tile, state)
+
+        def body(carry, step_key):
+            obs, state, active, progress, success, time_s = carry
+            random_key, step_key = jax.random.split(step_key)
+            greedy = jnp.argmax(network.apply(q_params, obs), axis=-1)
+            random_action = jax.random.randint(random_key, greedy.shape, 0, n_levels)
+            action = jnp.where(kind == 0, greedy, jnp.where(kind <= n_levels, kind - 1, random_action))
+            obs, state, _, terminated, truncated, info = spc.step_batch(step_key, state, action, params)
+            events = info["events"]
+            progress = jnp.where(active, info["progress"], progress)
+            success = success | (active & info["success"])
+            time_s = jnp.where(active, info["time_s"], time_s)
+            record = (active, events.contact_force_pn, events.trap_distance_um)
+            return (obs, state, active & ~(terminated | truncated), progress, success, time_s), record
+
+        zeros = jnp.zeros(kind.shape)
+        carry = (obs, state, jnp.ones(kind.shape, bool), zeros, jnp.zeros(kind.shape, bool), zeros)
+        carry, records = jax.lax.scan(body, carry, jax.random.split(key, config.max_steps))
+        return carry[3:], records
+
+    return jax.jit(rollout)
+
+
+def evaluate(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed: int = 0) -> Evaluation:
+    config = params.config
+    n_levels = config.n_actions
+    rollout = make_rollout(params, hidden, n_episodes)
+    (progress, success, time_s), (active, force, distance) = jax.device_get(rollout(q_params, jax.random.PRNGKey(seed)))
+    shape = (n_levels + 2, n_episodes)
+    names = ["RL"] + [f"G{i + 1}" for i in range(n_levels)] + ["untrained"]
+    speeds = [None] + list(config.speed_levels_um_s) + [None]
+    per_policy = lambda samples: [samples[:, p * n_episodes:(p + 1) * n_episodes][  # noqa: E731
+        active[:, p * n_episodes:(p + 1) * n_episodes]].reshape(-1) for p in range(len(names))]
+    return Evaluation(names, speeds, np.asarray(progress).reshape(shape), np.asarray(success).reshape(shape),
+                      np.asarray(time_s).reshape(shape), per_policy(np.asarray(force)), per_policy(np.asarray(distance)))
+
+
+def write_table(evaluation: Evaluation, out_dir: Path) -> list[dict]:
+    """``table.csv`` and ``table.md`` (rows RL, G1..Gn), with the paper's Table II beside."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows = [row for row in evaluation.rows() if row["policy"] != "untrained"]
+    with open(out_dir / "table.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    fmt = lambda v, f: "/" if v is None else format(v, f)  # noqa: E731
+    lines = ["| policy | speed (um/s) | ASR | ATCT (s) | success rate | episodes | paper ASR | paper ATCT (s) |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for row in rows:
+        paper = PAPER_TABLE_II.get(row["policy"], (None, None))
+        lines.append(f"| {row['policy']} | {fmt(row['speed_um_s'], '.3f') if row['speed_um_s'] else 'learned'} | "
+                     f"{row['ASR']:.3f} | {fmt(row['ATCT_s'], '.2f')} | {row['success_rate']:.3f} | {row['episodes']} | "
+                     f"{fmt(paper[0], '.3f')} | {fmt(paper[1], '.2f')} |")
+    lines.append("")
+    lines.append("G1..Gn: constant speeds, slowest first. The paper's columns are as printed (its G1 fails most).")
+    (out_dir / "table.md").write_text("\n".join(lines) + "\n")
+    return rows
+
+
+def write_safety_figure(evaluation: Evaluation, path: Path, force_limit_pn: float, distance_limit_um: float) -> None:
+    """Violin plots of contact force and handle-to-trap distance, untrained vs trained
+    (the paper's Fig. 7)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    before, after = evaluation.names.index("untrained"), evaluation.names.index("RL")
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4))
+    for ax, samples, limit, label in ((axes[0], evaluation.force_pn, force_limit_pn, "robot-cell contact force (pN)"),
+                                      (axes[1], evaluation.distance_um, distance_limit_um,
+                                       "handle-to-trap distance (um)")):
+        data = [samples[before], samples[after]]
+        ax.violinplot(data, showmedians=True)
+        ax.boxplot(data, widths=0.12, showfliers=False)
+        ax.axhline(limit, color="tab:red", ls="--", lw=1, label=f"limit {limit:g}")
+        ax.set_xticks([1, 2], ["before training", "after training"])
+        ax.set_ylabel(label)
+        ax.legend(loc="upper right")
+    fig.suptitle("Safety during speed control (paper Fig. 7)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

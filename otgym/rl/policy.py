@@ -1,0 +1,48 @@
+"""Policy files: a trained Q-network's weights and what they were trained for, in
+one ``.npz`` (arrays named by their path in the parameter tree, plus a JSON
+``__meta__`` with the preset, observation size, number of actions and layer widths).
+Loading checks the file against the environment and raises a clear error."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import traverse_util
+
+from otgym.rl.network import QNetwork
+
+
+def save_policy(path, q_params, meta: dict) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    flat = traverse_util.flatten_dict(q_params, sep="/")
+    arrays = {name: np.asarray(value) for name, value in flat.items()}
+    with open(path, "wb") as handle:  # np.savez would append .npz to other names
+        np.savez(handle, __meta__=np.array(json.dumps(meta)), **arrays)
+    return path
+
+
+def load_policy(path, obs_size: int, n_actions: int):
+    """Returns (q_params, meta); raises FileNotFoundError or ValueError naming the problem."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"policy file {path} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["__meta__"]))
+            flat = {name: jnp.asarray(data[name]) for name in data.files if name != "__meta__"}
+    except (OSError, KeyError, ValueError) as error:
+        raise ValueError(f"{path} is not an otgym policy file ({error})") from None
+    hidden = tuple(meta.get("hidden", ()))
+    expected = QNetwork(n_actions, hidden).init(jax.random.PRNGKey(0), jnp.zeros((1, obs_size)))
+    expected_flat = traverse_util.flatten_dict(expected, sep="/")
+    shapes = {name: tuple(value.shape) for name, value in flat.items()}
+    wanted = {name: tuple(value.shape) for name, value in expected_flat.items()}
+    if shapes != wanted:
+        raise ValueError(f"policy {path} does not fit this environment (observation size {obs_size}, "
+                         f"{n_actions} actions): its layers are {shapes}, expected {wanted}")
+    return traverse_util.unflatten_dict(flat, sep="/"), meta
