@@ -27,11 +27,13 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import chip, demo, plan
+    from otgym.cli import chip, demo, evaluate, plan, train
 
     demo.register(app)
     plan.register(app)
     chip.register(app)
+    train.register(app)
+    evaluate.register(app)
 
 
 _registered = False

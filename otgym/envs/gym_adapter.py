@@ -123,8 +123,9 @@ class SpeedControlEnv(_TransportEnv):
         self.action_space = gym.spaces.Discrete(self.params.config.n_actions)
 
     def _checked_action(self, action):
-        if not self.action_space.contains(action) and not (
-                np.ndim(action) == 0 and float(action).is_integer() and 0 <= int(action) < self.action_space.n):
+        integer = isinstance(action, (int, np.integer)) or (
+            isinstance(action, np.ndarray) and action.ndim == 0 and np.issubdtype(action.dtype, np.integer))
+        if not integer or not 0 <= int(action) < self.action_space.n:
             raise ValueError(f"action must be an integer in 0..{self.action_space.n - 1}, got {action!r}")
         return int(action)
 

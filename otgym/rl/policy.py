@@ -26,14 +26,24 @@ def save_policy(path, q_params, meta: dict) -> Path:
     return path
 
 
-def load_policy(path, obs_size: int, n_actions: int):
-    """Returns (q_params, meta); raises FileNotFoundError or ValueError naming the problem."""
+def policy_meta(path) -> dict:
+    """The ``__meta__`` of a policy file (raises FileNotFoundError or ValueError)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"policy file {path} does not exist")
     try:
         with np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["__meta__"]))
+            return json.loads(str(data["__meta__"]))
+    except (OSError, KeyError, ValueError) as error:
+        raise ValueError(f"{path} is not an otgym policy file ({error})") from None
+
+
+def load_policy(path, obs_size: int, n_actions: int):
+    """Returns (q_params, meta); raises FileNotFoundError or ValueError naming the problem."""
+    path = Path(path)
+    meta = policy_meta(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
             flat = {name: jnp.asarray(data[name]) for name in data.files if name != "__meta__"}
     except (OSError, KeyError, ValueError) as error:
         raise ValueError(f"{path} is not an otgym policy file ({error})") from None

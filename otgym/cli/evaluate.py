@@ -1,0 +1,47 @@
+"""``otgym evaluate``: the RL policy against each constant speed on the same seeded
+episodes; writes table.csv, table.md (Table II), safety.png (Fig. 7) and safety.json."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+PRETRAINED = Path(__file__).resolve().parent.parent / "data" / "policies" / "speed_control_paper.npz"
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def evaluate(
+        policy: str = typer.Option(..., "--policy", help="Policy file (policy.npz from otgym train) or 'pretrained'."),
+        episodes: int = typer.Option(64, "--episodes", help="Episodes per policy."),
+        out: Path = typer.Option(Path("results/evaluate"), "--out", help="Folder for the results."),
+        seed: int = typer.Option(1, help="Random seed of the episodes."),
+    ) -> None:
+        """Table II: ASR, ATCT and success rate of RL and constant speeds G1..Gn, and the safety figure."""
+        if episodes < 1:
+            raise ValueError(f"--episodes must be at least 1, got {episodes}")
+        from otgym.envs import speed_control as spc
+        from otgym.envs import transport as tr
+        from otgym.envs.presets import preset
+        from otgym.experiments.speed_control_eval import evaluate as run, write_safety_figure, write_table
+        from otgym.rl.policy import load_policy, policy_meta
+
+        path = PRETRAINED if policy == "pretrained" else Path(policy)
+        task = preset(policy_meta(path).get("preset", "paper"))
+        q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
+        console = Console()
+        with console.status("planning, compiling and running the episodes"):
+            evaluation = run(spc.make_params(task), q_params, meta["hidden"], episodes, seed)
+        out.mkdir(parents=True, exist_ok=True)
+        rows = write_table(evaluation, out)
+        limits = task.force_band_pn[1], task.deviation_limit_um
+        write_safety_figure(evaluation, out / "safety.png", *limits)
+        safety = {name: evaluation.safety(name, *limits) for name in ("RL", "untrained")}
+        (out / "safety.json").write_text(json.dumps(safety, indent=2))
+        console.print((out / "table.md").read_text())
+        console.print(f"safety of RL: force < {limits[0]:g} pN in {safety['RL']['force_below_limit']:.2%} of samples, "
+                      f"handle within {limits[1]:g} um in {safety['RL']['distance_within_limit']:.2%}")
+        console.print(f"wrote {out}/table.csv, table.md, safety.png, safety.json ({len(rows)} rows)")

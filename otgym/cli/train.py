@@ -1,0 +1,44 @@
+"""``otgym train``: DQN speed control on a preset; writes policy.npz,
+learning_curve.png and training.json."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def train(
+        preset: str = typer.Option("paper", "--preset", help="Task preset: paper or realistic."),
+        out: Path = typer.Option(Path("results/train"), "--out", help="Folder for the results."),
+        steps: int = typer.Option(200_000, help="Environment steps in all."),
+        envs: int = typer.Option(64, help="Environments simulated at once."),
+        seed: int = typer.Option(0, help="Random seed."),
+    ) -> None:
+        """Train the DQN speed controller (the paper's progressive scheme: planned path, learned speed)."""
+        from otgym.envs.presets import preset as make_preset
+        from otgym.experiments.speed_control import train as run_training
+        from otgym.experiments.speed_control import write_training
+        from otgym.rl.dqn import DQNConfig
+
+        task = make_preset(preset)
+        config = DQNConfig(n_envs=envs, total_env_steps=steps)
+        console = Console()
+        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} chunks"),
+                   TimeElapsedColumn())
+        with Progress(*columns, console=console, transient=True) as progress:
+            bar = progress.add_task("planning and compiling", total=config.n_chunks)
+
+            def report(done: int, total: int) -> None:
+                progress.update(bar, description="training", completed=done)
+
+            result = run_training(task, config, seed, report)
+        summary = write_training(result, out)
+        console.print(f"[bold]otgym train[/bold] ({preset}): {summary['episodes']} episodes, "
+                      f"{summary['env_steps']} steps in {summary['wall_s']} s; final mean return "
+                      f"{summary['final_mean_return']}")
+        console.print(f"wrote {out}/policy.npz, learning_curve.png, training.json")
