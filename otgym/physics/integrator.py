@@ -125,13 +125,14 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields):
     else:
         fx, fy = drag * fields[0], drag * fields[1]
     traps = np.asarray(model.trap_sphere, dtype=int)
+    e = x.shape[-1]
     to_trap_x, to_trap_y = trap_x - x[traps], trap_y - y[traps]
     trap_distance = jnp.sqrt(to_trap_x**2 + to_trap_y**2)
     if model.n_traps:
         scale = jnp.where(trap_distance > 0,
                           model.trap_law.magnitude_pn(trap_distance) / jnp.maximum(trap_distance, 1e-30), 0.0)
-        fx, fy = fx.at[traps].add(scale * to_trap_x), fy.at[traps].add(scale * to_trap_y)
-    e = x.shape[-1]
+        trap_force = model.trap_incidence @ jnp.concatenate([scale * to_trap_x, scale * to_trap_y], axis=1)
+        fx, fy = fx + trap_force[:, :e], fy + trap_force[:, e:]
     contact_x = contact_y = jnp.zeros((0, e), x.dtype)
     overlap_max = jnp.zeros(e, x.dtype)
     if model.pair_a:
@@ -222,8 +223,16 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         fields = _sample_fields(model, x, y)
         return jax.lax.scan(lambda c, i: _substep(model, step_controls, trap_start, fields, c, i), carry, inputs)
 
-    inputs = (noise.reshape((blocks, refresh) + noise.shape[1:]), jnp.arange(model.substeps).reshape(blocks, refresh))
-    carry, _ = jax.lax.scan(block, carry, inputs)
+    if refresh == 1:  # one flat loop: a scan of one-step blocks costs a loop level per step
+        def single(carry, inputs):
+            x, y, _, _ = _sphere_xy(model, carry[0], carry[1], carry[2])
+            return _substep(model, step_controls, trap_start, _sample_fields(model, x, y), carry, inputs)
+
+        carry, _ = jax.lax.scan(single, carry, (noise, jnp.arange(model.substeps)))
+    else:
+        inputs = (noise.reshape((blocks, refresh) + noise.shape[1:]),
+                  jnp.arange(model.substeps).reshape(blocks, refresh))
+        carry, _ = jax.lax.scan(block, carry, inputs)
     (px, py, theta, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
      distance_max, overlap_max) = carry
     x, y, _, _ = _sphere_xy(model, px, py, theta)

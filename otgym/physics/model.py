@@ -105,6 +105,7 @@ class Model:
     pair_stiffness_pn_per_um: jnp.ndarray  # (P,)
     pair_incidence: jnp.ndarray  # (N, P): +1 at the pair's first sphere, -1 at its second
     pair_to_body_pair: jnp.ndarray  # (P, BP) one-hot
+    trap_incidence: jnp.ndarray  # (N, T) one-hot: the sphere each trap holds
     wall_stiffness_pn_per_um: jnp.ndarray  # (N,); 0 for spheres of kinematic bodies
     dt_s: jnp.ndarray
     hamaker_pn_um: jnp.ndarray
@@ -292,6 +293,7 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
         pair_stiffness_pn_per_um=arr(pair_stiffness),
         pair_incidence=arr(incidence),
         pair_to_body_pair=arr(pair_to_body_pair),
+        trap_incidence=arr(np.eye(n_spheres)[:, list(trap_sphere)].reshape(n_spheres, len(trap_sphere))),
         wall_stiffness_pn_per_um=arr(wall_stiffness),
         dt_s=arr(config.dt_s),
         hamaker_pn_um=arr(config.hamaker_pn_um),
