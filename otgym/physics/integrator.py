@@ -36,6 +36,7 @@ from flax import struct
 from jax.custom_batching import custom_vmap
 
 from otgym.physics.fields import NoWalls, UniformFlow
+from otgym.physics.batching import batch_through
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
 from otgym.physics.model import Model, PhysicsState, sphere_positions_um
 
@@ -264,14 +265,6 @@ def _control_step_one(model: Model, state: PhysicsState, controls: Controls, key
     return squeeze(new_state), squeeze(report)
 
 
-def batch_key(keys):
-    """One key that depends on every key of a batch (their words summed mod 2^32)."""
-    if jnp.issubdtype(keys.dtype, jax.dtypes.prng_key):
-        data = jax.random.key_data(keys)
-        return jax.random.wrap_key_data(jnp.sum(data, axis=0, dtype=data.dtype), impl=jax.random.key_impl(keys))
-    return jnp.sum(keys, axis=0, dtype=keys.dtype)
-
-
 @custom_vmap
 def control_step(model: Model, state: PhysicsState, controls: Controls, key):
     """Advance one environment by ``model.substeps`` steps; returns (state, StepReport).
@@ -283,18 +276,7 @@ def control_step(model: Model, state: PhysicsState, controls: Controls, key):
     return _control_step_one(model, state, controls, key)
 
 
-@control_step.def_vmap
-def _control_step_vmap(axis_size, in_batched, model, state, controls, key):
-    model_batched, state_batched, controls_batched, key_batched = in_batched
-    if any(jax.tree.leaves(model_batched)):  # a batch of models: plain batching
-        axes = [jax.tree.map(lambda b: 0 if b else None, batched) for batched in in_batched]
-        result = jax.vmap(_control_step_one, in_axes=tuple(axes))(model, state, controls, key)
-        return result, jax.tree.map(lambda _: True, result)
-    broadcast = lambda tree, batched: jax.tree.map(  # noqa: E731
-        lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape), tree, batched)
-    result = control_step_batch(model, broadcast(state, state_batched), broadcast(controls, controls_batched),
-                                batch_key(key) if key_batched else key)
-    return result, jax.tree.map(lambda _: True, result)
+control_step.def_vmap(batch_through(_control_step_one, control_step_batch))
 
 
 def rollout(model: Model, state: PhysicsState, controls: Controls, key, n_control_steps: int):

@@ -27,7 +27,7 @@ from flax import struct
 from jax.custom_batching import custom_vmap
 
 from otgym import physics as ph
-from otgym.physics.integrator import batch_key
+from otgym.physics.batching import batch_through
 from otgym.physics.validation import require_non_negative, require_positive_scalar
 from otgym.sim.chip import Chip, load_chip
 from otgym.sim.fields import chip_fields
@@ -319,18 +319,7 @@ def step(scene: Scene, state: SceneState, trap_velocity_um_s, key):
     return _step_one(scene, state, trap_velocity_um_s, key)
 
 
-@step.def_vmap
-def _step_vmap(axis_size, in_batched, scene, state, trap_velocity_um_s, key):
-    scene_batched, state_batched, velocity_batched, key_batched = in_batched
-    if any(jax.tree.leaves(scene_batched)):  # a batch of scenes: plain batching
-        axes = tuple(jax.tree.map(lambda b: 0 if b else None, batched) for batched in in_batched)
-        result = jax.vmap(_step_one, in_axes=axes)(scene, state, trap_velocity_um_s, key)
-        return result, jax.tree.map(lambda _: True, result)
-    broadcast = lambda tree, batched: jax.tree.map(  # noqa: E731
-        lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape), tree, batched)
-    result = step_batch(scene, broadcast(state, state_batched), broadcast(trap_velocity_um_s, velocity_batched),
-                        batch_key(key) if key_batched else key)
-    return result, jax.tree.map(lambda _: True, result)
+step.def_vmap(batch_through(_step_one, step_batch))
 
 
 def _events(scene: Scene, physics: ph.PhysicsState, report: ph.StepReport) -> SceneEvents:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from otgym import physics as ph
+from otgym.physics.batching import batch_key
 from otgym.sim import scene as sc
 
 PAPER_LIKE = dict(trap_law=ph.TrapLaw.paper(), dt_s=2e-3, flow_scale=0.1)
@@ -158,6 +159,6 @@ def test_vmap_of_step_is_step_batch_with_the_batch_key(transport_paper):
     states = reset_batch(transport_paper, keys)
     velocity = jnp.ones((3, 4, 2))
     via_vmap, events = jax.jit(jax.vmap(sc.step, in_axes=(None, 0, 0, 0)))(transport_paper, states, velocity, keys)
-    direct, _ = step_batch(transport_paper, states, velocity, ph.integrator.batch_key(keys))
+    direct, _ = step_batch(transport_paper, states, velocity, batch_key(keys))
     assert np.array_equal(np.asarray(via_vmap.physics.pose), np.asarray(direct.physics.pose))
     assert events.contact_force_pn.shape == (3, 2)
