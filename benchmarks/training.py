@@ -3,7 +3,9 @@ pure-JAX DQN on the ``paper`` SpeedControl preset, the acceptance checks on 64
 evaluation episodes per policy, and the functional env's batched steps/s. If
 stable-baselines3 is installed, its DQN on the Gymnasium adapter is timed over a
 sample of steps and extrapolated to the same number of steps (it steps one env
-at a time, about 100x slower per step, so the full run is not waited for).
+at a time, about 100x slower per step, so the full run is not waited for). Without
+it, the adapter alone is timed (one env, random actions, no learning): a floor under
+any SB3 run's time, so the ratio printed is a lower bound.
 
     python benchmarks/training.py [--steps 200000] [--episodes 64]
 """
@@ -45,6 +47,23 @@ def sb3_seconds(total_steps: int, sample_steps: int = 2000) -> float | None:
     return (time.perf_counter() - start) * total_steps / sample_steps
 
 
+def adapter_seconds(total_steps: int, sample_steps: int = 1000) -> float:
+    """Seconds the Gymnasium adapter alone needs for ``total_steps`` (extrapolated)."""
+    import gymnasium as gym
+
+    import otgym.envs  # noqa: F401
+
+    env = gym.make("otgym/SpeedControl-v0")
+    env.reset(seed=0)
+    env.step(0)  # compile
+    start = time.perf_counter()
+    for _ in range(sample_steps):
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        if terminated or truncated:
+            env.reset()
+    return (time.perf_counter() - start) * total_steps / sample_steps
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--steps", type=int, default=200_000)
@@ -80,7 +99,9 @@ def main() -> None:
     print(f"functional env, 256 envs batched: {env_steps_per_s(params):.0f} env steps/s")
     sb3 = sb3_seconds(result.env_steps)
     if sb3 is None:
-        print("stable-baselines3 is not installed: no SB3 comparison")
+        floor = adapter_seconds(result.env_steps)
+        print(f"stable-baselines3 is not installed; the Gymnasium adapter alone (one env, no learning) needs "
+              f"{floor:.0f} s for the same steps (extrapolated): SB3 would be at least {floor / trained_s:.1f}x slower")
     else:
         print(f"SB3 DQN, same steps (extrapolated): {sb3:.0f} s; ratio {sb3 / trained_s:.1f}x")
 

@@ -36,14 +36,26 @@ spaced; the paper gives only the ends)."""
 @dataclasses.dataclass(frozen=True)
 class RewardWeights:
     """Per-step reward terms (paper section II-C, original release): a time cost, a
-    speed bonus, a safe contact-force band, handle deviation, and terminal terms."""
+    speed bonus, a safe contact-force band, handle deviation, and terminal terms.
+
+    ``trap_margin`` (shaping, ours): per handle, ``trap_margin`` per tenth of the escape
+    distance by which the handle-to-trap distance d exceeds ``trap_margin_fraction`` of
+    it. At 0.5 the penalty starts at the bend of the paper and Gaussian laws (0.446 um
+    for ``paper``), beyond which the restoring force falls and the handle escapes; such
+    near-losses are far more frequent than losses, so they teach the risk faster. The
+    paper preset's handles sit 0.32 um from their traps at the slowest speed (pinch and
+    drag), so a margin below the bend penalises safe driving. Measured on ``paper``
+    (200k steps, 64 episodes): margin 0 and failure -30: success 0.94, ATCT 34 s;
+    failure -100 alone: 0.88; with this margin term: 0.98, ATCT 43 s."""
 
     time: float = -0.05
     speed: float = 0.05
     force_in_band: float = 0.01
     force_out_of_band: float = -0.05
     handle_deviation: float = -0.02
-    failure: float = -30.0
+    trap_margin: float = -0.3
+    trap_margin_fraction: float = 0.5
+    failure: float = -100.0
     goal: float = 10.0
 
 

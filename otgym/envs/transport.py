@@ -155,10 +155,13 @@ def _reward(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal):
     force = events.contact_force_pn
     in_band = (force >= low) & (force <= high)
     deviation = jnp.mean(events.trap_distance_um > config.deviation_limit_um, axis=-1)
+    fraction = events.trap_distance_um / config.scene.trap_law.escape_distance
+    margin = jnp.sum(jnp.maximum(fraction - weights.trap_margin_fraction, 0.0), axis=-1) / 0.1
     return (weights.time + weights.speed * speed / max(config.speed_levels_um_s)
             + weights.force_in_band * jnp.all(in_band, axis=-1)
             + weights.force_out_of_band * jnp.sum(~in_band, axis=-1)
             + weights.handle_deviation * deviation
+            + weights.trap_margin * margin
             + jnp.where(failed, weights.failure, 0.0) + jnp.where(goal, weights.goal, 0.0))
 
 
