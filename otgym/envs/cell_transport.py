@@ -10,7 +10,6 @@ mean speed along the path.
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 
 from otgym.control import formation as fm
@@ -54,12 +53,4 @@ def step_batch(key, state: TransportState, action, params: TransportParams):
                             speed)
 
 
-def reset(key, params: TransportParams):
-    obs, state = reset_batch(key, params, 1)
-    return obs[0], jax.tree.map(lambda a: a[0], state)
-
-
-def step(key, state: TransportState, action, params: TransportParams):
-    batch = jax.tree.map(lambda a: a[None], state)
-    out = step_batch(key, batch, jnp.asarray(action)[None], params)
-    return jax.tree.map(lambda a: a[0], out)
+reset, step = tr.single_environment(reset_batch, step_batch)

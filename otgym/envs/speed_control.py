@@ -42,12 +42,4 @@ def step_batch(key, state: TransportState, action, params: TransportParams):
     return tr.advance_batch(key, params, state, velocity, lambda _: next_arc, speed)
 
 
-def reset(key, params: TransportParams):
-    obs, state = reset_batch(key, params, 1)
-    return obs[0], jax.tree.map(lambda a: a[0], state)
-
-
-def step(key, state: TransportState, action, params: TransportParams):
-    batch = jax.tree.map(lambda a: a[None], state)
-    out = step_batch(key, batch, jnp.asarray(action)[None], params)
-    return jax.tree.map(lambda a: a[0], out)
+reset, step = tr.single_environment(reset_batch, step_batch)

@@ -191,3 +191,18 @@ def auto_reset(key, params: TransportParams, obs, state: TransportState, done):
 
     return jax.lax.cond(jnp.any(done), fresh, lambda _: (obs, state), None)
 
+
+def single_environment(reset_batch, step_batch):
+    """The one-environment ``reset(key, params)`` and ``step(key, state, action, params)``
+    of a task, as its batched functions run on a batch of one."""
+
+    def reset(key, params: TransportParams):
+        obs, state = reset_batch(key, params, 1)
+        return obs[0], jax.tree.map(lambda a: a[0], state)
+
+    def step(key, state: TransportState, action, params: TransportParams):
+        batch = jax.tree.map(lambda a: a[None], state)
+        out = step_batch(key, batch, jnp.asarray(action)[None], params)
+        return jax.tree.map(lambda a: a[0], out)
+
+    return reset, step

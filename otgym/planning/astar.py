@@ -122,15 +122,7 @@ def _search(free, width, g, came_from, start, goal):
             heap_node[i] = heap_node[best]
             i = best
         # ... then put the last entry there and sift it up
-        while i > 0:
-            up = (i - 1) // _ARITY
-            if heap_f[up] <= last_f:
-                break
-            heap_f[i] = heap_f[up]
-            heap_node[i] = heap_node[up]
-            i = up
-        heap_f[i] = last_f
-        heap_node[i] = last_node
+        _sift_up(heap_f, heap_node, i, last_f, last_node)
 
         state = came_from[node]
         if state < 0:
@@ -157,17 +149,8 @@ def _search(free, width, g, came_from, start, goal):
                 capacity *= 2
                 heap_f = _grow(heap_f, capacity)
                 heap_node = _grow(heap_node, capacity)
-            i = size
+            _sift_up(heap_f, heap_node, size, f, neighbour)
             size += 1
-            while i > 0:
-                up = (i - 1) // _ARITY
-                if heap_f[up] <= f:
-                    break
-                heap_f[i] = heap_f[up]
-                heap_node[i] = heap_node[up]
-                i = up
-            heap_f[i] = f
-            heap_node[i] = neighbour
 
     if not found:
         return np.empty(0, dtype=np.int64), np.inf
@@ -182,6 +165,20 @@ def _search(free, width, g, came_from, start, goal):
         path[i] = node
         node = -came_from[node] - 1
     return path, g[goal]
+
+
+@numba.njit(cache=True, inline="always")
+def _sift_up(heap_f, heap_node, i, f, node):
+    """Place (f, node) at heap slot ``i`` or above, moving larger parents down."""
+    while i > 0:
+        up = (i - 1) // _ARITY
+        if heap_f[up] <= f:
+            break
+        heap_f[i] = heap_f[up]
+        heap_node[i] = heap_node[up]
+        i = up
+    heap_f[i] = f
+    heap_node[i] = node
 
 
 @numba.njit(cache=True, inline="always")
