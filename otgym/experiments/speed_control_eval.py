@@ -23,13 +23,8 @@ import numpy as np
 
 from otgym.envs import speed_control as spc
 from otgym.envs import transport as tr
+from otgym.experiments.paper_tables import table_ii_markdown
 from otgym.rl.network import QNetwork
-
-PAPER_TABLE_II = {"RL": (1.000, 38.92), "G1": (0.209, None), "G2": (0.689, 36.20), "G3": (0.836, 41.41),
-                  "G4": (1.000, 44.80), "G5": (1.000, 53.40), "G6": (1.000, 66.56)}
-"""The paper's Table II as printed (ASR, ATCT s). Its G1 fails most and its G6 is
-slowest, so the printed columns run from fastest to slowest, against its text."""
-
 
 @dataclasses.dataclass
 class Evaluation:
@@ -57,19 +52,40 @@ class Evaluation:
                 "force_p99_pn": float(np.percentile(self.force_pn[p], 99)), "samples": int(self.force_pn[p].size)}
 
 
-def make_rollout(params: tr.TransportParams, hidden, n_episodes: int):
-    """A jitted ``rollout(q_params, key)`` of all policies over ``n_episodes`` seeded
-    episodes each; returns per-step records."""
+SAFE_FRACTION = 0.99
+"""Safety acceptance (issue 5): contact force under its limit and every handle within
+the deviation limit of its trap in at least this fraction of the steps."""
+
+
+def acceptance(rows: list[dict], rl_safety: dict) -> dict:
+    """The acceptance checks of the trained policy against the constant speeds: RL
+    completes every episode (ASR 1.00); its ATCT is below that of every constant
+    speed that also completes every episode; force and handle-distance safety."""
+    rl = next(row for row in rows if row["policy"] == "RL")
+    safe = [row["policy"] for row in rows if row["policy"] != "RL" and row["success_rate"] == 1.0]
+    atct = {row["policy"]: row["ATCT_s"] for row in rows}
+    return {"asr_one": rl["success_rate"] == 1.0,
+            "faster_than": safe,
+            "faster": rl["ATCT_s"] is not None and all(rl["ATCT_s"] < atct[name] for name in safe),
+            "force_safe": rl_safety["force_below_limit"] >= SAFE_FRACTION,
+            "distance_safe": rl_safety["distance_within_limit"] >= SAFE_FRACTION}
+
+
+def make_rollout(params: tr.TransportParams, hidden, n_episodes: int, policies=None):
+    """A jitted ``rollout(q_params, key)`` of ``n_episodes`` seeded episodes for each of
+    ``policies`` (indices: 0 the RL policy, 1..n the constant speed levels, n+1 uniform
+    random levels; default all); returns (progress, success, time_s) per episode and
+    per-step records (active, contact force, handle-to-trap distance)."""
     config = params.config
     n_levels = config.n_actions
-    n_policies = n_levels + 2
+    policies = tuple(range(n_levels + 2)) if policies is None else tuple(policies)
     network = QNetwork(n_levels, tuple(hidden))
-    kind = jnp.repeat(jnp.arange(n_policies), n_episodes)  # 0 RL, 1..n constant, n+1 untrained
+    kind = jnp.repeat(jnp.asarray(policies), n_episodes)
 
     def rollout(q_params, key):
         reset_key, key = jax.random.split(key)
         obs, state = spc.reset_batch(reset_key, params, n_episodes)
-        tile = lambda a: jnp.tile(a, (n_policies,) + (1,) * (a.ndim - 1))  # noqa: E731
+        tile = lambda a: jnp.tile(a, (len(policies),) + (1,) * (a.ndim - 1))  # noqa: E731
         obs, state = tile(obs), jax.tree.map(tile, state)
 
         def body(carry, step_key):
@@ -94,17 +110,22 @@ def make_rollout(params: tr.TransportParams, hidden, n_episodes: int):
     return jax.jit(rollout)
 
 
-def evaluate(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed: int = 0) -> Evaluation:
+def evaluate(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed: int = 0,
+             policies=None) -> Evaluation:
+    """Run the policies (indices as in ``make_rollout``; default RL, G1..Gn, untrained)
+    on the same ``n_episodes`` seeded episodes."""
     config = params.config
     n_levels = config.n_actions
-    rollout = make_rollout(params, hidden, n_episodes)
+    policies = tuple(range(n_levels + 2)) if policies is None else tuple(policies)
+    rollout = make_rollout(params, hidden, n_episodes, policies)
     (progress, success, time_s), (active, force, distance) = jax.device_get(rollout(q_params, jax.random.PRNGKey(seed)))
-    shape = (n_levels + 2, n_episodes)
-    names = ["RL"] + [f"G{i + 1}" for i in range(n_levels)] + ["untrained"]
-    speeds = [None] + list(config.speed_levels_um_s) + [None]
+    all_names = ["RL"] + [f"G{i + 1}" for i in range(n_levels)] + ["untrained"]
+    all_speeds = [None] + list(config.speed_levels_um_s) + [None]
+    shape = (len(policies), n_episodes)
     per_policy = lambda samples: [samples[:, p * n_episodes:(p + 1) * n_episodes][  # noqa: E731
-        active[:, p * n_episodes:(p + 1) * n_episodes]].reshape(-1) for p in range(len(names))]
-    return Evaluation(names, speeds, np.asarray(progress).reshape(shape), np.asarray(success).reshape(shape),
+        active[:, p * n_episodes:(p + 1) * n_episodes]].reshape(-1) for p in range(len(policies))]
+    return Evaluation([all_names[p] for p in policies], [all_speeds[p] for p in policies],
+                      np.asarray(progress).reshape(shape), np.asarray(success).reshape(shape),
                       np.asarray(time_s).reshape(shape), per_policy(np.asarray(force)), per_policy(np.asarray(distance)))
 
 
@@ -117,16 +138,7 @@ def write_table(evaluation: Evaluation, out_dir: Path) -> list[dict]:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    fmt = lambda v, f: "/" if v is None else format(v, f)  # noqa: E731
-    lines = ["| policy | speed (um/s) | ASR | ATCT (s) | success rate | episodes | paper ASR | paper ATCT (s) |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|"]
-    for row in rows:
-        paper = PAPER_TABLE_II.get(row["policy"], (None, None))
-        lines.append(f"| {row['policy']} | {fmt(row['speed_um_s'], '.3f') if row['speed_um_s'] else 'learned'} | "
-                     f"{row['ASR']:.3f} | {fmt(row['ATCT_s'], '.2f')} | {row['success_rate']:.3f} | {row['episodes']} | "
-                     f"{fmt(paper[0], '.3f')} | {fmt(paper[1], '.2f')} |")
-    lines.append("")
-    lines.append("G1..Gn: constant speeds, slowest first. The paper's columns are as printed (its G1 fails most).")
+    lines = table_ii_markdown(rows)
     (out_dir / "table.md").write_text("\n".join(lines) + "\n")
     return rows
 
