@@ -44,6 +44,7 @@ class DQNConfig:
     learning_starts: int = 5_000
     updates_per_iter: int = 2
     hidden: tuple[int, ...] = (128, 128)
+    huber_delta: float = 1.0
 
     def __post_init__(self):
         for name in ("n_envs", "total_env_steps", "chunk_iters", "buffer_size", "batch_size", "target_every",
@@ -129,7 +130,7 @@ def make_train(config: DQNConfig, env: Env):
         best = jnp.argmax(network.apply(q_params, next_obs), axis=-1)
         next_q = network.apply(target_params, next_obs)[jnp.arange(obs.shape[0]), best]
         target = reward + config.gamma * (1.0 - terminated) * jax.lax.stop_gradient(next_q)
-        return jnp.mean(optax.huber_loss(q, target))
+        return jnp.mean(optax.huber_loss(q, target, delta=config.huber_delta))
 
     def update(carry, key):
         q_params, opt_state, buffer, target_params = carry
