@@ -9,14 +9,11 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-PRETRAINED = Path(__file__).resolve().parent.parent / "data" / "policies" / "speed_control_paper.npz"
-
-
 def register(app: typer.Typer) -> None:
     @app.command()
     def evaluate(
         policy: str = typer.Option(..., "--policy", help="Policy file (policy.npz from otgym train) or 'pretrained'."),
-        episodes: int = typer.Option(64, "--episodes", help="Episodes per policy."),
+        episodes: int = typer.Option(256, "--episodes", help="Episodes per policy (the same seeded episodes for each)."),
         out: Path = typer.Option(Path("results/evaluate"), "--out", help="Folder for the results."),
         seed: int = typer.Option(1, help="Random seed of the episodes."),
     ) -> None:
@@ -27,9 +24,9 @@ def register(app: typer.Typer) -> None:
         from otgym.envs import transport as tr
         from otgym.envs.presets import preset
         from otgym.experiments.speed_control_eval import evaluate as run, write_safety_figure, write_table
-        from otgym.rl.policy import load_policy, policy_meta
+        from otgym.rl.policy import load_policy, policy_meta, resolve_policy
 
-        path = PRETRAINED if policy == "pretrained" else Path(policy)
+        path = resolve_policy(policy)
         task = preset(policy_meta(path).get("preset", "paper"))
         q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
         console = Console()

@@ -15,6 +15,15 @@ from flax import traverse_util
 
 from otgym.rl.network import QNetwork
 
+PRETRAINED_POLICY = Path(__file__).resolve().parent.parent / "data" / "policies" / "speed_control_paper.npz"
+"""The small policy shipped with the package: DQN speed control on the ``paper``
+preset, trained by ``python -m otgym.experiments.pretrain`` (see that module for how)."""
+
+
+def resolve_policy(name_or_path) -> Path:
+    """``"pretrained"`` -> the shipped policy file; anything else is a path."""
+    return PRETRAINED_POLICY if str(name_or_path) == "pretrained" else Path(name_or_path)
+
 
 def save_policy(path, q_params, meta: dict) -> Path:
     path = Path(path)
