@@ -1,0 +1,58 @@
+"""``otgym train`` and ``otgym evaluate`` from the command line: the files they write,
+and bad input as one clear line."""
+
+import json
+
+import numpy as np
+import pytest
+
+from otgym.cli.app import main
+from otgym.envs import transport as tr
+from otgym.rl.policy import load_policy, save_policy
+from tests.conftest import FIXED_POLICY_HIDDEN
+from tests.experiments.test_speed_control_eval import EPISODES
+
+
+def run_cli(arguments) -> int:
+    """Run ``otgym`` in-process; its exit code (typer exits 0 on success)."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(arguments)
+    return exit_info.value.code
+
+
+def test_train_writes_a_loadable_policy_curve_and_summary(tmp_path, capsys):
+    """16 environments x 200 iterations (3200 steps): short, but episodes end (a random
+    speed finishes a 15 um segment in at most 278 steps) and the learning curve has them."""
+    assert run_cli(["train", "--out", str(tmp_path), "--steps", "3200", "--envs", "16", "--seed", "3"]) == 0
+    summary = json.loads((tmp_path / "training.json").read_text())
+    assert summary["env_steps"] == 3200 and summary["episodes"] > 0 and summary["preset"] == "paper"
+    q_params, meta = load_policy(tmp_path / "policy.npz", tr.OBS_SIZE, 6)
+    assert meta["seed"] == 3 and all(np.all(np.isfinite(np.asarray(v))) for v in q_params["params"]["Dense_0"].values())
+    assert (tmp_path / "learning_curve.png").stat().st_size > 10_000
+    assert "3200 steps" in capsys.readouterr().out
+
+
+def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params):
+    policy = save_policy(tmp_path / "slow.npz", fixed_action_q_params(0),
+                         {"preset": "paper", "hidden": list(FIXED_POLICY_HIDDEN)})
+    assert run_cli(["evaluate", "--policy", str(policy), "--episodes", str(EPISODES),
+                    "--out", str(tmp_path / "eval")]) == 0
+    lines = (tmp_path / "eval" / "table.csv").read_text().splitlines()
+    assert len(lines) == 8
+    rl, g1 = lines[1].split(","), lines[2].split(",")
+    assert rl[0] == "RL" and g1[0] == "G1" and rl[3] == g1[3]  # same ATCT: the policy always drives at G1
+    safety = json.loads((tmp_path / "eval" / "safety.json").read_text())
+    assert set(safety) == {"RL", "untrained"} and 0 <= safety["RL"]["force_below_limit"] <= 1
+    assert (tmp_path / "eval" / "safety.png").is_file()
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["evaluate", "--policy", "nowhere.npz"], "does not exist"),
+    (["evaluate", "--policy", "pretrained", "--episodes", "0"], "--episodes"),
+    (["train", "--preset", "fast"], "unknown preset"),
+    (["train", "--steps", "0"], "total_env_steps"),
+])
+def test_bad_input_is_one_line(tmp_path, capsys, arguments, message):
+    assert run_cli([*arguments, "--out", str(tmp_path)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("error:") and message in error and "\n" not in error
