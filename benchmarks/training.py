@@ -5,7 +5,7 @@ validation episodes), then the test on fresh episodes against the constant speed
 and the functional env's batched steps/s. Reference, same run: stable-baselines3 DQN
 on the Gymnasium adapter for the same number of steps as one of our seeds, timed over
 a sample and extrapolated (it steps one env at a time; the whole run would take about
-ten minutes). Without SB3 the adapter alone is timed (one env, random actions, no
+seven minutes). Without SB3 the adapter alone is timed (one env, random actions, no
 learning): a floor under any SB3 run, so the ratio printed is a lower bound.
 
     python benchmarks/training.py [--steps 204800] [--seeds 0] [--episodes 256]

@@ -4,6 +4,8 @@ ours."""
 
 from __future__ import annotations
 
+from otgym.envs.presets import PAPER_SPEEDS_UM_S
+
 PAPER_TABLE_I = {"manual": (9.6193, 314.34, 45.962), "A*": (9.4362, 3.3893, 9.5632),
                  "B-spline": (9.1352, 0.64264, 0.30768)}
 """The paper's Table I (total length in scene units, mean curvature, angular deviation
@@ -32,14 +34,22 @@ def number(value, spec: str) -> str:
 
 
 def table_ii_markdown(rows: list[dict]) -> list[str]:
-    """Table II as markdown lines: our rows (RL, G1..Gn) with the paper's values beside."""
-    lines = ["| policy | speed (um/s) | ASR | ATCT (s) | success rate | episodes | paper ASR | paper ATCT (s) |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    """Table II as markdown lines: our rows (RL, G1..Gn), with the paper's values beside
+    them only when the constant speeds are the paper's (the ``paper`` preset)."""
+    speeds = tuple(row["speed_um_s"] for row in rows if row["speed_um_s"] is not None)
+    with_paper = speeds == PAPER_SPEEDS_UM_S
+    head = "| policy | speed (um/s) | ASR | ATCT (s) | success rate | episodes |"
+    lines = [head + (" paper ASR | paper ATCT (s) |" if with_paper else ""),
+             "|---|---:|---:|---:|---:|---:|" + ("---:|---:|" if with_paper else "")]
     for row in rows:
-        paper = paper_row(row["policy"])
         speed = "learned" if row["speed_um_s"] is None else f"{row['speed_um_s']:.3f}"
-        lines.append(f"| {row['policy']} | {speed} | {row['ASR']:.3f} | {number(row['ATCT_s'], '.2f')} | "
-                     f"{row['success_rate']:.3f} | {row['episodes']} | {number(paper[0], '.3f')} | "
-                     f"{number(paper[1], '.2f')} |")
-    return lines + ["", "G1..Gn: constant speeds, slowest first, as in the paper's text; the paper's values are "
-                    "matched by speed (its printed table runs from fastest to slowest)."]
+        line = (f"| {row['policy']} | {speed} | {row['ASR']:.3f} | {number(row['ATCT_s'], '.2f')} | "
+                f"{row['success_rate']:.3f} | {row['episodes']} |")
+        if with_paper:
+            paper = paper_row(row["policy"])
+            line += f" {number(paper[0], '.3f')} | {number(paper[1], '.2f')} |"
+        lines.append(line)
+    note = "G1..Gn: constant speeds, slowest first, as in the paper's text."
+    if with_paper:
+        note += " The paper's values are matched by speed (its printed table runs from fastest to slowest)."
+    return lines + ["", note]

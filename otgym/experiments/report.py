@@ -58,12 +58,13 @@ def speed_control_section(rows: list[dict], safety: dict, force_limit_pn: float,
     for name, values in (("before training (random speeds)", before), ("after training (RL)", after)):
         lines.append(f"| {name} | {values['force_below_limit']:.2%} | {values['distance_within_limit']:.2%} | "
                      f"{values['distance_median_um']:.3f} | {values['distance_p99_um']:.3f} | {values['samples']} |")
-    lines += ["", f"Paper: {PAPER_SAFETY}. Figure: `speed_control/safety.png`.", "",
-              "The handle-distance limit is out of reach of the paper's trap law at these speeds: its centre "
-              "stiffness (0.455 pN/um) lets the handles wander 0.07 um (thermal, per axis), and the drag of the "
-              "robot-cell assembly against the opposing flow holds them about 0.3 um behind their traps even at "
-              "the slowest speed; speed control can only keep them short of the law's bend (0.446 um), beyond "
-              "which the trap lets go.", ""]
+    lines += ["", f"Paper: {PAPER_SAFETY}. Figure: `speed_control/safety.png`.", ""]
+    if preset == "paper" and not checks["distance_safe"]:
+        lines += ["The handle-distance limit is out of reach of the paper's trap law at these speeds: its centre "
+                  "stiffness (0.455 pN/um) lets the handles wander 0.07 um (thermal, per axis), and the drag of "
+                  "the robot-cell assembly against the opposing flow holds them about 0.3 um behind their traps "
+                  "even at the slowest speed; speed control can only keep them short of the law's bend (0.446 um), "
+                  "beyond which the trap lets go.", ""]
     return lines
 
 

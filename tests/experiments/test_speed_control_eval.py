@@ -35,9 +35,9 @@ def test_rows_carry_the_exact_times_of_their_speeds(paper_params, fastest_policy
     assert rows["G1"]["success_rate"] == 1.0 and rows["G1"]["ASR"] == pytest.approx(1.0, abs=1e-3)
     assert rows["G1"]["ATCT_s"] == pytest.approx(steps_to_goal(paper_params, levels[0]) * period, abs=1e-4)
     assert rows["RL"]["speed_um_s"] is None and rows["G6"]["speed_um_s"] == levels[5]
-    rl_won = fastest_policy_evaluation.success[0]
-    if rl_won.any():
-        assert rows["RL"]["ATCT_s"] == pytest.approx(steps_to_goal(paper_params, levels[5]) * period, abs=1e-4)
+    # at the fastest level an episode succeeds with p ~ 0.72, so P(none of 4) ~ 0.6 %
+    assert fastest_policy_evaluation.success[0].any()
+    assert rows["RL"]["ATCT_s"] == pytest.approx(steps_to_goal(paper_params, levels[5]) * period, abs=1e-4)
     assert all(row["episodes"] == EPISODES for row in rows.values())
     assert 0.0 <= rows["RL"]["ASR"] <= 1.0
 
@@ -78,3 +78,19 @@ def test_table_and_figure_files(tmp_path, fastest_policy_evaluation):
     assert csv_lines[0].startswith("policy,speed_um_s,ASR,ATCT_s") and len(csv_lines) == 8
     write_safety_figure(fastest_policy_evaluation, tmp_path / "safety.png", 10.0, 0.2)
     assert (tmp_path / "safety.png").stat().st_size > 10_000
+
+
+def test_paper_values_stand_beside_only_the_papers_speeds():
+    """The ``realistic`` preset's 2-12 um/s groups are not the paper's: no paper column."""
+    from otgym.envs.presets import PAPER_SPEEDS_UM_S, realistic
+    from otgym.experiments.paper_tables import table_ii_markdown
+
+    def rows(speeds):
+        return [{"policy": "RL", "speed_um_s": None, "ASR": 1.0, "ATCT_s": 10.0, "success_rate": 1.0, "episodes": 4}] + [
+            {"policy": f"G{i + 1}", "speed_um_s": v, "ASR": 1.0, "ATCT_s": 20.0, "success_rate": 1.0, "episodes": 4}
+            for i, v in enumerate(speeds)]
+
+    paper_lines = table_ii_markdown(rows(PAPER_SPEEDS_UM_S))
+    assert "paper ASR" in paper_lines[0] and paper_lines[2].endswith("| 1.000 | 38.92 |")
+    realistic_lines = table_ii_markdown(rows(realistic().speed_levels_um_s))
+    assert "paper" not in realistic_lines[0] and realistic_lines[2].endswith("| 4 |")
