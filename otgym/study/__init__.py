@@ -1,0 +1,15 @@
+"""Study tooling for the shared-control experiment (paper Sec. III-C, Fig. 8): per-mode
+summaries, repeated-measures statistics (pingouin) and the Fig. 8 figure, from a trials
+table with one row per trial.
+
+Modules: ``stats`` (participant means, ANOVA + Holm post-hoc, stars, Wilson intervals),
+``summary`` (per-mode table and the summary files), ``figures`` (Fig. 8 (a, b)),
+``paper_fig8`` (the paper's values)."""
+
+from otgym.study.figures import plot_fig8
+from otgym.study.paper_fig8 import PAPER_FIG8
+from otgym.study.stats import MODE_ORDER, compare_modes, participant_means, stars, wilson_interval
+from otgym.study.summary import summarize, write_summary
+
+__all__ = ["MODE_ORDER", "PAPER_FIG8", "compare_modes", "participant_means", "plot_fig8", "stars", "summarize",
+           "wilson_interval", "write_summary"]

@@ -1,0 +1,99 @@
+"""The paper's Fig. 8 (a, b) from our trials: (a) success rate and (b) task completion
+time per control mode, with significance stars between modes as in the paper's figure.
+
+Bars: mean over participants' means with SD error bars; dots: each participant's mean
+(jittered); hollow diamonds beside the bars: the paper's mean ± SD (Sec. III-C);
+brackets: pairs whose Holm-corrected paired t-test is significant (p < 0.05). Drawn on
+matplotlib's Agg canvas (no display, no global backend change)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from otgym.study.paper_fig8 import PAPER_FIG8
+from otgym.study.stats import compare_modes, ordered_modes, participant_means
+
+_PANELS = (("success", "(a) Success rate", "Obstacles avoided (%)", 100.0, "success_mean", "success_sd", 100.0),
+           ("time", "(b) Task completion time", "Completion time (s)", 1.0, "time_mean_s", "time_sd_s", math.inf))
+"""Per panel: metric, title, y label, scale to the plotted unit, the paper's mean and SD
+keys, and the largest y tick (a rate's axis stops at 100 % below the brackets)."""
+_COLORS = {"manual": "#4C72B0", "autonomous": "#DD8452", "shared": "#55A868", "mpc": "#8172B3"}
+_PAPER_OFFSET = 0.32
+
+
+def _brackets(ax, pairs: list[dict], x_of: dict, top: float, span: float) -> float:
+    """Draw a bracket with stars for each significant pair, stacked above ``top``; return the new top."""
+    step = 0.11 * span
+    for pair in sorted((p for p in pairs if p["p_holm"] is not None and not math.isnan(p["p_holm"])
+                        and p["p_holm"] < 0.05), key=lambda p: abs(x_of[p["a"]] - x_of[p["b"]])):
+        top += step
+        x1, x2 = sorted((x_of[pair["a"]], x_of[pair["b"]]))
+        ax.plot([x1, x1, x2, x2], [top - 0.3 * step, top, top, top - 0.3 * step], color="black", lw=1.0)
+        ax.text((x1 + x2) / 2, top, pair["stars"], ha="center", va="bottom", fontsize=11)
+    return top
+
+
+def _panel(ax, means: pd.DataFrame, modes: list[str], result: dict, panel: tuple, rng) -> None:
+    _, title, ylabel, scale, paper_mean, paper_sd, tick_max = panel
+    x_of = {mode: i for i, mode in enumerate(modes)}
+    top = 0.0
+    for mode in modes:
+        values = means.loc[means["mode"] == mode, "value"].dropna().to_numpy() * scale
+        x = x_of[mode]
+        mean = values.mean() if len(values) else math.nan
+        sd = values.std(ddof=1) if len(values) > 1 else 0.0  # one participant: no spread to draw
+        ax.bar(x, mean, width=0.5, color=_COLORS.get(mode, "#937860"), alpha=0.75,
+               yerr=sd, capsize=5, error_kw={"lw": 1.2}, label="mean ± SD" if x == 0 else None)
+        ax.scatter(x + rng.uniform(-0.12, 0.12, len(values)), values, s=14, color="black", alpha=0.7, zorder=3,
+                   label="participant mean" if x == 0 else None)
+        top = max([top, np.nanmax(values, initial=0.0), (mean + sd) if len(values) else 0.0])
+        if mode in PAPER_FIG8:
+            paper = PAPER_FIG8[mode]
+            ax.errorbar(x + _PAPER_OFFSET, paper[paper_mean] * scale, yerr=paper[paper_sd] * scale, fmt="D",
+                        mfc="white", mec="black", color="black", ms=6, capsize=3, lw=1.0,
+                        label="paper (Fig. 8)" if x == 0 else None)
+            top = max(top, (paper[paper_mean] + paper[paper_sd]) * scale)
+    span = top if top > 0 else 1.0
+    top = _brackets(ax, result["posthoc"], x_of, top, span)
+    ax.set_ylim(0, top + 0.12 * span)
+    ticks = ax.get_yticks()
+    ax.set_yticks(ticks[(ticks >= 0) & (ticks <= tick_max)])
+    ax.set_xticks(range(len(modes)), modes)
+    ax.set_xlim(-0.6, len(modes) - 0.4 + _PAPER_OFFSET)
+    ax.set_title(title)
+    ax.set_xlabel("Control mode")
+    ax.set_ylabel(ylabel)
+    ax.grid(axis="y", alpha=0.3)
+    ax.set_axisbelow(True)
+    p = result["anova"]["p"]
+    if p is None or math.isnan(p):  # no brackets then means "no test", not "not significant"
+        ax.text(0.5, 0.98, "tests undefined (see the stats note)", transform=ax.transAxes, ha="center", va="top",
+                fontsize=8, color="dimgray")
+
+
+def plot_fig8(trials: pd.DataFrame, path, stats: dict | None = None) -> None:
+    """Write Fig. 8 (a) success rate and (b) completion time per mode to ``path`` (PNG,
+    150 dpi). ``stats`` is ``{"success": ..., "time": ...}`` as ``compare_modes`` (or
+    ``write_summary``, or its ``stats.json``) gives; computed here when None. Modes in
+    ``MODE_ORDER`` (manual, autonomous, shared, then mpc)."""
+    if stats is None:
+        stats = {metric: compare_modes(trials, metric) for metric in ("success", "time")}
+    fig = Figure(figsize=(11, 4.6), dpi=150, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, 2)
+    rng = np.random.default_rng(0)  # jitter only: the same figure for the same trials
+    for ax, panel in zip(axes, _PANELS):
+        means = participant_means(trials, panel[0])
+        _panel(ax, means, ordered_modes(means["mode"]), stats[panel[0]], panel, rng)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncols=3, fontsize=8, frameon=False)
+    fig.suptitle("Shared-control study: success and completion time per mode "
+                 "(stars: Holm-corrected paired t-tests)", fontsize=11)
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=150)
