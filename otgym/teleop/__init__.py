@@ -1,0 +1,17 @@
+"""Teleoperation: input devices, retargeting to trap increments, haptic feedback
+(paper sections II-D and II-E; DESIGN.md, "The human half").
+
+Modules, each with one job: ``device`` (the protocol every device speaks,
+``open_device``), ``retarget`` (samples -> the human's trap increment dP_h),
+``feedback`` (the vision force sensor's reading -> a stylus force), ``servo`` (a haptic
+servo loop in its own process), and the drivers ``touch``, ``pygame_devices``,
+``replay`` and ``simulated_operator``.
+
+Only the device protocol is imported here: this package is imported by every servo
+process at its start, which must stay fast (no scipy, pygame or OpenHaptics); import
+the rest from its module.
+"""
+
+from otgym.teleop.device import DEVICE_NAMES, Device, DeviceCaps, DeviceError, Sample, open_device
+
+__all__ = ["DEVICE_NAMES", "Device", "DeviceCaps", "DeviceError", "Sample", "open_device"]

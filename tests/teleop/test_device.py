@@ -1,0 +1,43 @@
+"""The device protocol: samples, capabilities, force saturation and ``open_device``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from otgym.teleop.device import DEVICE_NAMES, DeviceCaps, Sample, open_device, saturate_force
+
+
+def test_unknown_device_name_lists_the_choices():
+    with pytest.raises(ValueError, match="unknown device 'spacemouse'") as info:
+        open_device("spacemouse")
+    assert all(name in str(info.value) for name in DEVICE_NAMES)
+
+
+def test_sample_holds_read_only_vectors_and_checks_shapes():
+    sample = Sample(1.0, 3, [1, 2, 3], [0, 0, np.nan], 5)
+    assert sample.position_mm.dtype == np.float64 and not sample.position_mm.flags.writeable
+    assert not sample.finite
+    assert Sample(1.0, 3, [1, 2, 3], [0, 0, 0], 0).finite
+    with pytest.raises(ValueError, match="position_mm"):
+        Sample(1.0, 3, [1, 2], [0, 0, 0], 0)
+    with pytest.raises(ValueError, match="buttons"):
+        Sample(1.0, 3, [1, 2, 3], [0, 0, 0], -1)
+
+
+def test_caps_are_validated():
+    DeviceCaps("ok", 3, 0.88, (160, 120, 70), 1000.0)
+    with pytest.raises(ValueError, match="dof"):
+        DeviceCaps("bad", 0, 0.0, (1, 1, 1), 1.0)
+    with pytest.raises(ValueError, match="force_limit_n"):
+        DeviceCaps("bad", 3, -1.0, (1, 1, 1), 1.0)
+    with pytest.raises(ValueError, match="workspace_mm"):
+        DeviceCaps("bad", 3, 0.0, (1, 0, 1), 1.0)
+    with pytest.raises(ValueError, match="rate_hz"):
+        DeviceCaps("bad", 3, 0.0, (1, 1, 1), 0.0)
+
+
+def test_force_saturation_keeps_direction_and_rejects_non_finite():
+    np.testing.assert_allclose(saturate_force([3.0, 4.0, 0.0], 0.88), [0.528, 0.704, 0.0])
+    np.testing.assert_array_equal(saturate_force([0.1, 0.2, 0.0], 0.88), [0.1, 0.2, 0.0])
+    np.testing.assert_array_equal(saturate_force([np.nan, 0.0, 0.0], 0.88), np.zeros(3))

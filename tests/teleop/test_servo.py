@@ -1,0 +1,163 @@
+"""The servo loop in its own process, driven by the simulated haptic backend (a
+virtual 45 g stylus held by a scripted hand with a 300 N/m grip). No assertion on
+timing: bounds are on motion, and waits only give the process time to move."""
+
+from __future__ import annotations
+
+import functools
+import multiprocessing
+import os
+import signal as process_signals
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from otgym.teleop.device import DeviceError
+from otgym.teleop.servo import (
+    SIMULATED_HAPTIC_CAPS,
+    ServoDevice,
+    SimulatedHapticBackend,
+    SteadyHand,
+    VelocityEstimator,
+    butterworth3_sos,
+)
+
+HAND_SPEED_MM_S = 20.0
+
+
+def _simulated_device(**backend_options):
+    hand = SteadyHand(velocity_mm_s=(HAND_SPEED_MM_S, 0.0, 0.0))
+    return ServoDevice(functools.partial(SimulatedHapticBackend, hand=hand, **backend_options), SIMULATED_HAPTIC_CAPS)
+
+
+def test_servo_device_tracks_the_hand_and_feels_the_force():
+    """The hand moves the stylus along device x at 20 mm/s: samples advance and the
+    filtered velocity is within 5 mm/s of 20 (5 reads over 0.25 s; the estimator is
+    exact on a ramp once its 20 Hz filter has settled, the margin covers a late tick).
+    A 0.5 N push along +y deflects the grip by F/k = 1.67 mm; when set_force is no
+    longer refreshed the force times out and the stylus returns."""
+    device = _simulated_device()
+    with device:
+        time.sleep(0.3)
+        samples = []
+        for _ in range(5):
+            time.sleep(0.05)
+            samples.append(device.read())
+        sequences = [s.sequence for s in samples]
+        assert all(b > a for a, b in zip(sequences, sequences[1:]))
+        assert all(b.time_s > a.time_s for a, b in zip(samples, samples[1:]))
+        assert samples[-1].position_mm[0] > samples[0].position_mm[0] + 2.0
+        assert abs(np.median([s.velocity_mm_s[0] for s in samples]) - HAND_SPEED_MM_S) < 5.0
+        assert samples[-1].buttons == 1
+        for _ in range(15):
+            device.set_force([0.0, 0.5, 0.0])
+            time.sleep(0.02)
+        pushed_y = device.read().position_mm[1]
+        assert 1.2 < pushed_y < 2.2
+        time.sleep(0.8)  # no refresh: the force times out after 0.25 s
+        assert abs(device.read().position_mm[1]) < 0.3
+        assert len(device.loop_periods_s()) > 100
+    assert not device.process.is_alive()
+    assert device.read() is None
+    device.stop()  # idempotent
+
+
+def test_a_backend_that_cannot_open_gives_a_one_line_device_error():
+    device = _simulated_device(mass_kg=-1.0)
+    with pytest.raises(DeviceError, match="simulated haptic stylus: mass_kg must be positive") as info:
+        device.start()
+    assert "\n" not in str(info.value)
+    assert not device.process.is_alive()
+
+
+def _hold_a_servo_device(conn):
+    device = _simulated_device()
+    device.start()
+    conn.send(device.process.pid)
+    time.sleep(60)
+
+
+def _ended(pid: int) -> bool:
+    stat = Path(f"/proc/{pid}/stat")
+    try:
+        return stat.read_text().rsplit(")", 1)[1].split()[0] in ("Z", "X")
+    except OSError:
+        return True
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads process states from /proc")
+def test_the_servo_process_ends_when_its_parent_dies():
+    context = multiprocessing.get_context("spawn")
+    receiver, sender = context.Pipe(duplex=False)
+    parent = context.Process(target=_hold_a_servo_device, args=(sender,))  # daemons may not have children
+    parent.start()
+    try:
+        while not receiver.poll(0.1):
+            assert parent.is_alive(), "the helper failed to start its servo device"
+        servo_pid = receiver.recv()
+        assert not _ended(servo_pid)
+    finally:
+        os.kill(parent.pid, process_signals.SIGKILL)
+        parent.join()
+    deadline = time.monotonic() + 20.0
+    while not _ended(servo_pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    ended = _ended(servo_pid)
+    if not ended:
+        os.kill(servo_pid, process_signals.SIGKILL)  # leave no orphan behind a failure
+    assert ended
+
+
+@pytest.mark.parametrize("cutoff_hz, rate_hz", [(20.0, 1000.0), (5.0, 100.0), (200.0, 1000.0)])
+def test_closed_form_butterworth_matches_scipy(cutoff_hz, rate_hz):
+    """Same filter as scipy's design (its sections split the gain differently, so the
+    impulse responses are compared, 400 samples)."""
+    impulse = np.zeros(400)
+    impulse[0] = 1.0
+    np.testing.assert_allclose(signal.sosfilt(butterworth3_sos(cutoff_hz, rate_hz), impulse),
+                               signal.sosfilt(signal.butter(3, cutoff_hz, fs=rate_hz, output="sos"), impulse),
+                               atol=1e-12)
+
+
+def test_velocity_estimator_streams_like_scipy():
+    """Random positions at a steady 1 kHz: the estimator equals the second-order
+    backward difference filtered offline by scipy.signal.sosfilt (to 1e-9)."""
+    rng = np.random.default_rng(1)
+    positions = np.cumsum(rng.normal(size=(300, 3)), axis=0)
+    times = np.arange(300) * 1e-3
+    estimator = VelocityEstimator(1000.0)
+    streamed = np.array([estimator(p, t) for p, t in zip(positions, times)])
+    raw = np.zeros_like(positions)
+    raw[1] = (positions[1] - positions[0]) / 1e-3
+    raw[2:] = (3 * positions[2:] - 4 * positions[1:-1] + positions[:-2]) / 2e-3
+    offline = signal.sosfilt(signal.butter(3, 20.0, fs=1000.0, output="sos"), raw, axis=0)
+    np.testing.assert_allclose(streamed, offline, atol=1e-9 * np.abs(offline).max())
+
+
+def test_velocity_estimator_is_exact_on_a_ramp_with_uneven_steps():
+    """Positions on a 12 mm/s ramp at steps jittered uniformly within 0.5-1.5 ms
+    (seeded): the second-order difference is exact on a ramp, so after the low-pass
+    has settled (1 s, 20 time constants) the estimate is 12 mm/s to 1e-6."""
+    rng = np.random.default_rng(0)
+    estimator = VelocityEstimator(1000.0)
+    t = 0.0
+    for _ in range(1000):
+        t += rng.uniform(0.5e-3, 1.5e-3)
+        velocity = estimator(np.array([12.0 * t, -3.0 * t, 0.0]), t)
+    np.testing.assert_allclose(velocity, [12.0, -3.0, 0.0], atol=1e-6)
+    np.testing.assert_array_equal(estimator(np.array([99.0, 0.0, 0.0]), t), velocity)
+
+
+def test_servo_options_are_validated():
+    factory = functools.partial(SimulatedHapticBackend)
+    with pytest.raises(ValueError, match="busy_wait_s"):
+        ServoDevice(factory, SIMULATED_HAPTIC_CAPS, busy_wait_s=0.01)
+    with pytest.raises(ValueError, match="force_timeout_s"):
+        ServoDevice(factory, SIMULATED_HAPTIC_CAPS, force_timeout_s=0.0)
+    with pytest.raises(ValueError, match="hand_damping_n_s_per_m"):
+        SimulatedHapticBackend(hand_damping_n_s_per_m=-1.0)
+    with pytest.raises(ValueError, match="velocity_mm_s"):
+        SteadyHand(velocity_mm_s=(1.0, 2.0))
