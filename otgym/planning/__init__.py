@@ -5,10 +5,15 @@ A* with octile costs -> collision-free B-spline smoothing, plus the path metrics
 Table I and a simulated human operator for the manual row. Coordinates are um with the
 origin at the image's top-left corner, x right (column * pixel size), y down (row *
 pixel size), pixel centres at +0.5 pixel.
+
+``otgym.planning.human`` is otgym's one human motor model (``HumanParams``,
+``sample_population``, ``HumanMotor``: a person's hand at a stylus, in mm), used by the
+simulated operator here and by the simulated teleoperation participant.
 """
 
 from otgym.planning.astar import astar
 from otgym.planning.collision import segments_free
+from otgym.planning.human import POPULATION_CV, HumanMotor, HumanParams, sample_population
 from otgym.planning.metrics import (
     PathMetrics,
     curvature_spectrum,
@@ -31,7 +36,10 @@ from otgym.planning.pipeline import (
 from otgym.planning.smoothing import smooth_path, string_pull
 
 __all__ = [
+    "POPULATION_CV",
     "TABLE_ROWS",
+    "HumanMotor",
+    "HumanParams",
     "OccupancyMap",
     "OperatorParams",
     "PathMetrics",
@@ -48,6 +56,7 @@ __all__ = [
     "pixels_to_um",
     "plan_path",
     "resample_by_arc_length",
+    "sample_population",
     "save_path_csv",
     "segments_free",
     "simulate_operator",

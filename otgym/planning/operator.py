@@ -2,39 +2,24 @@
 
 It stands in for the paper's recorded manual trajectories (section III-A) so that
 Table I can be made without a person. The operator looks at the chip, steers the
-trap towards the goal along the middle of the channels, and behaves like a person
-at a haptic stylus:
+trap towards the goal along the middle of the channels with a haptic stylus, and the
+trapped robot follows the trap:
 
 * **Route.** People keep away from walls: the intended route is the least-cost path
   (scikit-image ``MCP_Geometric``) through the dilated free map with cost
   1 / (distance to the nearest wall), which follows the channels' centre lines.
-* **Reaction delay** ``reaction_delay_s`` (0.2 s): the operator sees the robot's
-  position that long ago and only starts moving after it. Simple visual reaction
-  times are about 0.2 s, and the Model Human Processor's perceive-decide-act cycle
-  is about 0.24 s (Card, Moran & Newell, *The Psychology of Human-Computer
-  Interaction*, 1983).
-* **Intermittent corrections** every ``correction_interval_s`` (0.4 s): manual
-  tracking proceeds by discrete corrective sub-movements at about 2-3 per second
-  (Craik, Br. J. Psychol. 38, 56, 1947; Miall, Weir & Stein, J. Motor Behav. 25, 53,
-  1993). Each aims at the route point ``lookahead`` ahead of the (delayed) perceived
-  position.
-* **Over- and under-shoot**: each sub-movement's extent is scaled by
-  1 + N(0, ``extent_error_fraction`` = 0.1) and its direction rotated by
-  N(0, ``direction_error_deg`` = 4 deg); planar reaching errors grow with distance,
-  with extent errors of about a tenth of the distance and directional errors of a
-  few degrees (Gordon, Ghilardi & Ghez, Exp. Brain Res. 99, 97, 1994). Acting on a
-  position seen ``reaction_delay_s`` ago adds the overshoot of delayed feedback.
-* **Neuromuscular lag** ``neuromuscular_lag_s`` (0.1 s): the hand's velocity follows
-  the intended one through a first-order lag, the neuromuscular term of the
-  crossover model of the human controller (McRuer & Jex, IEEE Trans. HFE 8, 231,
-  1967).
-* **Physiological tremor** in ``tremor_band_hz`` (8-12 Hz; McAuley & Marsden,
-  Brain 123, 1545, 2000) with ``tremor_rms_um`` (0.2 um) per axis at the trap:
-  band-pass-filtered Gaussian noise (4th-order Butterworth, zero phase). A hand-held
-  instrument tip trembles by about 50 um RMS per axis (Riviere, Rader & Thakor, IEEE
-  Trans. BME 45, 839, 1998); scaled by an assumed stylus-to-trap motion scale of
-  1:250 (so that a Geomagic Touch's ~160 mm workspace spans a ~640 um field, the
-  whole chip without clutching) that is 0.2 um.
+* **The person** is otgym's one human motor model, ``otgym.planning.human``
+  (``HumanMotor`` with one participant, ``params.human``; sources there): the operator
+  sees the robot's position a reaction time ago, and at each corrective sub-movement
+  (every ~0.4 s, none during a lapse of responsiveness) aims at the route point
+  ``lookahead`` ahead of that position, to within the room to the walls there (the goal
+  tolerance at the goal); the hand executes the sub-movement with extent and direction
+  errors, Fitts' speed-accuracy trade-off, neuromuscular lag, signal-dependent noise and
+  8-12 Hz tremor.
+* **Motion scale** ``motion_scale_um_per_mm`` (4 um per mm): the trap moves by the
+  stylus displacement times this. Assumed 1:250 so that a Geomagic Touch's ~160 mm
+  workspace spans a ~640 um field, the whole chip without clutching; the default
+  0.05 mm RMS stylus tremor is then 0.2 um at the trap.
 * **The trapped robot** is not the hand: the operator moves the trap, and the
   overdamped robot follows it with the trap's restoring force plus thermal motion,
   dx = (k / gamma)(trap - x) dt + sqrt(2 kT / gamma) dW (Euler-Maruyama; the
@@ -49,14 +34,16 @@ at a haptic stylus:
   the side of the route, by a uniform fraction up to ``detour_fraction`` (0.6) of the
   room left there. This has no literature value; it is set to reproduce the visible
   detours of the manual path in the paper's Fig. 5(a).
-* **Speed** ``speed_um_per_s`` (3 um/s): the task's pace, not a human constant. It is
-  below the ~7 um/s at which the paper's trap law (about 0.3 pN per handle, two
-  handles) can drag a 10 um robot through water (Stokes drag 6 pi eta a).
+* **Speed** ``speed_um_per_s`` (3 um/s at the trap): the task's pace, not a human
+  constant; the operator's speed limit for every sub-movement. It is below the ~7 um/s
+  at which the paper's trap law (about 0.3 pN per handle, two handles) can drag a 10 um
+  robot through water (Stokes drag 6 pi eta a).
 
-The recorded trajectory is the robot's. Walls stop it: a step that would cross the dilated obstacles slides along the
-wall (x or y alone) or is not taken. Positions are sampled at ``sample_rate_hz``
-(100 Hz, the haptic state rate of the paper's release). Coordinates are um, origin at
-the image's top-left corner, x right, y down.
+The recorded trajectory is the robot's. Walls stop it: a step that would cross the
+dilated obstacles slides along the wall (x or y alone) or is not taken. Positions are
+sampled at ``sample_rate_hz`` (100 Hz, the haptic state rate of the paper's release),
+which is also the human model's tick. Coordinates are um, origin at the image's
+top-left corner, x right, y down.
 """
 
 from __future__ import annotations
@@ -65,24 +52,21 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy import ndimage, signal
+from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from otgym.planning.collision import _segment_free
+from otgym.planning.human import HumanMotor, HumanParams
 
 
 @dataclasses.dataclass(frozen=True)
 class OperatorParams:
-    """Parameters of the simulated operator; sources in the module docstring."""
+    """Parameters of the simulated operator; sources in the module docstring and, for
+    ``human``, in ``otgym.planning.human``."""
 
     speed_um_per_s: float = 3.0
-    reaction_delay_s: float = 0.2
-    correction_interval_s: float = 0.4
-    neuromuscular_lag_s: float = 0.1
-    extent_error_fraction: float = 0.1
-    direction_error_deg: float = 4.0
-    tremor_rms_um: float = 0.05
-    tremor_band_hz: tuple[float, float] = (8.0, 12.0)
+    human: HumanParams = HumanParams()
+    motion_scale_um_per_mm: float = 4.0
     trap_stiffness_pn_per_um: float = 0.91
     robot_drag_pn_s_per_um: float = 0.084
     thermal_energy_pn_um: float = 4.11e-3
@@ -93,23 +77,22 @@ class OperatorParams:
     timeout_factor: float = 10.0
 
     def __post_init__(self):
-        for name in ("speed_um_per_s", "correction_interval_s", "neuromuscular_lag_s", "sample_rate_hz",
-                     "trap_stiffness_pn_per_um", "robot_drag_pn_s_per_um", "goal_tolerance_um",
-                     "timeout_factor"):
+        if not isinstance(self.human, HumanParams):
+            raise ValueError(f"operator human must be a HumanParams, got {type(self.human).__name__}")
+        for name in ("speed_um_per_s", "motion_scale_um_per_mm", "sample_rate_hz", "trap_stiffness_pn_per_um",
+                     "robot_drag_pn_s_per_um", "goal_tolerance_um", "timeout_factor"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"operator {name} must be positive, got {value!r}")
-        for name in ("reaction_delay_s", "extent_error_fraction", "direction_error_deg", "tremor_rms_um",
-                     "detour_fraction", "thermal_energy_pn_um"):
+        if not (math.isfinite(self.thermal_energy_pn_um) and self.thermal_energy_pn_um >= 0):
+            raise ValueError(f"operator thermal_energy_pn_um must be non-negative, got {self.thermal_energy_pn_um!r}")
+        for name in ("detour_probability", "detour_fraction"):
             value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"operator {name} must be non-negative, got {value!r}")
-        if not 0 <= self.detour_probability <= 1:
-            raise ValueError(f"operator detour_probability must lie in [0, 1], got {self.detour_probability!r}")
-        low, high = self.tremor_band_hz
-        if not 0 < low < high < self.sample_rate_hz / 2:
+            if not 0 <= value <= 1:
+                raise ValueError(f"operator {name} must lie in [0, 1], got {value!r}")
+        if not self.human.tremor_band_hz[1] < self.sample_rate_hz / 2:
             raise ValueError(
-                f"operator tremor band {self.tremor_band_hz} Hz must satisfy 0 < low < high < "
+                f"operator tremor band {self.human.tremor_band_hz} Hz must lie below "
                 f"sample_rate_hz / 2 = {self.sample_rate_hz / 2:g} Hz"
             )
 
@@ -136,11 +119,10 @@ def simulate_operator(
     arc = np.concatenate(([0.0], np.cumsum(np.linalg.norm(np.diff(route, axis=0), axis=1))))
     dt = 1.0 / params.sample_rate_hz
     max_steps = int(math.ceil(params.timeout_factor * (arc[-1] / params.speed_um_per_s + 5.0) / dt))
-    tremor = _tremor(rng, max_steps + 1, params)
-    delay_steps = int(round(params.reaction_delay_s / dt))
-    correction_steps = max(int(round(params.correction_interval_s / dt)), 1)
-    lookahead_um = params.speed_um_per_s * (params.correction_interval_s + params.reaction_delay_s) * 1.5
-    hand_lag = min(dt / params.neuromuscular_lag_s, 1.0)
+    human = params.human
+    lookahead_um = params.speed_um_per_s * (human.correction_interval_s + human.reaction_time_s) * 1.5
+    scale = params.motion_scale_um_per_mm
+    speed_limit_mm_s = params.speed_um_per_s / scale
     relaxation = params.trap_stiffness_pn_per_um / params.robot_drag_pn_s_per_um * dt
     if relaxation >= 1.0:
         raise ValueError(
@@ -149,25 +131,20 @@ def simulate_operator(
         )
     thermal_step_um = math.sqrt(2.0 * params.thermal_energy_pn_um / params.robot_drag_pn_s_per_um * dt)
     free = np.ascontiguousarray(free, dtype=np.bool_)
+    hand = HumanMotor(human, params.sample_rate_hz, rng)
 
     robot = np.empty((max_steps + 1, 2))
     robot[0] = start
-    hand = start.copy()  # the trap, moved by the hand (without tremor)
-    hand_velocity = np.zeros(2)
-    intended_velocity = np.zeros(2)
+    trap = start.copy()
     progress = 0.0  # route arc length the operator believes has been covered
     for k in range(max_steps):
-        if k >= delay_steps and (k - delay_steps) % correction_steps == 0:
-            seen = robot[k - delay_steps]
+        seen = hand.perceive(robot[k][None])[0]
+        if hand.decide_due()[0]:
             progress = _progress(route, arc, seen, progress, lookahead_um)
             target_s = min(progress + lookahead_um, arc[-1])
-            aim = _aim(rng, params, seen, route, arc, room, target_s, goal)
-            displacement = aim - seen
-            duration = max(np.linalg.norm(displacement) / params.speed_um_per_s, params.correction_interval_s)
-            intended_velocity = displacement / duration
-        hand_velocity += (intended_velocity - hand_velocity) * hand_lag
-        hand += hand_velocity * dt
-        trap = hand + tremor[k + 1]
+            aim, tolerance_um = _aim(rng, params, seen, route, arc, room, target_s, goal)
+            hand.plan(((aim - seen) / scale)[None], tolerance_um / scale, speed_limit_mm_s)
+        trap += hand.step()[0] * scale * dt
         step = (trap - robot[k]) * relaxation + thermal_step_um * rng.standard_normal(2)
         robot[k + 1] = _move(free, pixel_size_um, robot[k], step)
         if np.linalg.norm(robot[k + 1] - goal) <= params.goal_tolerance_um:
@@ -206,28 +183,19 @@ def _progress(route, arc, seen, progress, window_um):
 
 
 def _aim(rng, params, seen, route, arc, room, target_s, goal):
-    """Where one corrective sub-movement aims, with extent/direction errors and detours."""
+    """Where one corrective sub-movement aims (with a detour now and then) and its
+    tolerance: the room left to the walls there, or the goal tolerance at the goal."""
     index = min(int(np.searchsorted(arc, target_s)), len(route) - 1)
-    nominal = goal if target_s >= arc[-1] else route[index]
+    if target_s >= arc[-1] or index == len(route) - 1:
+        return goal, params.goal_tolerance_um
+    nominal, tolerance = route[index], room[index]
     vector = nominal - seen
     distance = np.linalg.norm(vector)
-    if distance == 0.0:
-        return nominal
-    if rng.random() < params.detour_probability and target_s < arc[-1]:
-        normal = np.array([-vector[1], vector[0]]) / distance
-        vector = vector + normal * rng.choice((-1.0, 1.0)) * rng.uniform(0, params.detour_fraction) * room[index]
-    angle = math.radians(rng.normal(0.0, params.direction_error_deg))
-    rotation = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
-    return seen + (1.0 + rng.normal(0.0, params.extent_error_fraction)) * (rotation @ vector)
-
-
-def _tremor(rng, count, params):
-    """Band-limited (tremor band) Gaussian displacement noise, ``tremor_rms_um`` per axis."""
-    if params.tremor_rms_um == 0.0:
-        return np.zeros((count, 2))
-    sos = signal.butter(4, params.tremor_band_hz, btype="bandpass", fs=params.sample_rate_hz, output="sos")
-    noise = signal.sosfiltfilt(sos, rng.standard_normal((count + 200, 2)), axis=0)[100:-100]
-    return noise / noise.std(axis=0) * params.tremor_rms_um
+    if distance == 0.0 or rng.random() >= params.detour_probability:
+        return nominal, tolerance
+    normal = np.array([-vector[1], vector[0]]) / distance
+    offset = rng.choice((-1.0, 1.0)) * rng.uniform(0, params.detour_fraction) * tolerance
+    return nominal + normal * offset, tolerance - abs(offset)
 
 
 def _move(free, pixel_size_um, position, step):
