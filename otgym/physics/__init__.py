@@ -23,6 +23,7 @@ from otgym.physics.bodies import (
 )
 from otgym.physics.calibration import simulate_trapped_bead
 from otgym.physics.fields import NoWalls, UniformFlow
+from otgym.physics.hydrodynamics import resistance_matrix
 from otgym.physics.integrator import Controls, StepReport, control_step, control_step_batch, rollout
 from otgym.physics.model import (
     Model,
