@@ -276,9 +276,11 @@ def reset(scene: Scene, key) -> SceneState:
     return reset_at(scene, rest_key, start, heading)
 
 
-def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key):
+def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key, obstacle_propulsion_um_s=None):
     """Advance E scenes (leading batch axis) by one control step with the given trap
-    velocities (E, T, 2) in um/s; returns (state, SceneEvents)."""
+    velocities (E, T, 2) in um/s; returns (state, SceneEvents). The obstacles propel
+    themselves by their random walk, or by ``obstacle_propulsion_um_s`` (E, K, 2) when
+    given (scripted scenarios); either way walls and bodies stop them."""
     config, model = scene.config, scene.model
     n_env = state.physics.pose.shape[0]
     obstacle_key, physics_key, spawn_key = jax.random.split(key, 3)
@@ -288,7 +290,7 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key):
     if scene.obstacles:
         obstacles = np.asarray(scene.obstacles)
         keys = jax.random.split(obstacle_key, n_env)
-        propulsion = jax.vmap(
+        propulsion = jnp.asarray(obstacle_propulsion_um_s, dtype) if obstacle_propulsion_um_s is not None else jax.vmap(
             lambda k, xy, u: next_propulsion(k, xy, u, config.obstacle_radius_um, model.walls,
                                              config.obstacle_motion, config.control_period_s)
         )(keys, state.physics.pose[:, obstacles, :2], propulsion)
@@ -297,7 +299,7 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key):
     controls = ph.Controls(trap_velocity_um_s=jnp.asarray(trap_velocity_um_s, dtype),
                            body_velocity=jnp.zeros_like(external), external_force=external)
     physics, report = ph.control_step_batch(model, state.physics, controls, physics_key)
-    if scene.obstacles and scene.outlets_um.shape[0]:
+    if scene.obstacles and scene.outlets_um.shape[0] and obstacle_propulsion_um_s is None:
         pose = jax.vmap(lambda k, p: _recirculate(scene, k, p))(jax.random.split(spawn_key, n_env), physics.pose)
         physics = physics.replace(pose=pose)
     new_state = SceneState(physics, propulsion, state.time_s + config.control_period_s)
