@@ -27,13 +27,14 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import chip, demo, evaluate, plan, train
+    from otgym.cli import chip, demo, evaluate, experiment, plan, train
 
     demo.register(app)
     plan.register(app)
     chip.register(app)
     train.register(app)
     evaluate.register(app)
+    experiment.register(app)
 
 
 _registered = False

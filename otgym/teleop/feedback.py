@@ -91,6 +91,27 @@ def _ramp(ratio) -> np.ndarray:
     return np.clip((np.asarray(ratio) - 0.5) / 0.5, 0.0, 1.0) ** 2
 
 
+def chip_force_n(handle_force_pn, handle_offset_um, contact_force_pn, valid, config: FeedbackConfig,
+                 bend_distance_um: float) -> np.ndarray:
+    """The stylus force (..., 2) in N in the chip frame, before filtering and
+    saturation, for arrays of one robot's handles (..., H, 2) (leading axes batch
+    devices): minus the scaled trap forces, stiffened toward the bend, plus the contact
+    cue against the trap's lead. Invalid or non-finite readings contribute nothing."""
+    force = np.asarray(handle_force_pn, dtype=float)
+    offset = np.asarray(handle_offset_um, dtype=float)
+    usable = np.asarray(valid, dtype=bool) & np.isfinite(force).all(axis=-1) & np.isfinite(offset).all(axis=-1)
+    force = np.where(usable[..., None], force, 0.0)
+    offset = np.where(usable[..., None], offset, 0.0)
+    gain = 1.0 + config.bend_stiffening * _ramp(np.linalg.norm(offset, axis=-1) / bend_distance_um)
+    chip_n = -config.newtons_per_pn * (gain[..., None] * force).sum(axis=-2)
+    lead = offset.sum(axis=-2)
+    lead_norm = np.linalg.norm(lead, axis=-1, keepdims=True)
+    contact = np.asarray(contact_force_pn, dtype=float)
+    contact = np.where(np.isfinite(contact), contact, 0.0)
+    cue_n = config.contact_gain_n * _ramp(contact / config.contact_limit_pn)
+    return chip_n - np.where(lead_norm > 0, cue_n[..., None] * lead / np.maximum(lead_norm, 1e-300), 0.0)
+
+
 class FeedbackLaw:
     """Streaming feedback for one device (its robot's handles); call once per tick."""
 
@@ -121,17 +142,6 @@ class FeedbackLaw:
         if force.ndim != 2 or force.shape[1] != 2 or offset.shape != force.shape or valid.shape != force.shape[:1]:
             raise ValueError(f"handle_force_pn and handle_offset_um must be (H, 2) and valid (H,), "
                              f"got {force.shape}, {offset.shape}, {valid.shape}")
-        usable = valid & np.isfinite(force).all(axis=1) & np.isfinite(offset).all(axis=1)
-        force = np.where(usable[:, None], force, 0.0)
-        offset = np.where(usable[:, None], offset, 0.0)
-        gain = 1.0 + self.config.bend_stiffening * _ramp(np.linalg.norm(offset, axis=1) / self.bend_distance_um)
-        chip_n = -self.config.newtons_per_pn * (gain[:, None] * force).sum(axis=0)
-        lead = offset.sum(axis=0)
-        lead_norm = float(np.linalg.norm(lead))
-        contact = float(contact_force_pn)
-        contact = contact if math.isfinite(contact) else 0.0
-        if lead_norm > 0:
-            cue_n = self.config.contact_gain_n * _ramp(contact / self.config.contact_limit_pn)
-            chip_n = chip_n - cue_n * lead / lead_norm
+        chip_n = chip_force_n(force, offset, contact_force_pn, valid, self.config, self.bend_distance_um)
         filtered, self._zi = signal.sosfilt(self._sos, chip_n[None, :], axis=0, zi=self._zi)
         return saturate_force(chip_to_device(filtered[0], self.config.plane), self.config.force_limit_n)

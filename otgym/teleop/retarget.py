@@ -103,16 +103,17 @@ def tremor_filter_gain_db(config: RetargetConfig, tick_rate_hz: float, freq_hz) 
 
 
 def device_to_chip(vector_mm, plane: str) -> np.ndarray:
-    """(3,) device-frame vector -> (2,) chip-plane vector (chip x right, y down)."""
+    """(..., 3) device-frame vectors -> (..., 2) chip-plane vectors (chip x right, y down)."""
     v = np.asarray(vector_mm, dtype=float)
-    return np.array([v[0], -v[1]]) if plane == "xy" else np.array([v[0], v[2]])
+    return np.stack([v[..., 0], -v[..., 1]] if plane == "xy" else [v[..., 0], v[..., 2]], axis=-1)
 
 
 def chip_to_device(vector, plane: str) -> np.ndarray:
-    """(2,) chip-plane vector -> (3,) device-frame vector (inverse of ``device_to_chip``
+    """(..., 2) chip-plane vectors -> (..., 3) device-frame vectors (inverse of ``device_to_chip``
     on the plane, zero along the unused device axis)."""
     c = np.asarray(vector, dtype=float)
-    return np.array([c[0], -c[1], 0.0]) if plane == "xy" else np.array([c[0], 0.0, c[1]])
+    zero = np.zeros_like(c[..., 0])
+    return np.stack([c[..., 0], -c[..., 1], zero] if plane == "xy" else [c[..., 0], zero, c[..., 1]], axis=-1)
 
 
 class Retargeter:
@@ -160,3 +161,31 @@ class Retargeter:
     def _filter(self, velocity_mm_s: np.ndarray) -> np.ndarray:
         out, self._zi = signal.sosfilt(self._sos, velocity_mm_s[None, :], axis=0, zi=self._zi)
         return out[0]
+
+
+class BatchRetargeter:
+    """Steps 3-6 of ``Retargeter`` for N always-engaged devices at once (simulated
+    participants in batched experiments, whose input is never stale or non-finite):
+    plane mapping, the same tremor low-pass (state kept per device), dead band, scale
+    and clamp. Input: stylus velocities (N, 2) in the plane's two device axes."""
+
+    def __init__(self, config: RetargetConfig, tick_rate_hz: float, n_devices: int):
+        self.config = config
+        self._sos = tremor_filter_sos(config, tick_rate_hz)
+        self._step_um = config.motion_scale_um_per_mm / float(tick_rate_hz)
+        self._max_step_um = config.max_trap_speed_um_s / float(tick_rate_hz)
+        self._zi = np.zeros((self._sos.shape[0], 2, n_devices, 2))
+
+    def __call__(self, planar_velocity_mm_s) -> np.ndarray:
+        """(N, 2) trap increments dP_h in um (chip frame) for this tick."""
+        velocity = np.asarray(planar_velocity_mm_s, dtype=float)
+        device = np.zeros(velocity.shape[:-1] + (3,))
+        device[..., 0] = velocity[..., 0]
+        device[..., 1 if self.config.plane == "xy" else 2] = velocity[..., 1]
+        chip = device_to_chip(device, self.config.plane)
+        filtered, self._zi = signal.sosfilt(self._sos, chip[None], axis=0, zi=self._zi)
+        filtered = filtered[0]
+        speed = np.linalg.norm(filtered, axis=-1, keepdims=True)
+        step = np.where(speed < self.config.dead_band_mm_s, 0.0, filtered * self._step_um)
+        length = np.linalg.norm(step, axis=-1, keepdims=True)
+        return step * np.minimum(1.0, self._max_step_um / np.maximum(length, 1e-300))

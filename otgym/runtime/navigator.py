@@ -1,0 +1,93 @@
+"""The autonomous command dP_r of the interactive task: the formation of four traps
+follows the planned route (the paper's "progressive" autonomy, section II-C).
+
+* APPROACH: the formation is centred on the cell as the camera sees it now, facing
+  along the route, so the robots close in and grip it (the free cell drifts with the
+  flow; the formation chases it).
+* CARRY: a commanded arc advances at ``cruise_speed_um_s`` but never more than
+  ``lead_um`` ahead of the cell's own progress (a cell held back by an obstacle or a
+  wall is not left behind); the traps are sent to their places in the formation
+  there, facing along the route.
+Each trap's increment is capped at ``max_speed_um_s`` times the tick. Numpy, batched
+over environments.
+
+The speed is a constant cruise speed, not the shipped DQN speed policy: that policy
+was trained on the ``paper`` preset (the paper's weak trap law, 0.27-0.51 um/s in a
+2.4 mPa s medium), whose speeds and observations do not carry over to this task's
+literature traps in water, where obstacles, not trap loss, set the danger.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from otgym.runtime.task import APPROACH, CARRY, Observation
+
+HEADING_LOOKAROUND_UM = 2.0
+
+
+def route_point(route_um, route_arc_um, arc_um):
+    """Points (..., 2) on the route at arc lengths ``arc_um`` (...,), clipped to its ends."""
+    arc = np.clip(arc_um, 0.0, route_arc_um[-1])
+    return np.stack([np.interp(arc, route_arc_um, route_um[:, 0]), np.interp(arc, route_arc_um, route_um[:, 1])],
+                    axis=-1)
+
+
+def route_heading(route_um, route_arc_um, arc_um):
+    """Tangent angle (rad) of the route at ``arc_um``, by a central difference."""
+    delta = route_point(route_um, route_arc_um, arc_um + HEADING_LOOKAROUND_UM) - \
+        route_point(route_um, route_arc_um, arc_um - HEADING_LOOKAROUND_UM)
+    return np.arctan2(delta[..., 1], delta[..., 0])
+
+
+def rotate(vectors, angle):
+    """Rotate (..., T, 2) vectors by ``angle`` (...,) rad."""
+    cos, sin = np.cos(angle)[..., None], np.sin(angle)[..., None]
+    return np.stack([cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]],
+                    axis=-1)
+
+
+def cap_speed(increment_um, max_step_um: float):
+    """Scale each (..., 2) increment down to at most ``max_step_um`` long."""
+    norm = np.linalg.norm(increment_um, axis=-1, keepdims=True)
+    return increment_um * np.minimum(1.0, max_step_um / np.maximum(norm, 1e-12))
+
+
+class RouteNavigator:
+    def __init__(self, route_um, route_arc_um, offsets_um, tick_s: float, cruise_speed_um_s: float = 5.0,
+                 lead_um: float = 1.0, max_speed_um_s: float = 20.0):
+        if not (cruise_speed_um_s > 0 and max_speed_um_s >= cruise_speed_um_s and lead_um > 0 and tick_s > 0):
+            raise ValueError(f"need 0 < cruise_speed_um_s <= max_speed_um_s, lead_um > 0 and tick_s > 0; got "
+                             f"{cruise_speed_um_s}, {max_speed_um_s}, {lead_um}, {tick_s}")
+        self.route_um = np.asarray(route_um, float)
+        self.route_arc_um = np.asarray(route_arc_um, float)
+        self.offsets_um = np.asarray(offsets_um, float)
+        self.tick_s = tick_s
+        self.cruise_speed_um_s = cruise_speed_um_s
+        self.lead_um = lead_um
+        self.max_speed_um_s = max_speed_um_s
+        self.commanded_arc_um = np.zeros(0)
+
+    def reset(self, n_env: int):
+        self.commanded_arc_um = np.zeros(n_env)
+
+    def route_point_at(self, arc_um):
+        return route_point(self.route_um, self.route_arc_um, arc_um)
+
+    def formation_targets(self, centre_arc_um, centre_um):
+        """Trap places (E, T, 2) of the formation centred at ``centre_um`` facing the route at ``centre_arc_um``."""
+        heading = route_heading(self.route_um, self.route_arc_um, centre_arc_um)
+        return centre_um[:, None] + rotate(self.offsets_um[None], heading)
+
+    def increments(self, obs: Observation) -> np.ndarray:
+        """dP_r (E, T, 2) in um for this tick."""
+        carrying = obs.phase == CARRY
+        start = carrying & (self.commanded_arc_um < obs.cell_arc_um - self.lead_um)
+        self.commanded_arc_um = np.where(start | (obs.phase == APPROACH), obs.cell_arc_um, self.commanded_arc_um)
+        advanced = np.minimum(self.commanded_arc_um + self.cruise_speed_um_s * self.tick_s,
+                              obs.cell_arc_um + self.lead_um)
+        self.commanded_arc_um = np.where(carrying, np.maximum(advanced, self.commanded_arc_um), self.commanded_arc_um)
+        carry_centre = route_point(self.route_um, self.route_arc_um, self.commanded_arc_um)
+        centre = np.where(carrying[:, None], carry_centre, obs.cell_xy_um)
+        targets = self.formation_targets(np.where(carrying, self.commanded_arc_um, obs.cell_arc_um), centre)
+        return cap_speed(targets - obs.trap_xy_um, self.max_speed_um_s * self.tick_s)

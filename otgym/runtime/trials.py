@@ -1,0 +1,101 @@
+"""Batched trials of the interactive task: every environment is one trial (a simulated
+participant, a mode, a scenario), all stepped together tick by tick:
+
+    dP_r = navigator(observation)                       (the autonomy, um)
+    alpha = law(mode, gap to the nearest obstacle)      (otgym.shared)
+    dP_h = participants(what they saw, alpha, dP_r)     (two hands, um)
+    dP_s = alpha dP_h + (1 - alpha) dP_r, clamped to the trap-speed limit
+    observation = task.step(dP_s)
+
+Each hand feels the feedback of its robot's handles. In batched trials the handle
+forces come from the trap law at the simulator's handle offsets: rendering and sensing
+a microscope frame per environment and tick would cost about 100 times the physics.
+The vision sensor measures the same offsets to a few nanometres (``otgym.sim.sensor``,
+tested), and the interactive loop (``otgym.runtime.loop``) feeds the real sensor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Callable
+
+import jax
+import numpy as np
+
+from otgym.planning.human import HumanParams
+from otgym.runtime.navigator import RouteNavigator, cap_speed
+from otgym.runtime.task import InteractiveTask
+from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
+from otgym.teleop.feedback import FeedbackConfig, newtons_per_pn_for
+from otgym.teleop.retarget import RetargetConfig
+from otgym.teleop.simulated_operator import ParticipantTask, SimulatedParticipants
+
+TASK_RETARGET = RetargetConfig(dead_band_mm_s=0.3, max_trap_speed_um_s=20.0)
+"""Stylus-to-trap mapping of the task: 2 um/mm; a 0.3 mm/s dead band (0.6 um/s at the
+trap, below the 2 um/s manual pace); trap speeds up to 20 um/s, enough to chase a free
+cell drifting in the chip's 8 um/s flow and far below the assembly's escape speed."""
+
+
+@dataclasses.dataclass(frozen=True)
+class TrialSpec:
+    participant: int
+    mode: str
+    trial: int
+    scenario: int
+
+    def __post_init__(self):
+        if self.mode not in MODES:
+            raise ValueError(f"unknown mode {self.mode!r}; choose one of {', '.join(MODES)}")
+
+
+def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig) -> np.ndarray:
+    """alpha (E,) for each environment's mode at its obstacle gap."""
+    alpha = np.zeros(len(modes))
+    for mode in MODES:
+        chosen = modes == mode
+        if chosen.any():
+            alpha[chosen] = alpha_for_mode(mode, gap_um[chosen], config)
+    return alpha
+
+
+def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict[int, HumanParams], seed: int,
+               arbitration: ArbitrationConfig = ArbitrationConfig(), retarget: RetargetConfig = TASK_RETARGET,
+               participant_task: ParticipantTask = ParticipantTask(), cruise_speed_um_s: float = 5.0,
+               progress: Callable[[float], None] | None = None) -> list[dict]:
+    """Run ``specs`` as one batch until every trial is done; one result row per spec."""
+    if not specs:
+        raise ValueError("no trials to run")
+    tick = task.config.tick_s
+    modes = np.array([s.mode for s in specs])
+    scenarios = [task.scenario(s.scenario) for s in specs]
+    key = jax.random.PRNGKey(seed)
+    key, reset_key = jax.random.split(key)
+    state = task.reset(scenarios, reset_key)
+    navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, tick, cruise_speed_um_s,
+                               max_speed_um_s=retarget.max_trap_speed_um_s)
+    navigator.reset(len(specs))
+    law = task.config.scene.trap_law
+    feedback = FeedbackConfig(newtons_per_pn=newtons_per_pn_for(law))
+    people = SimulatedParticipants([participants[s.participant] for s in specs], tick, seed, navigator, retarget,
+                                   feedback, law.escape_distance, participant_task)
+    max_step = retarget.max_trap_speed_um_s * tick
+    obs = state.observation
+    total_ticks = int(np.ceil(task.config.time_limit_s / tick))
+    for index in range(total_ticks):
+        robot = navigator.increments(obs)
+        alpha = mode_alpha(modes, obs.nearest_obstacle_gap_um, arbitration)
+        human = people.intend(obs, modes, alpha, robot, task.trap_robot)[:, task.trap_robot]
+        command = cap_speed(blend(human, robot, alpha[:, None, None], arbitration.tau), max_step)
+        key, step_key = jax.random.split(key)
+        obs = task.step(state, command, step_key, alpha)
+        people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
+        if progress is not None and index % 50 == 0:
+            progress(float(state.metrics.done.mean()))
+        if state.metrics.done.all():
+            break
+    if progress is not None:
+        progress(1.0)
+    rows = state.metrics.rows()
+    for spec, row in zip(specs, rows):
+        row.update(participant=spec.participant, mode=spec.mode, trial=spec.trial, scenario=spec.scenario)
+    return rows
