@@ -60,9 +60,14 @@ class ParticipantTask:
     horizon_s: float = 6.0
     glimpse_s: float = 0.5
     fine_tune_alpha: float = 0.3
+    bimanual: bool = True
+    """True: one stylus per robot (the paper's set-up). False: one stylus moves all four
+    traps as a rigid formation (the grip cannot be squeezed by the hands)."""
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
+            if field.name == "bimanual":
+                continue
             value = getattr(self, field.name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{field.name} must be positive, got {value!r}")
@@ -147,6 +152,8 @@ class SimulatedParticipants:
         grip_heading = np.arctan2(-across[:, 0], across[:, 1])  # robot A -> B along the formation's normal
         targets = cell[:, None] + _rotate(self.navigator.offsets_um[None], grip_heading)  # (E, T, 2)
         correction = np.stack([(targets - traps)[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        if not task.bimanual:  # one hand moves the formation: only the common part of the correction
+            correction = np.repeat(correction.mean(axis=1, keepdims=True), N_HANDS, axis=1)
         hand_um_s = want[:, None] + task.grip_gain_per_s * correction  # (E, hands, 2)
         shared = (mode == "shared")[:, None, None]
         robot_hand = np.stack([robot_increment_um[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
@@ -160,7 +167,8 @@ class SimulatedParticipants:
         speed_mm_s = np.maximum(np.linalg.norm(planar_mm_s, axis=-1), 1e-6)
         self.motor.plan(planar_mm_s * horizon[:, None], task.grip_tolerance_um / scale, speed_mm_s * 1.0001)
         stylus = self.motor.step(self.feedback_n.reshape(-1, 2) * np.array([1.0, -1.0]))
-        return self.retargeter(stylus).reshape(self.n_env, N_HANDS, 2)
+        increments = self.retargeter(stylus).reshape(self.n_env, N_HANDS, 2)
+        return increments if task.bimanual else np.repeat(increments[:, :1], N_HANDS, axis=1)
 
     def feel(self, obs, trap_force_pn: np.ndarray, trap_robot):
         """The stylus force each hand feels next tick, from its robot's handle forces (E, T, 2)."""
