@@ -60,12 +60,16 @@ The model, per participant (``HumanParams``; defaults are population means):
   instrument still move its tip by 49 um RMS (Riviere, Rader & Khosla, IEEE EMBS 1997),
   the amplitude that tremor cancelling was designed for (Riviere, Rader & Thakor, IEEE
   Trans. BME 45, 839, 1998).
-* **Arm compliance** ``arm_damping_n_s_per_m`` (7 N s/m): the hand yields to the haptic
-  device's force F as a damper, v += F / b_arm, so force feedback physically resists
-  (or assists) the motion. The arm's impedance about its intended motion (Hogan, Biol.
-  Cybern. 52, 315, 1985) has a hand viscosity of several N s/m in the horizontal plane
-  (Tsuji, Morasso, Goto & Ito, Biol. Cybern. 72, 475, 1995). The arm's stiffness is
-  left out: its position error is what the person's own corrections remove.
+* **Arm impedance** ``arm_mass_kg`` (1.5 kg), ``arm_damping_n_s_per_m`` (7 N s/m) and
+  ``arm_stiffness_n_per_m`` (300 N/m): the hand yields to the haptic device's force F
+  as a mass-spring-damper about its intended motion, m x'' + b x' + k x = F, so force
+  feedback physically resists (or assists) the motion and a steady force displaces the
+  hand by F / k, not without bound (integrated by backward Euler over each tick,
+  unconditionally stable). The arm's impedance about its intended motion (Hogan,
+  Biol. Cybern. 52, 315, 1985): stiffness 100-1000 N/m at the hand in the horizontal
+  plane (Mussa-Ivaldi, Hogan & Bizzi, J. Neurosci. 5, 2732, 1985), a hand viscosity of
+  several N s/m and an apparent hand mass of about 1-2 kg (Tsuji, Morasso, Goto & Ito,
+  Biol. Cybern. 72, 475, 1995).
 * **Lapses of responsiveness** ``lapse_rate_per_h`` (39.3 per hour) lasting
   ``lapse_duration_s`` (3.4 s on average, exponentially distributed): rested subjects in
   a one-hour continuous visuomotor tracking task stop responding that often and that
@@ -112,12 +116,15 @@ class HumanParams:
     fitts_a_s: float = 0.0128
     fitts_b_s_per_bit: float = 0.0947
     arm_damping_n_s_per_m: float = 7.0
+    arm_mass_kg: float = 1.5
+    arm_stiffness_n_per_m: float = 300.0
     lapse_rate_per_h: float = 39.3
     lapse_duration_s: float = 3.4
 
     def __post_init__(self):
         for name in ("correction_interval_s", "neuromuscular_lag_s", "preferred_speed_mm_s",
-                     "fitts_b_s_per_bit", "arm_damping_n_s_per_m", "lapse_duration_s"):
+                     "fitts_b_s_per_bit", "arm_damping_n_s_per_m", "arm_mass_kg", "arm_stiffness_n_per_m",
+                     "lapse_duration_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"human {name} must be positive, got {value!r}")
@@ -151,6 +158,8 @@ POPULATION_CV: Mapping[str, float] = types.MappingProxyType({
     "preferred_speed_mm_s": 0.3,
     "fitts_b_s_per_bit": 0.2,
     "arm_damping_n_s_per_m": 0.3,
+    "arm_mass_kg": 0.2,
+    "arm_stiffness_n_per_m": 0.3,
     "lapse_rate_per_h": 12.9 * math.sqrt(15) / 39.3,
     "lapse_duration_s": 0.5 * math.sqrt(15) / 3.4,
 })
@@ -236,7 +245,9 @@ class HumanMotor:
         self._preferred_speed = column("preferred_speed_mm_s")
         self._fitts_a = column("fitts_a_s")
         self._fitts_b = column("fitts_b_s_per_bit")
-        self._compliance = (_MS_PER_M / column("arm_damping_n_s_per_m"))[:, None]
+        self._arm_mass = column("arm_mass_kg")[:, None]
+        self._arm_damping = column("arm_damping_n_s_per_m")[:, None]
+        self._arm_stiffness = column("arm_stiffness_n_per_m")[:, None]
         self._lapse_start_probability = -np.expm1(-column("lapse_rate_per_h") / 3600.0 * self._dt)
         self._lapse_duration = column("lapse_duration_s")
 
@@ -260,6 +271,8 @@ class HumanMotor:
         self._remaining = np.zeros(self.batch, dtype=np.int64)
         self._velocity = np.zeros((self.batch, 2))
         self._noise = np.zeros((self.batch, 2))
+        self._yield_m = np.zeros((self.batch, 2))  # the hand's displacement from its intended motion
+        self._yield_m_s = np.zeros((self.batch, 2))
         self.reset()
 
     @property
@@ -285,6 +298,8 @@ class HumanMotor:
         self._remaining[mask] = 0
         self._velocity[mask] = 0.0
         self._noise[mask] = 0.0
+        self._yield_m[mask] = 0.0
+        self._yield_m_s[mask] = 0.0
 
     def perceive(self, observation: np.ndarray) -> np.ndarray:
         """Push this tick's observation (B, ...) and return what each participant sees
@@ -373,7 +388,11 @@ class HumanMotor:
             force = np.asarray(feedback_force_n, dtype=np.float64)
             if force.shape != (self.batch, 2) or not np.all(np.isfinite(force)):
                 raise ValueError(f"feedback_force_n must be finite with shape (B={self.batch}, 2), got {force.shape}")
-            velocity = velocity + force * self._compliance
+            m, b, k, dt = self._arm_mass, self._arm_damping, self._arm_stiffness, self._dt
+            self._yield_m_s = (self._yield_m_s + dt / m * (force - k * self._yield_m)) / (1.0 + dt * b / m
+                                                                                          + dt * dt * k / m)
+            self._yield_m = self._yield_m + dt * self._yield_m_s
+            velocity = velocity + self._yield_m_s * _MS_PER_M
         self._advance()
         return velocity
 
