@@ -5,7 +5,8 @@ Modules, each with one job: ``device`` (the protocol every device speaks,
 ``open_device``), ``retarget`` (samples -> the human's trap increment dP_h),
 ``feedback`` (the vision force sensor's reading -> a stylus force), ``servo`` (a haptic
 servo loop in its own process), and the drivers ``touch``, ``pygame_devices``,
-``replay`` and ``simulated_operator``.
+and ``replay``. The simulated participants that drive the interactive task closed
+loop are task-level agents and live in ``otgym.runtime.participants``.
 
 Only the device protocol is imported here: this package is imported by every servo
 process at its start, which must stay fast (no scipy, pygame or OpenHaptics); import

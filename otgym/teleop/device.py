@@ -124,7 +124,8 @@ DEVICE_NAMES = ("keyboard", "gamepad", "touch", "simulated", "replay")
 def open_device(name: str, **options) -> Device:
     """A device by name, constructed (not started) with ``options`` passed to its class:
     keyboard -> KeyboardMouseDevice, gamepad -> GamepadDevice, touch -> TouchDevice,
-    simulated -> SimulatedOperatorDevice, replay -> ReplayDevice. Drivers are imported
+    simulated -> a simulated haptic stylus in its servo process
+    (``servo.simulated_haptic_device``), replay -> ReplayDevice. Drivers are imported
     only when asked for, so pygame or OpenHaptics are needed only by their users."""
     if name == "keyboard":
         from otgym.teleop.pygame_devices import KeyboardMouseDevice
@@ -139,9 +140,9 @@ def open_device(name: str, **options) -> Device:
 
         return TouchDevice(**options)
     if name == "simulated":
-        from otgym.teleop.simulated_operator import SimulatedOperatorDevice
+        from otgym.teleop.servo import simulated_haptic_device
 
-        return SimulatedOperatorDevice(**options)
+        return simulated_haptic_device(**options)
     if name == "replay":
         from otgym.teleop.replay import ReplayDevice
 

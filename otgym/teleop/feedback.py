@@ -86,6 +86,27 @@ def newtons_per_pn_for(trap_law: TrapLaw, peak_force_n: float = 0.6) -> float:
     return peak_force_n / trap_law.max_force_pn
 
 
+def stable_newtons_per_pn(trap_stiffness_pn_per_um: float, handles: int, motion_scale_um_per_mm: float,
+                          arm_stiffness_n_per_m: float = 300.0) -> float:
+    """The largest force scale at which the hand-trap loop's quasi-static gain is one:
+    a trap offset d pushes the hand (stiffness k_arm) back by F / k_arm, which moves the
+    traps by tau F / k_arm; with F = s * H * K d that is d again when
+    s = k_arm / (H K tau), in N/pN with tau in um/m. A larger scale over-corrects
+    every offset a tick later and the loop oscillates (seen in the simulated
+    participants at the 0.6 N full scale of ``newtons_per_pn_for`` with the 50 pN/um
+    literature traps: a 0.1 um lag already gave 0.3 N, 2 um of hand yield at the
+    trap). Haptic teleoperation of stiff traps is scaled for stability this way
+    (Pacoret & Regnier, Rev. Sci. Instrum. 84, 081301, 2013); the paper says only that
+    its forces were "empirically scaled". Default arm stiffness: the 300 N/m of
+    ``otgym.planning.human.HumanParams``."""
+    for name, value in (("trap_stiffness_pn_per_um", trap_stiffness_pn_per_um), ("handles", handles),
+                        ("motion_scale_um_per_mm", motion_scale_um_per_mm),
+                        ("arm_stiffness_n_per_m", arm_stiffness_n_per_m)):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    return arm_stiffness_n_per_m / (handles * trap_stiffness_pn_per_um * motion_scale_um_per_mm * 1000.0)
+
+
 def _ramp(ratio) -> np.ndarray:
     """0 up to half the threshold, rising quadratically to 1 at the threshold."""
     return np.clip((np.asarray(ratio) - 0.5) / 0.5, 0.0, 1.0) ** 2

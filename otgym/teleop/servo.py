@@ -27,6 +27,7 @@ Geomagic Touch backend is in ``otgym.teleop.touch``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import multiprocessing
 import os
@@ -364,3 +365,10 @@ class ServoDevice(Device):
 SIMULATED_HAPTIC_CAPS = DeviceCaps(name="simulated haptic stylus", dof=3, force_limit_n=0.88,
                                    workspace_mm=(160.0, 120.0, 70.0), rate_hz=1000.0)
 """A virtual Touch: its continuous force limit and workspace (3D Systems' figures)."""
+
+
+def simulated_haptic_device(hand: Callable[[float], np.ndarray] = SteadyHand(), **device_options) -> ServoDevice:
+    """A simulated haptic stylus (``SimulatedHapticBackend`` held by ``hand``, a
+    picklable callable of time) in its own 1 kHz servo process: the hardware-free
+    stand-in for a Geomagic Touch."""
+    return ServoDevice(functools.partial(SimulatedHapticBackend, hand), SIMULATED_HAPTIC_CAPS, **device_options)

@@ -41,3 +41,28 @@ def test_force_saturation_keeps_direction_and_rejects_non_finite():
     np.testing.assert_allclose(saturate_force([3.0, 4.0, 0.0], 0.88), [0.528, 0.704, 0.0])
     np.testing.assert_array_equal(saturate_force([0.1, 0.2, 0.0], 0.88), [0.1, 0.2, 0.0])
     np.testing.assert_array_equal(saturate_force([np.nan, 0.0, 0.0], 0.88), np.zeros(3))
+
+
+def test_open_simulated_gives_a_servo_stylus_that_follows_its_hand():
+    """``open_device("simulated")`` (it named a class that did not exist) gives a
+    simulated stylus in its own servo process; held by a hand moving at 10 mm/s along
+    x, its tip moves along x and reports a finite sample."""
+    import time
+
+    from otgym.teleop.servo import SteadyHand
+
+    device = open_device("simulated", hand=SteadyHand(velocity_mm_s=(10.0, 0.0, 0.0)))
+    device.start()
+    try:
+        first = device.read()
+        deadline = time.monotonic() + 5.0
+        while first is None and time.monotonic() < deadline:  # None until the first servo tick
+            time.sleep(0.01)
+            first = device.read()
+        time.sleep(0.3)
+        later = device.read()
+    finally:
+        device.stop()
+    assert later.finite and later.sequence > first.sequence
+    moved = later.position_mm - first.position_mm
+    assert moved[0] > 1.0 and abs(moved[1]) < 0.1 * moved[0], moved
