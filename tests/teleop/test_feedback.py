@@ -134,3 +134,18 @@ def test_scale_for_a_trap_law_and_validation():
         FeedbackLaw(FeedbackConfig(cutoff_hz=30.0), LAW, TICK_HZ)
     with pytest.raises(ValueError, match=r"\(H, 2\)"):
         FeedbackLaw(FeedbackConfig(), LAW, TICK_HZ)(np.zeros((2, 2)), np.zeros((1, 2)), 0.0, np.ones(2, bool))
+
+
+def test_stable_scale_makes_the_quasi_static_loop_gain_one():
+    """At the stable scale a trap offset d pushes the hand (300 N/m) back by exactly d
+    at the trap: s * H * K * d newtons, over k_arm, times tau. Twice the stiffness
+    halves the scale; non-positive inputs are refused."""
+    from otgym.teleop.feedback import stable_newtons_per_pn
+
+    scale = stable_newtons_per_pn(50.0, 2, 2.0)
+    offset_um = 0.1
+    hand_m = scale * 2 * 50.0 * offset_um / 300.0
+    assert hand_m * 1000.0 * 2.0 == pytest.approx(offset_um, rel=1e-12)
+    assert stable_newtons_per_pn(100.0, 2, 2.0) == pytest.approx(scale / 2)
+    with pytest.raises(ValueError, match="handles"):
+        stable_newtons_per_pn(50.0, 0, 2.0)
