@@ -5,9 +5,12 @@ follows the planned route (the paper's "progressive" autonomy, section II-C).
   along the route, so the robots close in and grip it (the free cell drifts with the
   flow; the formation chases it).
 * CARRY: a commanded arc advances at ``cruise_speed_um_s`` but never more than
-  ``lead_um`` ahead of the cell's own progress (a cell held back by an obstacle or a
-  wall is not left behind); the traps are sent to their places in the formation
-  there, facing along the route.
+  ``lead_um`` ahead of the cell's own progress (a cell held back by an obstacle, a
+  wall or a person is not left behind). The command is a rate, as the paper's speed
+  control along the path: the motion of the formation's places as the arc advances
+  (feed-forward) plus ``carry_gain_per_s`` times each trap's offset from its place
+  (a correction that removes drift in 1 / gain). A person sharing control holds the
+  assembly back against at most gain * lead (3 um/s), not against a position servo.
 Each trap's increment is capped at ``max_speed_um_s`` times the tick. Numpy, batched
 over environments.
 
@@ -55,10 +58,12 @@ def cap_speed(increment_um, max_step_um: float):
 
 class RouteNavigator:
     def __init__(self, route_um, route_arc_um, offsets_um, tick_s: float, cruise_speed_um_s: float = 5.0,
-                 lead_um: float = 1.0, max_speed_um_s: float = 20.0):
-        if not (cruise_speed_um_s > 0 and max_speed_um_s >= cruise_speed_um_s and lead_um > 0 and tick_s > 0):
-            raise ValueError(f"need 0 < cruise_speed_um_s <= max_speed_um_s, lead_um > 0 and tick_s > 0; got "
-                             f"{cruise_speed_um_s}, {max_speed_um_s}, {lead_um}, {tick_s}")
+                 lead_um: float = 1.0, max_speed_um_s: float = 20.0, carry_gain_per_s: float = 3.0):
+        if not (cruise_speed_um_s > 0 and max_speed_um_s >= cruise_speed_um_s and lead_um > 0 and tick_s > 0
+                and 0 < carry_gain_per_s * tick_s <= 1):
+            raise ValueError(f"need 0 < cruise_speed_um_s <= max_speed_um_s, lead_um > 0, tick_s > 0 and "
+                             f"0 < carry_gain_per_s * tick_s <= 1; got {cruise_speed_um_s}, {max_speed_um_s}, "
+                             f"{lead_um}, {tick_s}, {carry_gain_per_s}")
         self.route_um = np.asarray(route_um, float)
         self.route_arc_um = np.asarray(route_arc_um, float)
         self.offsets_um = np.asarray(offsets_um, float)
@@ -66,6 +71,7 @@ class RouteNavigator:
         self.cruise_speed_um_s = cruise_speed_um_s
         self.lead_um = lead_um
         self.max_speed_um_s = max_speed_um_s
+        self.carry_gain_per_s = carry_gain_per_s
         self.commanded_arc_um = np.zeros(0)
 
     def reset(self, n_env: int):
@@ -84,10 +90,13 @@ class RouteNavigator:
         carrying = obs.phase == CARRY
         start = carrying & (self.commanded_arc_um < obs.cell_arc_um - self.lead_um)
         self.commanded_arc_um = np.where(start | (obs.phase == APPROACH), obs.cell_arc_um, self.commanded_arc_um)
+        previous_arc = self.commanded_arc_um
         advanced = np.minimum(self.commanded_arc_um + self.cruise_speed_um_s * self.tick_s,
                               obs.cell_arc_um + self.lead_um)
         self.commanded_arc_um = np.where(carrying, np.maximum(advanced, self.commanded_arc_um), self.commanded_arc_um)
-        carry_centre = route_point(self.route_um, self.route_arc_um, self.commanded_arc_um)
-        centre = np.where(carrying[:, None], carry_centre, obs.cell_xy_um)
-        targets = self.formation_targets(np.where(carrying, self.commanded_arc_um, obs.cell_arc_um), centre)
-        return cap_speed(targets - obs.trap_xy_um, self.max_speed_um_s * self.tick_s)
+        places = self.formation_targets(self.commanded_arc_um, self.route_point_at(self.commanded_arc_um))
+        feed_forward = places - self.formation_targets(previous_arc, self.route_point_at(previous_arc))
+        carry = feed_forward + self.carry_gain_per_s * self.tick_s * (places - obs.trap_xy_um)
+        chase = self.formation_targets(obs.cell_arc_um, obs.cell_xy_um) - obs.trap_xy_um
+        step = np.where(carrying[:, None, None], carry, chase)
+        return cap_speed(step, self.max_speed_um_s * self.tick_s)

@@ -3,25 +3,42 @@ with two haptic styluses (bimanual: hand 0 moves robot A's traps, hand 1 robot B
 vectorised over E environments. The hand itself is ``otgym.planning.human``'s motor
 model (reaction delay, intermittent sub-movements with Fitts timing, neuromuscular lag,
 speed-dependent noise, tremor, yielding to the stylus force); this module is the task
-level: what the person intends each time a sub-movement starts.
+level: where the person wants each robot to be when a sub-movement ends.
 
-What the person does, on what they saw one reaction time ago:
-* APPROACH: bring each robot to its place around the cell (the grip formation),
-  pursuing the cell as it drifts (its velocity seen over a glimpse, fed forward).
-* CARRY: move the assembly toward the route point ``lookahead_um`` ahead of the cell at
-  their carry speed, each hand also correcting its robot's place in the grip (bimanual
-  coordination is the person's job: each hand errs on its own). A hand translates its
-  robot's traps and cannot turn it, so the person keeps the grip as it is: the places
-  are those of the formation at the robots' present orientation (the line between
-  the robots' traps), not the route's.
-  Manual: at ``carry_speed_um_s`` (a careful pace; an assumption, see
-  ``ParticipantTask``). Shared: at the pace of the autonomy's motion, which they follow.
+The person sees the scene one reaction time late and knows what they have commanded
+since (an efference copy: the motor system predicts the current state from the delayed
+one and its own commands, a Smith predictor; Miall, Weir, Wolpert & Stein, J. Motor
+Behav. 25, 203, 1993). The copy is of the planned hand motion: the traps' commanded motion
+since what is seen, plus the planned motion still on its way through the arm's lag and
+the input filter (forgotten over ``pending_memory_s``: motion the retargeting's dead
+band swallowed never arrives). Each sub-movement is a reach to a place (Fitts timing, errors
+from the motor model), re-planned at the next correction from what is then seen:
+
+* Grip places: each robot's traps as in the formation, at the robots' present
+  orientation (the line between their traps: a hand translates its traps and cannot
+  turn its robot). Around the cell while gripping; once the cell is held, around the
+  centre the two robots' traps imply, so each hand keeps its robot's place relative
+  to the other robot and leaves the cell to the notches (placing robots about a cell
+  that sits off-centre in its notches would squeeze it).
+* APPROACH: align, then close. The robots are held ``open_gap_um`` out from their
+  places around the free cell (where it will be: its drift seen over a glimpse,
+  extrapolated over the delay and the movement) until the cell sits within
+  ``align_tolerance_um`` of the formation's centre along the robots' notches; then
+  they close on it (and open again if it slips twice that far before the grip). Closing
+  on a misaligned cell pinches it between the robots' front spheres, a grip that
+  cannot be carried.
+* A gripped cell seen more than ``seat_tolerance_um`` off-centre along the notches is
+  let go and gripped again.
+* CARRY: the places moved along the route at the intended assembly speed:
+  ``carry_speed_um_s`` in manual mode (a careful pace, see ``ParticipantTask``).
 * Obstacles: each obstacle's motion is extrapolated from two glimpses ``glimpse_s``
-  apart; if, with the assembly moving as intended, it would pass within
-  ``clearance_um`` of the assembly in the next ``horizon_s``, the person waits (or backs
-  away along the line from the obstacle if waiting would not clear it either).
-* Shared mode: they leave the autonomy's command alone (follow it) unless a threat is
-  seen while the interface's cue shows alpha in the fine-tuning band; then they
+  apart. The person keeps the first of these assembly velocities under which no
+  obstacle comes within ``clearance_um`` of the cell in the next ``horizon_s``: the
+  intended one, a hurried one (``hurry_factor`` times faster, passing ahead), a slowed
+  one (half), holding still, backing along the route, stepping away from the
+  obstacle; if none is safe, the one with the widest miss.
+* Shared mode: the person rests and lets the autonomy drive unless the interface's cue
+  shows alpha at ``fine_tune_alpha`` or more while a threat is seen; then they
   command what brings the blend to their intention, dP_h = (dP_want - (1 - alpha)
   dP_r) / alpha, as far as the trap-speed clamp allows.
 Stylus units: chip um -> stylus mm through the retargeting scale (tau) and plane; the
@@ -36,6 +53,8 @@ import dataclasses
 import numpy as np
 
 from otgym.planning.human import HumanMotor, HumanParams
+from otgym.runtime.navigator import rotate
+from otgym.runtime.task import APPROACH, CARRY
 from otgym.teleop.feedback import FeedbackConfig, chip_force_n
 from otgym.teleop.retarget import BatchRetargeter, RetargetConfig
 
@@ -50,16 +69,21 @@ class ParticipantTask:
     optical-tweezers transport of cells is reported at a few um/s, and here each hand
     must also keep its robot in the grip (a gripper that strays 1 um from the cell
     loses it), which sets a careful pace. ``clearance_um``: the assembly's radius
-    (8.7 um) plus the obstacle's (3 um) plus 3 um to spare."""
+    (8.7 um) plus the obstacle's (3 um) plus 1.5 um to spare (the scenarios park an obstacle 14 um from the route, which must count as passable). ``grip_tolerance_um``: the
+    Fitts tolerance of a reach to a grip place."""
 
     carry_speed_um_s: float = 2.0
     lookahead_um: float = 5.0
-    grip_gain_per_s: float = 2.0
-    grip_tolerance_um: float = 0.5
-    clearance_um: float = 14.7
+    grip_tolerance_um: float = 0.2
+    open_gap_um: float = 1.5
+    align_tolerance_um: float = 0.4
+    seat_tolerance_um: float = 1.5
+    clearance_um: float = 13.2
     horizon_s: float = 6.0
     glimpse_s: float = 0.5
+    hurry_factor: float = 1.6
     fine_tune_alpha: float = 0.3
+    pending_memory_s: float = 0.5
     bimanual: bool = True
     """True: one stylus per robot (the paper's set-up). False: one stylus moves all four
     traps as a rigid formation (the grip cannot be squeezed by the hands)."""
@@ -73,15 +97,46 @@ class ParticipantTask:
                 raise ValueError(f"{field.name} must be positive, got {value!r}")
 
 
-def _rotate(vectors, angle):
-    """Rotate (..., T, 2) vectors by ``angle`` (...,) rad."""
-    cos, sin = np.cos(angle)[..., None], np.sin(angle)[..., None]
-    return np.stack([cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]],
-                    axis=-1)
+def _unit(vectors):
+    return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-9)
+
+
+def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
+    """(E,) the closest any obstacle (E, K, 2) moving at its velocity comes to the cell
+    (E, 2) within ``horizon_s`` if the assembly moves at ``assembly_velocity_um_s`` (E, 2),
+    and (E, 2) the unit vector from that obstacle to the cell now."""
+    relative = obstacle_um - cell_um[:, None]
+    closing = obstacle_velocity_um_s - assembly_velocity_um_s[:, None]
+    speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
+    t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, horizon_s)
+    miss = np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
+    worst = np.argmin(miss, axis=1)
+    return miss.min(axis=1), _unit(-relative[np.arange(len(cell_um)), worst])
+
+
+def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, route_direction, task: ParticipantTask):
+    """The person's choice of assembly velocity (E, 2) and whether it differs from
+    ``want_um_s``: the first of intended, hurried, slowed, still, backing along the
+    route, stepping away, under which no obstacle comes within ``task.clearance_um``
+    in ``task.horizon_s``; if none is safe, the one with the widest miss."""
+    _, away = miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, np.zeros_like(want_um_s), task.horizon_s)
+    pace = np.linalg.norm(want_um_s, axis=-1, keepdims=True)
+    options = [want_um_s, task.hurry_factor * want_um_s, 0.5 * want_um_s, np.zeros_like(want_um_s),
+               -route_direction * pace, away * pace]
+    misses = np.stack([miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, v, task.horizon_s)[0] for v in options],
+                      axis=1)  # (E, options)
+    safe = misses >= task.clearance_um
+    choice = np.where(safe.any(axis=1), np.argmax(safe, axis=1), np.argmax(misses, axis=1))
+    return np.stack(options, axis=1)[np.arange(len(cell_um)), choice], choice > 0
 
 
 class SimulatedParticipants:
-    """E simulated participants (one per environment), each with two hands."""
+    """E simulated participants (one per environment), each with two hands.
+
+    Per tick: ``intend(obs, ...)`` gives the hands' trap increments dP_h, then
+    ``moved(dP_s, human_weight)`` tells the participants what the traps were commanded
+    to do (for their efference copy; ``human_weight`` (E,) is tau * alpha, the share of
+    dP_h in dP_s) and ``feel(obs, ...)`` what their hands feel next."""
 
     def __init__(self, params: list[HumanParams], tick_s: float, seed: int, navigator,
                  retarget: RetargetConfig, feedback: FeedbackConfig, bend_distance_um: float,
@@ -96,79 +151,114 @@ class SimulatedParticipants:
         hands = [p for p in params for _ in range(N_HANDS)]
         self.motor = HumanMotor(hands, 1.0 / tick_s, np.random.default_rng(seed))
         self.retargeter = BatchRetargeter(retarget, 1.0 / tick_s, self.n_env * N_HANDS)
+        self.delay_s = self.motor.delay_ticks[::N_HANDS] * tick_s
         self._glimpses = max(1, int(round(task.glimpse_s / tick_s)))
         self._history: list[np.ndarray] = []
+        self._moved_um: np.ndarray | None = None
+        self._unexecuted_um = np.zeros((self.n_env, N_HANDS, 2))
+        self._pending_um = np.zeros((self.n_env, N_HANDS, 2))
+        self._pending_keep = float(np.exp(-tick_s / task.pending_memory_s))
         self.feedback_n = np.zeros((self.n_env, N_HANDS, 2))
+        self.closing = np.zeros(self.n_env, bool)
+        offsets = np.asarray(navigator.offsets_um, float)
 
-    def _perceive(self, obs):
-        """What each participant sees now (delayed): cell, traps, obstacles now and a glimpse ago."""
+    def _grip_places(self, cell_now, traps_now, phase, trap_robot):
+        """Each trap's place (E, T, 2): around the cell at the robots' present orientation,
+        closed or held open (module docstring); updates ``closing``."""
+        task = self.task
+        offsets = np.asarray(self.navigator.offsets_um, float)
+        across = traps_now[:, trap_robot == 1].mean(axis=1) - traps_now[:, trap_robot == 0].mean(axis=1)
+        heading = np.arctan2(-across[:, 0], across[:, 1])  # robot A -> B along the formation's normal
+        centre = (traps_now - rotate(offsets[None], heading)).mean(axis=1)  # the formation centre the traps imply
+        along = np.abs(np.sum((cell_now - centre) * np.stack([np.cos(heading), np.sin(heading)], axis=-1), axis=-1))
+        approach = phase == APPROACH
+        closing = np.where(approach, along < np.where(self.closing, 2.0, 1.0) * task.align_tolerance_um,
+                           along < task.seat_tolerance_um)
+        self.closing = closing
+        side = np.sign(np.array([offsets[trap_robot == r, 1].mean() for r in range(N_HANDS)]))[trap_robot]  # (T,)
+        opened = offsets + np.where(closing[:, None, None], 0.0, task.open_gap_um * side[None, :, None] * [0.0, 1.0])
+        about = np.where(((phase == CARRY) & closing)[:, None], centre, cell_now)
+        return about[:, None] + rotate(opened, heading)
+
+    def moved(self, trap_increment_um: np.ndarray, human_weight: np.ndarray, trap_robot) -> None:
+        """The traps' commanded increments (E, T, 2) um this tick, plus the planned hand
+        motion not yet executed (weighted by ``human_weight`` (E,)): the efference copy."""
+        weight = np.asarray(human_weight, float)[:, None, None]
+        self._pending_um = self._pending_um * self._pending_keep + weight * self._unexecuted_um
+        self._moved_um = self._moved_um + np.asarray(trap_increment_um, float)
+
+    def _perceive(self, obs, trap_robot):
+        """What each participant sees now (one reaction time late): cell, traps,
+        obstacles, the cell's arc and phase, their drift over a glimpse, and the trap
+        motion commanded since what is seen."""
+        if self._moved_um is None:
+            self._moved_um = np.zeros_like(obs.trap_xy_um)
+        n_traps, n_obs = obs.trap_xy_um.shape[1], obs.obstacle_xy_um.shape[1]
         now = np.concatenate([obs.cell_xy_um, obs.trap_xy_um.reshape(self.n_env, -1),
                               obs.obstacle_xy_um.reshape(self.n_env, -1), obs.cell_arc_um[:, None],
-                              obs.phase[:, None].astype(float)], axis=1)
+                              obs.phase[:, None].astype(float), self._moved_um.reshape(self.n_env, -1)], axis=1)
         seen = self.motor.perceive(np.repeat(now, N_HANDS, axis=0))[::N_HANDS]
         self._history.append(seen)
         if len(self._history) > self._glimpses + 1:
             self._history.pop(0)
-        n_traps = obs.trap_xy_um.shape[1]
-        n_obs = obs.obstacle_xy_um.shape[1]
-        split = np.cumsum([2, 2 * n_traps, 2 * n_obs, 1])
-        cell, traps, obstacles, arc, phase = np.split(seen, split, axis=1)
+        split = np.cumsum([2, 2 * n_traps, 2 * n_obs, 1, 1])
+        cell, traps, obstacles, arc, phase, moved = np.split(seen, split, axis=1)
         earlier = np.split(self._history[0], split, axis=1)
         elapsed = max(len(self._history) - 1, 1) * self.tick_s
-        velocity = (obstacles.reshape(self.n_env, n_obs, 2) - earlier[2].reshape(self.n_env, n_obs, 2)) / elapsed
+        obstacles = obstacles.reshape(self.n_env, n_obs, 2)
+        velocity = (obstacles - earlier[2].reshape(self.n_env, n_obs, 2)) / elapsed
         cell_velocity = (cell - earlier[0]) / elapsed
-        return (cell, cell_velocity, traps.reshape(self.n_env, n_traps, 2), obstacles.reshape(self.n_env, n_obs, 2),
-                velocity, arc[:, 0], phase[:, 0].round().astype(int))
-
-    def _threat(self, cell, obstacles, velocity, assembly_velocity):
-        """(E,) whether moving at ``assembly_velocity`` (E, 2) an obstacle would come
-        within the clearance in the horizon, and the unit vector away from the worst one."""
-        relative = obstacles - cell[:, None]
-        closing = velocity - assembly_velocity[:, None]
-        speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
-        t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, self.task.horizon_s)
-        miss = np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
-        danger = miss < self.task.clearance_um
-        worst = np.argmin(np.where(danger, t_star, np.inf), axis=1)
-        away = -relative[np.arange(self.n_env), worst]
-        away /= np.maximum(np.linalg.norm(away, axis=-1, keepdims=True), 1e-9)
-        return danger.any(axis=1), away
+        since_um = self._moved_um - moved.reshape(self.n_env, n_traps, 2) + self._pending_um[:, trap_robot]
+        return (cell, cell_velocity, traps.reshape(self.n_env, n_traps, 2), obstacles, velocity, arc[:, 0],
+                phase[:, 0].round().astype(int), since_um)
 
     def intend(self, obs, mode: np.ndarray, alpha: np.ndarray, robot_increment_um: np.ndarray, trap_robot):
         """Plan the hands' sub-movements (those due) and return dP_h (E, 2 hands, 2) um for this tick."""
         task = self.task
-        cell, cell_velocity, traps, obstacles, velocity, arc, phase = self._perceive(obs)
-        ahead = self.navigator.route_point_at(arc + task.lookahead_um) - cell
-        direction = ahead / np.maximum(np.linalg.norm(ahead, axis=-1, keepdims=True), 1e-9)
-        autonomy_velocity = robot_increment_um.mean(axis=1) / self.tick_s
-        follow = np.linalg.norm(autonomy_velocity, axis=-1, keepdims=True)
-        speed = np.where((mode == "shared")[:, None], follow, task.carry_speed_um_s)
-        want = np.where((phase == 1)[:, None], direction * speed, cell_velocity)  # (E, 2) assembly velocity, um/s
-        threat, away = self._threat(cell, obstacles, velocity, want)
-        still_threat, _ = self._threat(cell, obstacles, velocity, np.zeros_like(want))
-        evade = np.where(still_threat[:, None], away * task.carry_speed_um_s, 0.0)
-        want = np.where((threat & (phase == 1))[:, None], evade, want)
-        across = traps[:, trap_robot == 1].mean(axis=1) - traps[:, trap_robot == 0].mean(axis=1)
-        grip_heading = np.arctan2(-across[:, 0], across[:, 1])  # robot A -> B along the formation's normal
-        targets = cell[:, None] + _rotate(self.navigator.offsets_um[None], grip_heading)  # (E, T, 2)
-        correction = np.stack([(targets - traps)[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        cell, cell_velocity, traps, obstacles, velocity, arc, phase, since_um = self._perceive(obs, trap_robot)
+        delay = self.delay_s[:, None]
+        carrying = (phase == CARRY)[:, None]
+        traps_now = traps + since_um
+        cell_now = np.where(carrying, cell + since_um.mean(axis=1), cell + cell_velocity * delay)
+        obstacles_now = obstacles + velocity * delay[:, :, None]
+        route_direction = _unit(self.navigator.route_point_at(arc + task.lookahead_um) - cell_now)
+        autonomy_um_s = robot_increment_um / self.tick_s  # (E, T, 2)
+        shared = mode == "shared"
+        pace = np.where(shared, np.linalg.norm(autonomy_um_s.mean(axis=1), axis=-1), task.carry_speed_um_s)
+        want = np.where(carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH,
+                                                                             cell_velocity, 0.0))
+        chosen, threat = choose_velocity(cell_now, obstacles_now, velocity, want, route_direction, task)
+        want = np.where(carrying, chosen, want)
+        threat &= carrying[:, 0]
+        places = self._grip_places(cell_now, traps_now, phase, trap_robot)
+        error = np.stack([(places - traps_now)[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
         if not task.bimanual:  # one hand moves the formation: only the common part of the correction
-            correction = np.repeat(correction.mean(axis=1, keepdims=True), N_HANDS, axis=1)
-        hand_um_s = want[:, None] + task.grip_gain_per_s * correction  # (E, hands, 2)
-        shared = (mode == "shared")[:, None, None]
-        robot_hand = np.stack([robot_increment_um[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
-        cue = (alpha >= task.fine_tune_alpha) & threat
-        safe_alpha = np.maximum(alpha, 1e-3)[:, None, None]
-        override = (hand_um_s * self.tick_s - (1 - safe_alpha) * robot_hand) / safe_alpha / self.tick_s
-        hand_um_s = np.where(shared, np.where(cue[:, None, None], override, robot_hand / self.tick_s), hand_um_s)
+            error = np.repeat(error.mean(axis=1, keepdims=True), N_HANDS, axis=1)
         scale = self.retarget_config.motion_scale_um_per_mm
+        limit_mm_s = self.retarget_config.max_trap_speed_um_s / scale
+        tolerance_mm = task.grip_tolerance_um / scale
+        duration = self.motor.submovement_duration_s(np.linalg.norm(error, axis=-1).ravel() / scale, tolerance_mm,
+                                                     limit_mm_s).reshape(self.n_env, N_HANDS)
+        reach_um = error + want[:, None] * duration[..., None]  # where the hands go in this sub-movement
+        duration = self.motor.submovement_duration_s(np.linalg.norm(reach_um, axis=-1).ravel() / scale, tolerance_mm,
+                                                     limit_mm_s).reshape(self.n_env, N_HANDS)
+        hand_um_s = reach_um / duration[..., None]
+        robot_hand = np.stack([autonomy_um_s[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        safe_alpha = np.maximum(alpha, 1e-3)[:, None, None]
+        override = (hand_um_s - (1 - safe_alpha) * robot_hand) / safe_alpha
+        cue = threat & (alpha >= task.fine_tune_alpha)
+        hand_um_s = np.where(shared[:, None, None], np.where(cue[:, None, None], override, 0.0), hand_um_s)
         planar_mm_s = (hand_um_s * np.array([1.0, -1.0]) / scale).reshape(-1, 2)  # chip -> stylus x, y
-        horizon = self.motor.submovement_duration_s(0.0, 1.0)  # the correction interval
         speed_mm_s = np.maximum(np.linalg.norm(planar_mm_s, axis=-1), 1e-6)
-        self.motor.plan(planar_mm_s * horizon[:, None], task.grip_tolerance_um / scale, speed_mm_s * 1.0001)
+        self.motor.plan(planar_mm_s * duration.reshape(-1, 1), tolerance_mm, np.minimum(speed_mm_s * 1.0001, limit_mm_s))
+        planned_um = (self.motor.command_mm_s * np.array([1.0, -1.0]) * scale * self.tick_s).reshape(self.n_env,
+                                                                                                      N_HANDS, 2)
         stylus = self.motor.step(self.feedback_n.reshape(-1, 2) * np.array([1.0, -1.0]))
         increments = self.retargeter(stylus).reshape(self.n_env, N_HANDS, 2)
-        return increments if task.bimanual else np.repeat(increments[:, :1], N_HANDS, axis=1)
+        if not task.bimanual:
+            increments, planned_um = (np.repeat(a[:, :1], N_HANDS, axis=1) for a in (increments, planned_um))
+        self._unexecuted_um = planned_um - increments
+        return increments
 
     def feel(self, obs, trap_force_pn: np.ndarray, trap_robot):
         """The stylus force each hand feels next tick, from its robot's handle forces (E, T, 2)."""

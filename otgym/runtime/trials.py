@@ -26,9 +26,9 @@ from otgym.planning.human import HumanParams
 from otgym.runtime.navigator import RouteNavigator, cap_speed
 from otgym.runtime.task import InteractiveTask
 from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
-from otgym.teleop.feedback import FeedbackConfig, newtons_per_pn_for
+from otgym.teleop.feedback import FeedbackConfig, stable_newtons_per_pn
 from otgym.teleop.retarget import RetargetConfig
-from otgym.teleop.simulated_operator import ParticipantTask, SimulatedParticipants
+from otgym.runtime.participants import ParticipantTask, SimulatedParticipants
 
 TASK_RETARGET = RetargetConfig(dead_band_mm_s=0.3, max_trap_speed_um_s=20.0)
 """Stylus-to-trap mapping of the task: 2 um/mm; a 0.3 mm/s dead band (0.6 um/s at the
@@ -46,6 +46,17 @@ class TrialSpec:
     def __post_init__(self):
         if self.mode not in MODES:
             raise ValueError(f"unknown mode {self.mode!r}; choose one of {', '.join(MODES)}")
+
+
+def task_feedback(trap_law, retarget: RetargetConfig, handles_per_robot: int) -> FeedbackConfig:
+    """Feedback of the task's styluses: one scale (N per pN) for the trap forces and
+    the contact cue, the largest at which the hand-trap loop is stable
+    (``stable_newtons_per_pn``; the 0.6 N full scale of ``newtons_per_pn_for`` made the
+    simulated hands oscillate against the 50 pN/um literature traps)."""
+    scale = stable_newtons_per_pn(trap_law.centre_stiffness_pn_per_um, handles_per_robot,
+                                  retarget.motion_scale_um_per_mm)
+    contact_limit_pn = FeedbackConfig().contact_limit_pn
+    return FeedbackConfig(newtons_per_pn=scale, contact_gain_n=scale * contact_limit_pn)
 
 
 def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig) -> np.ndarray:
@@ -75,7 +86,7 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
                                max_speed_um_s=retarget.max_trap_speed_um_s)
     navigator.reset(len(specs))
     law = task.config.scene.trap_law
-    feedback = FeedbackConfig(newtons_per_pn=newtons_per_pn_for(law))
+    feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
     people = SimulatedParticipants([participants[s.participant] for s in specs], tick, seed, navigator, retarget,
                                    feedback, law.escape_distance, participant_task)
     max_step = retarget.max_trap_speed_um_s * tick
@@ -88,6 +99,7 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
         command = cap_speed(blend(human, robot, alpha[:, None, None], arbitration.tau), max_step)
         key, step_key = jax.random.split(key)
         obs = task.step(state, command, step_key, alpha)
+        people.moved(command, arbitration.tau * alpha, task.trap_robot)
         people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
         if progress is not None and index % 50 == 0:
             progress(float(state.metrics.done.mean()))

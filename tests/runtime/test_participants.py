@@ -1,0 +1,181 @@
+"""The simulated participants (``otgym.runtime.participants``) on synthetic scenes: a
+straight route along x, two robots of two traps each, no physics (the observation is
+held or moved by hand), so each test isolates one decision of the model.
+
+"Steady" participants have every motor error switched off (no extent, direction or
+signal-dependent noise, no tremor, no lapses): their motion is then the model's
+intention through its delays, lags and the retargeting filter, deterministic."""
+
+import numpy as np
+import pytest
+
+from otgym.planning.human import HumanParams, sample_population
+from otgym.runtime.navigator import RouteNavigator
+from otgym.runtime.participants import ParticipantTask, SimulatedParticipants, choose_velocity, miss_um
+from otgym.runtime.task import APPROACH, CARRY, Observation
+from otgym.runtime.trials import TASK_RETARGET
+from otgym.teleop.feedback import FeedbackConfig
+
+TICK_S = 0.02
+OFFSETS_UM = np.array([[-3.5, -6.5], [3.5, -6.5], [3.5, 6.5], [-3.5, 6.5]])  # robot 0 below the cell, robot 1 above
+TRAP_ROBOT = np.array([0, 0, 1, 1])
+STEADY = HumanParams(extent_error_fraction=0.0, direction_error_deg=0.0, signal_dependent_noise=0.0,
+                     tremor_rms_mm=0.0, lapse_rate_per_h=0.0)
+TASK = ParticipantTask()
+
+
+def navigator():
+    route = np.stack([np.linspace(0.0, 300.0, 2401), np.zeros(2401)], axis=1)
+    return RouteNavigator(route, route[:, 0].copy(), OFFSETS_UM, TICK_S)
+
+
+def people(params, seed=0, task=TASK):
+    return SimulatedParticipants(params, TICK_S, seed, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, task)
+
+
+def scene(cell_xy, trap_xy, phase, obstacle_xy=((200.0, 100.0),)):
+    """An observation of E environments from (E, 2) cells and (E, 4, 2) traps."""
+    cell_xy = np.asarray(cell_xy, float)
+    n_env = len(cell_xy)
+    obstacles = np.broadcast_to(np.asarray(obstacle_xy, float), (n_env, len(obstacle_xy), 2)).copy()
+    zeros = np.zeros(n_env)
+    return Observation(time_s=zeros, phase=np.full(n_env, phase), cell_xy_um=cell_xy, cell_arc_um=cell_xy[:, 0],
+                       trap_xy_um=np.asarray(trap_xy, float), handle_xy_um=np.asarray(trap_xy, float),
+                       robot_xy_um=np.zeros((n_env, 2, 2)), obstacle_xy_um=obstacles,
+                       obstacle_gap_um=np.full((n_env, len(obstacle_xy)), 100.0),
+                       contact_force_pn=np.zeros((n_env, 2)), cell_gap_um=np.zeros((n_env, 2)),
+                       trap_distance_um=np.zeros((n_env, 4)))
+
+
+def drive(participants, obs, modes, ticks, alpha=None, autonomy=None):
+    """Feed the scene for ``ticks`` ticks: the traps move by the blended command and a
+    gripped cell (CARRY) with them; returns the summed hand increments (E, 2 hands, 2)."""
+    n_env = len(modes)
+    alpha = np.ones(n_env) if alpha is None else alpha
+    autonomy = np.zeros((n_env, 4, 2)) if autonomy is None else autonomy
+    total = np.zeros((n_env, 2, 2))
+    for _ in range(ticks):
+        hands = participants.intend(obs, np.asarray(modes), alpha, autonomy, TRAP_ROBOT)
+        command = alpha[:, None, None] * hands[:, TRAP_ROBOT] + (1 - alpha[:, None, None]) * autonomy
+        participants.moved(command, alpha, TRAP_ROBOT)
+        obs.trap_xy_um = obs.trap_xy_um + command
+        carried = (obs.phase == CARRY)[:, None]
+        obs.cell_xy_um = obs.cell_xy_um + np.where(carried, command.mean(axis=1), 0.0)
+        obs.cell_arc_um = obs.cell_xy_um[:, 0].copy()
+        total += hands
+    return total
+
+
+def test_same_seed_same_participants_and_a_new_seed_differs():
+    """Participants are reproducible by seed: the population's parameters and the
+    motor noise. The same noisy pair fed the same scene moves identically; a different
+    motor seed moves differently."""
+    params = sample_population(2, seed=3)
+    assert params == sample_population(2, seed=3) and params != sample_population(2, seed=4)
+    gripped = np.array([[10.0, 0.0]] * 2)
+    obs = lambda: scene(gripped, gripped[:, None] + OFFSETS_UM, CARRY)  # noqa: E731
+    first = drive(people(params, seed=5), obs(), ["manual"] * 2, 60)
+    again = drive(people(params, seed=5), obs(), ["manual"] * 2, 60)
+    other = drive(people(params, seed=6), obs(), ["manual"] * 2, 60)
+    np.testing.assert_array_equal(first, again)
+    assert np.abs(first - other).max() > 1e-3
+
+
+def test_carrying_moves_both_hands_along_the_route_at_the_carry_pace():
+    """A gripped cell on a route along +x: over 4 s both steady hands move their robots
+    along +x at the 2 um/s carry pace (within 25 %: reaction time, lags and filter
+    delay the start) and keep the grip (the hands' y motion below 0.1 um). Fails if the
+    pace, the direction or the efference copy (without it the hands overshoot and
+    oscillate) were wrong."""
+    cell = np.array([[10.0, 0.0]])
+    obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
+    moved = drive(people([STEADY]), obs, ["manual"], 200)[0]
+    np.testing.assert_allclose(moved[:, 0], 2.0 * 200 * TICK_S, rtol=0.25)
+    assert np.all(np.abs(moved[:, 1]) < 0.1), moved
+
+
+def test_approach_closes_the_open_robot_onto_an_aligned_cell():
+    """Robot 0 held 1.5 um out from its place below a still, aligned cell: the steady
+    participant moves hand 0 up (+y, toward the cell) by about the 1.5 um gap and leaves
+    hand 1 where it is. A flipped sign, or a grip about absolute places, fails."""
+    cell = np.array([[10.0, 0.0]])
+    traps = cell[:, None] + OFFSETS_UM
+    traps[:, TRAP_ROBOT == 0, 1] -= 1.5
+    moved = drive(people([STEADY]), scene(cell, traps, APPROACH), ["manual"], 100)[0]
+    assert moved[0, 1] == pytest.approx(1.5, abs=0.3), moved
+    assert np.abs(moved[1]).max() < 0.1 and abs(moved[0, 0]) < 0.1, moved
+
+
+def test_approach_lines_up_with_the_cell_before_closing():
+    """The cell 2 um ahead of the formation's centre (beyond the 0.4 um alignment
+    tolerance), both robots held 1.5 um open: the steady participant first moves the
+    robots along +x to line up, without closing while they are more than 0.8 um out of
+    line (closing then would pinch the cell between their front spheres), then
+    closes: by 2 s both robots are within the alignment tolerance (0.4 um) of their
+    places along x and within 0.25 um across. Smaller errors stay: a correction
+    slower than the retargeting's dead band (0.6 um/s at the trap, 0.24 um over a
+    0.4 s sub-movement) never reaches the traps."""
+    cell = np.array([[12.0, 0.0]])
+    traps = np.array([[10.0, 0.0]])[:, None] + OFFSETS_UM
+    traps[:, TRAP_ROBOT == 0, 1] -= 1.5
+    traps[:, TRAP_ROBOT == 1, 1] += 1.5
+    obs = scene(cell, traps, APPROACH)
+    participants = people([STEADY])
+    for _ in range(100):
+        out_of_line = abs(cell[0, 0] - obs.trap_xy_um[0].mean(axis=0)[0]) > 0.8
+        inward = obs.trap_xy_um[0, TRAP_ROBOT == 0, 1].mean() - (cell[0, 1] + OFFSETS_UM[0, 1] - 1.5)
+        assert not (out_of_line and inward > 0.1), (obs.trap_xy_um[0], inward)
+        drive(participants, obs, ["manual"], 1)
+    error = obs.trap_xy_um[0] - (cell[0] + OFFSETS_UM)
+    assert np.all(np.abs(error[:, 0]) < TASK.align_tolerance_um) and np.all(np.abs(error[:, 1]) < 0.25), error
+
+
+def test_miss_distance_of_a_head_on_and_a_parallel_obstacle():
+    """Closest approach in the horizon: an obstacle 20 um ahead coming straight at a
+    still cell meets it (miss 0); one moving parallel 15 um to the side never comes
+    closer than 15 um."""
+    cell = np.zeros((2, 2))
+    obstacles = np.array([[[20.0, 0.0]], [[0.0, 15.0]]])
+    velocity = np.array([[[-5.0, 0.0]], [[5.0, 0.0]]])
+    miss, away = miss_um(cell, obstacles, velocity, np.zeros((2, 2)), horizon_s=6.0)
+    np.testing.assert_allclose(miss, [0.0, 15.0], atol=1e-9)
+    np.testing.assert_allclose(away, [[-1.0, 0.0], [0.0, -1.0]], atol=1e-9)
+
+
+def test_the_person_gives_way_to_an_obstacle_crossing_ahead():
+    """Carrying along +x at 2 um/s, an obstacle 10 um ahead and 12 um to the side
+    crosses the route at 2 um/s: going on would meet it, so the person chooses another
+    velocity whose miss is at least the clearance. With the obstacle moving away, the
+    intended velocity is kept."""
+    cell = np.zeros((2, 2))
+    obstacles = np.array([[[10.0, -12.0]], [[10.0, -12.0]]])
+    velocity = np.array([[[0.0, 2.0]], [[0.0, -2.0]]])
+    want = np.array([[2.0, 0.0], [2.0, 0.0]])
+    chosen, changed = choose_velocity(cell, obstacles, velocity, want, np.array([[1.0, 0.0]] * 2), TASK)
+    assert miss_um(cell[:1], obstacles[:1], velocity[:1], want[:1], TASK.horizon_s)[0][0] < TASK.clearance_um
+    assert changed.tolist() == [True, False]
+    np.testing.assert_array_equal(chosen[1], want[1])
+    assert miss_um(cell[:1], obstacles[:1], velocity[:1], chosen[:1], TASK.horizon_s)[0][0] >= TASK.clearance_um
+
+
+def test_shared_mode_rests_until_the_cue_then_overrides_the_autonomy():
+    """Shared mode, the autonomy carrying along +x at 5 um/s: with no obstacle the
+    steady participant's hands stay still (they let the autonomy drive); with an
+    obstacle about to cross ahead and alpha 0.5 (the cue), they push back against the
+    autonomy (-x), so that the blend slows or stops the assembly."""
+    cell = np.array([[10.0, 0.0], [10.0, 0.0]])
+    traps = cell[:, None] + OFFSETS_UM
+    autonomy = np.full((2, 4, 2), [5.0 * TICK_S, 0.0])
+    calm = scene(cell[:1], traps[:1], CARRY)
+    rest = drive(people([STEADY]), calm, ["shared"], 50, alpha=np.array([0.1]), autonomy=autonomy[:1])
+    np.testing.assert_array_equal(rest, 0.0)
+    threat = scene(cell[1:], traps[1:], CARRY, obstacle_xy=((22.0, -12.0),))
+    threat.obstacle_xy_um = np.array([[[22.0, -12.0]]])
+    participants = people([STEADY])
+    hands = np.zeros((1, 2, 2))
+    for tick in range(60):  # the obstacle moves up across the route at 2 um/s
+        threat.obstacle_xy_um = np.array([[[22.0, -12.0 + 2.0 * TICK_S * tick]]])
+        step = participants.intend(threat, np.array(["shared"]), np.array([0.5]), autonomy[1:], TRAP_ROBOT)
+        participants.moved(0.5 * step[:, TRAP_ROBOT] + 0.5 * autonomy[1:], np.array([0.5]), TRAP_ROBOT)
+        hands += step
+    assert np.all(hands[0, :, 0] < -0.5), hands
