@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import jax
 import numpy as np
 import pytest
+from scipy import ndimage
 
+from otgym.envs.presets import PRESETS
 from otgym.physics.bodies import two_handle_robot
-from otgym.physics.traps import TrapLaw
+from otgym.physics.traps import TRAP_LAWS, TrapLaw
+from otgym.runtime.task import interactive_scene
 from otgym.sim.microscope import MicroscopeParams, microscope_images
-from otgym.sim.sensor import VisionForceSensor, sensor_errors
+from otgym.sim.scene import SceneConfig
+from otgym.sim.sensor import VisionForceSensor, _kept_median, _Sampler, sensor_errors, trap_force_pn
 
 FRAMES = 1000
 FOV_PX = (140, 140)
@@ -92,3 +97,101 @@ def test_bad_sensor_inputs():
         sensor.measure(np.zeros((10, 10)), (0, 0), 0.0, np.zeros((1, 2)))
     with pytest.raises(ValueError, match="trap sets"):
         sensor.measure(np.zeros((2, 10, 10)), np.zeros((2, 2)), 0.1, np.zeros((3, 1, 2)))
+
+
+def _law_presets():
+    """Every trap law the project builds: the defaults, the task presets' laws, the
+    interactive scene's and a calibrated harmonic law."""
+    laws = {"default": TrapLaw(), "paper": TrapLaw.paper(), "harmonic": TrapLaw("harmonic", stiffness_pn_per_um=12.5),
+            "scene": SceneConfig().trap_law, "interactive": interactive_scene().trap_law,
+            "paper_no_offset": TrapLaw.paper(paper_c_pn=0.0, paper_delta_um=0.3),
+            "gaussian_wide": TrapLaw("gaussian", stiffness_pn_per_um=20.0, waist_um=1.1)}
+    laws.update({f"preset_{name}": make().scene.trap_law for name, make in PRESETS.items()})
+    assert {law.name for law in laws.values()} == set(TRAP_LAWS)
+    return laws
+
+
+def _handle_to_trap_vectors(law, seed=0):
+    """Vectors at distances from 0 to twice the escape distance (3 um where there is
+    none), the zero vector included; none within 1e-4 um of the paper law's
+    discontinuity at delta (there float32 and float64 may fall on either side)."""
+    rng = np.random.default_rng(seed)
+    reach = 2 * law.escape_distance if np.isfinite(law.escape_distance) else 3.0
+    distance = np.concatenate([[0.0, 1e-6, reach], rng.uniform(0.0, reach, 500)])
+    if law.name == "paper":
+        distance = distance[np.abs(distance - law.paper_delta_um) > 1e-4]
+        distance = np.concatenate([distance, law.paper_delta_um + np.array([-2e-4, 2e-4])])
+    angle = rng.uniform(0.0, 2 * np.pi, distance.shape)
+    return (distance[:, None] * np.stack([np.cos(angle), np.sin(angle)], -1))[:, None, :]  # (N, 1, 2)
+
+
+@pytest.mark.parametrize("name", sorted(_law_presets()))
+def test_numpy_trap_law_agrees_with_trap_law(name):
+    """The sensor's numpy evaluation of the trap law against TrapLaw.force_pn, the
+    force of each vector to 1e-6 of its size: in jax's default float32 within the
+    escape distance, and with jax in float64 (the same formula, so to round-off) up to
+    twice that. Past the escape distance the Gaussian law's float32 value is itself
+    off by up to 2e-6 (exp(-2 r^2 / w^2) amplifies the inputs' rounding), so there
+    only the float64 comparison can test the formula."""
+    law = _law_presets()[name]
+    vectors = _handle_to_trap_vectors(law)
+    force = trap_force_pn(law, vectors)
+    assert force.shape == vectors.shape and force.dtype == np.float64
+    distance = np.linalg.norm(vectors, axis=-1)
+    assert np.all(force[distance == 0] == 0)
+    reference = np.asarray(law.force_pn(vectors), np.float64)
+    size = np.linalg.norm(reference, axis=-1, keepdims=True)
+    near = distance <= min(law.escape_distance, 3.0)
+    assert near.sum() > 100
+    assert np.all((np.abs(force - reference) <= 1e-6 * size)[near])
+    with jax.enable_x64(True):
+        reference = np.asarray(law.force_pn(vectors))
+    assert reference.dtype == np.float64
+    size = np.linalg.norm(reference, axis=-1, keepdims=True)
+    assert np.all(np.abs(force - reference) <= 1e-12 * size)
+
+
+def test_sampler_matches_map_coordinates():
+    """The sensor's bilinear sampler gives map_coordinates' numbers exactly (order 1,
+    mode "nearest"), inside the frames, on their borders and outside them."""
+    rng = np.random.default_rng(5)
+    images = rng.random((3, 20, 31)).astype(np.float32)
+    frame_of = np.array([2, 0, 1, 2])
+    x = rng.uniform(-5.0, 36.0, (4, 7, 50))
+    y = rng.uniform(-5.0, 25.0, (4, 7, 50))
+    x[:, 0, :4], y[:, 0, :4] = [0.0, 30.0, 0.0, 30.0], [0.0, 0.0, 19.0, 19.0]  # the corners
+    frame = np.broadcast_to(frame_of[:, None, None], x.shape)
+    expected = ndimage.map_coordinates(images, [frame.ravel(), y.ravel(), x.ravel()], order=1, mode="nearest")
+    values = _Sampler(images, frame_of)(x, y)
+    assert values.dtype == np.float32
+    np.testing.assert_array_equal(values, expected.reshape(x.shape))
+
+
+def test_kept_median_matches_nanmedian():
+    rng = np.random.default_rng(6)
+    values = rng.random((6, 64))
+    keep = rng.random((6, 64)) < 0.7
+    keep[1] = False  # a row that keeps nothing has median 0
+    keep[2, :] = False
+    keep[2, 5] = True
+    keep[3, :] = False
+    keep[3, [4, 9]] = True
+    kept = np.where(keep, values, np.nan)
+    kept[1] = 0.0
+    median = _kept_median(values, keep, np.count_nonzero(keep, axis=1))
+    np.testing.assert_array_equal(median, np.nanmedian(kept, axis=1))
+
+
+def test_measure_on_one_frame_equals_the_batch():
+    """A frame measured alone (2-D arguments) reads the same as within a batch."""
+    spheres, radii, handles, traps, origin = _random_frames(21, frames=3)
+    params = MicroscopeParams(pixel_size_um=0.1)
+    images = microscope_images(spheres, radii, origin, FOV_PX, params, rng=21)
+    sensor = VisionForceSensor(LAW)
+    batch = sensor.measure(images, origin, params.pixel_size_um, traps)
+    for frame in range(3):
+        alone = sensor.measure(images[frame], origin[frame], params.pixel_size_um, traps[frame])
+        assert alone.valid.shape == (1, 2)  # a leading frame axis of one
+        np.testing.assert_array_equal(alone.valid[0], batch.valid[frame])
+        np.testing.assert_allclose(alone.handle_xy_um[0], batch.handle_xy_um[frame], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(alone.force_pn[0], batch.force_pn[frame], rtol=1e-12)
