@@ -1,50 +1,123 @@
-"""``otgym demo``: the main job, a headless run that writes its results to a folder."""
+"""``otgym demo``: the main job, a headless run that writes its results to a folder.
+
+One line per stage on stdout, flushed, whether or not stdout is a terminal (a progress
+bar follows the long stages only in a terminal). The demo keeps compiled XLA programs in
+JAX's persistent cache (``$JAX_COMPILATION_CACHE_DIR`` when set, else the ``jax`` folder
+of otgym's cache, ``$OTGYM_CACHE_DIR`` or ``~/.cache/otgym``), so a second run skips
+most of its compiling."""
 
 from __future__ import annotations
 
+import time
+from contextlib import ExitStack
 from pathlib import Path
 
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from otgym.experiments.demo import DEMO_EPISODES, DEMO_RUNS, FULL_EPISODES, SIZE_RANGES, StudyConfig
+
+
+def _use_persistent_jax_cache() -> None:
+    import jax
+
+    if not jax.config.jax_compilation_cache_dir:
+        from otgym.sim.cache import cache_dir
+
+        jax.config.update("jax_compilation_cache_dir", str(cache_dir() / "jax"))
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)  # scene building compiles ~100 small ops
+
+
+def _range(name: str) -> str:
+    low, high = SIZE_RANGES[name]
+    return f"[{low}, {high}]" if isinstance(low, int) else f"({low:g}, {high:g}]"
+
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def demo(
-        out: Path = typer.Option(Path("results"), "--out", help="Folder for the results."),
+        out: Path = typer.Option(Path("results"), "--out", help="Folder for the results (created if needed)."),
         policy: str = typer.Option("pretrained", "--policy", help="Speed-control policy file or 'pretrained'."),
-        episodes: int = typer.Option(256, "--episodes", help="Speed-control episodes per policy (RL, G1..G6)."),
-        speed_um_s: float = typer.Option(4.0, help="Constant speed of the whole-path transport, um/s."),
-        runs: int = typer.Option(8, help="Whole-path transports simulated at once (own noise and obstacles)."),
-        seed: int = typer.Option(1, help="Random seed of the episodes and runs."),
+        episodes: int = typer.Option(DEMO_EPISODES, "--episodes",
+                                     help=f"Speed-control episodes per policy (RL, G1..G6, untrained), "
+                                          f"{_range('episodes')}; `otgym evaluate` runs the full {FULL_EPISODES}."),
+        speed_um_s: float = typer.Option(4.0, help=f"Constant speed of the whole-path transport, um/s, "
+                                                   f"{_range('speed_um_s')}."),
+        runs: int = typer.Option(DEMO_RUNS, help=f"Whole-path transports simulated at once (own noise and "
+                                                 f"obstacles), {_range('runs')}."),
+        seed: int = typer.Option(1, help=f"Random seed of the episodes, runs and study, {_range('seed')}."),
+        study_participants: int = typer.Option(StudyConfig.participants, "--study-participants",
+                                               help=f"Simulated participants of the shared-control study, "
+                                                    f"{_range('study_participants')}; 0 leaves the study out."),
+        study_trials: int = typer.Option(StudyConfig.trials, "--study-trials",
+                                         help=f"Trials per participant and mode, {_range('study_trials')}."),
+        study_time_limit_s: float = typer.Option(StudyConfig.time_limit_s, "--study-time-limit-s",
+                                                 help=f"Simulated seconds after which a study trial ends "
+                                                      f"unfinished, {_range('study_time_limit_s')}."),
+        sequential: bool = typer.Option(False, "--sequential",
+                                        help="Run the study after the other stages instead of beside them."),
     ) -> None:
         """Plan on the default chip (Table I), evaluate the pretrained speed controller
         against constant speeds (Table II, safety violins), carry the cell along the
-        whole path, and write report.md beside the paper's numbers."""
-        from otgym.experiments.demo import DemoConfig, run_demo
-        from otgym.experiments.transport import TransportDemo
+        whole path, run a small manual/autonomous/shared study (Fig. 8), and write
+        report.md beside the paper's numbers. Small samples, about two minutes on two
+        cores; every size is printed with its result."""
+        from otgym.experiments.demo import demo_config, run_demo
 
-        console = Console()
-        config = DemoConfig(policy=policy, episodes=episodes, seed=seed,
-                            transport=TransportDemo(speed_um_s=speed_um_s, n_runs=runs, seed=seed))
+        began = time.perf_counter()
+        config = demo_config(policy, episodes, speed_um_s, runs, seed, study_participants, study_trials,
+                             study_time_limit_s, background_study=not sequential)
+        _use_persistent_jax_cache()
+        console = Console(soft_wrap=True)
         columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                    TimeElapsedColumn())
-        with Progress(*columns, console=console, transient=True) as progress:
-            task = progress.add_task("starting", total=None)
+        with ExitStack() as stack:
+            bars = {}  # the progress bars, started with the first stage: nothing shows before the checks pass
+
+            def bar(name: str, description: str) -> None:
+                if "progress" not in bars:
+                    bars["progress"] = stack.enter_context(Progress(*columns, console=console, transient=True))
+                if name not in bars:
+                    bars[name] = bars["progress"].add_task(description, total=None)
+                bars["progress"].update(bars[name], description=description)
 
             def stage(text: str) -> None:
-                console.print(f"- {text}")
-                progress.update(task, description=text, completed=0, total=None)
+                console.print(f"{text}  ({time.perf_counter() - began:.0f} s)", markup=False, highlight=False)
+                console.file.flush()
+                if "shared-control study" not in text:
+                    bar("main", text.split(":")[0])
+                    bars["progress"].update(bars["main"], completed=0, total=None)
 
             def report(done: int, total: int) -> None:
-                progress.update(task, completed=done, total=total)
+                if "main" in bars:
+                    bars["progress"].update(bars["main"], completed=done, total=total)
 
-            summary = run_demo(config, out, stage, report)
-        console.print((out / "speed_control" / "table.md").read_text(), markup=False, soft_wrap=True)
+            def detail(text: str) -> None:
+                bar("study", f"shared-control study: {text}")
+
+            summary = run_demo(config, out, stage, report, detail)
+        console.print((out / "speed_control" / "table.md").read_text(), markup=False)
         safety, limits, transport = summary["safety"]["RL"], summary["limits"], summary["transport"]
-        console.print(f"RL safety: contact force < {limits['force_pn']:g} pN in {safety['force_below_limit']:.2%} of "
-                      f"steps, handle within {limits['distance_um']:g} um in {safety['distance_within_limit']:.2%}")
+        console.print(f"RL safety over {safety['samples']} force samples of {summary['episodes']} episodes: contact "
+                      f"force < {limits['force_pn']:g} pN in {safety['force_below_limit']:.2%} of them, handle within "
+                      f"{limits['distance_um']:g} um in {safety['distance_within_limit']:.2%}", highlight=False)
         console.print(f"whole path: {transport['reached_goal']} of {transport['runs']} runs carried the cell "
-                      f"{transport['path_length_um']} um at {speed_um_s:g} um/s")
-        console.print(f"[bold]otgym demo[/bold] wrote {out}/report.md, summary.json, plan/, speed_control/, transport/")
+                      f"{transport['path_length_um']} um at {transport['speed_um_s']:g} um/s", highlight=False)
+        written = "plan/, speed_control/, transport/"
+        study = summary["shared_control"]
+        if study is not None:
+            size = study["size"]
+            console.print(f"shared-control study (Fig. 8), {size['participants']} simulated participants x "
+                          f"{size['trials_per_mode']} trial{'s' * (size['trials_per_mode'] > 1)} per mode, cut at "
+                          f"{size['time_limit_s']:g} s (details in report.md):", highlight=False)
+            for row in study["modes"]:
+                rate = (f"{row['obstacles_avoided'] / row['obstacles_encountered']:.0%}"
+                        if row["obstacles_encountered"] else "-")
+                console.print(f"  {row['mode']}: obstacles avoided {row['obstacles_avoided']} of "
+                              f"{row['obstacles_encountered']} ({rate}), goal reached in {row['goals_reached']} of "
+                              f"{row['trials']} trials", highlight=False)
+            written += ", shared_control/"
+        console.print(f"otgym demo wrote {out}/report.md, summary.json, {written} in "
+                      f"{time.perf_counter() - began:.0f} s (small samples; full size: otgym evaluate, "
+                      f"otgym experiment shared-control)", markup=False, highlight=False)

@@ -1,100 +1,362 @@
-"""The main job, ``otgym demo``: the paper's autonomous pipeline end to end on the
-default chip, headless.
+"""The main job, ``otgym demo``: the paper's pipeline end to end on the default chip,
+headless, at sizes that fit about two minutes on two CPU cores.
 
 1. ``plan/``: A* + B-spline on the chip image against a simulated manual path
    (Table I, ``otgym.planning``).
 2. ``speed_control/``: the shipped DQN speed controller against the six constant
    speeds on the same seeded episodes of the ``paper`` preset (Table II and the safety
-   violins of Fig. 7, ``otgym.experiments.speed_control_eval``).
+   violins of Fig. 7, ``otgym.experiments.speed_control_eval``); the demo runs
+   ``DEMO_EPISODES`` episodes per policy, ``otgym evaluate`` the full 256.
 3. ``transport/``: the cell carried along the whole planned path at a constant speed
    in the ``realistic`` preset (``otgym.experiments.transport``).
-4. ``report.md``: our numbers beside the paper's.
+4. ``shared_control/``: a small manual / autonomous / shared study with simulated
+   participants (the paper's Fig. 8; ``otgym.experiments.shared_control``, whose full
+   size is ``otgym experiment shared-control``).
+5. ``report.md``: our numbers beside the paper's, with every sample size.
+
+Every size is checked against its range (``SIZE_RANGES``) and the output folder is
+checked for writing before any work.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import math
+import tempfile
+import threading
 import time
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-from otgym.envs import speed_control as spc
-from otgym.envs import transport as tr
-from otgym.envs.presets import preset
-from otgym.experiments import report
-from otgym.experiments.speed_control_eval import evaluate, write_safety_figure, write_table
-from otgym.experiments.transport import TransportDemo
-from otgym.experiments.transport import run as run_transport
-from otgym.planning.pipeline import write_plan
-from otgym.rl.policy import load_policy, policy_meta, resolve_policy
-from otgym.sim.chip import load_chip
+if TYPE_CHECKING:  # imported when needed: the command line reads this module's sizes without loading JAX
+    from otgym.experiments.transport import TransportDemo
 
 PLAN_ROBOT_RADIUS_UM = 5.0
 """Robot radius of the Table I plan (the ``otgym plan`` default: one robot, as the
 paper's Table I); the transport plans for the whole two-robot assembly instead."""
 
+DEMO_EPISODES = 16
+"""Speed-control episodes per policy in the demo (8 policies: RL, G1..G6, untrained).
+Measured on 2 cores: the full evaluation's 256 (``otgym evaluate``) take about 3
+minutes; with 16 the stage takes 15-20 s with warm caches and 20-45 s cold, most of it
+compiling."""
+
+DEMO_RUNS = 2
+"""Whole-path transports simulated at once in the demo (each its own noise and
+obstacles; 384 control steps of 2000 physics steps). Measured: 2 runs cost about 1.3
+times one; the stage takes 25-45 s."""
+
+FULL_EPISODES = 256
+"""Episodes per policy of the full evaluation, ``otgym evaluate``."""
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyConfig:
+    """The demo's small shared-control study: every mode for every simulated
+    participant on the same seeded scenarios, each trial cut at ``time_limit_s`` of
+    simulated time (the full study, ``otgym experiment shared-control``: 8 participants
+    x 8 trials, 300 s).
+
+    Its cost is at most modes x time_limit_s / 20 ms control ticks (a mode's batch runs
+    until its slowest trial ends; measured about 7.6 ms of CPU a tick for 3 trials and
+    14 ms for 6), plus about 22 s of CPU to build the task and compile it with cold
+    caches: 30-40 s on 2 cores for the defaults. The limit is that budget, not a
+    property of the task: the obstacles cross the route about 20-45 s into a trial and
+    the paper's trials took 54-164 s, so the demo sees the first encounters only."""
+
+    participants: int = 3
+    trials: int = 1
+    modes: tuple[str, ...] = ("manual", "autonomous", "shared")
+    time_limit_s: float = 20.0
+
+    def __post_init__(self):
+        from otgym.shared import MODES
+
+        check_range("--study-participants", self.participants, *SIZE_RANGES["study_participants"])
+        check_range("--study-trials", self.trials, *SIZE_RANGES["study_trials"])
+        check_range("--study-time-limit-s", self.time_limit_s, *SIZE_RANGES["study_time_limit_s"], integer=False,
+                    unit=" s")
+        unknown = [mode for mode in self.modes if mode not in MODES]
+        if unknown or not self.modes or len(set(self.modes)) != len(self.modes):
+            raise ValueError(f"study modes must be distinct ones of {', '.join(MODES)}, got {', '.join(self.modes)}")
+
+
+SIZE_RANGES = {
+    "episodes": (1, 4096),
+    "runs": (1, 64),
+    "speed_um_s": (0.0, 20.0),  # open below: a positive speed
+    "seed": (0, 2**32 - 1),
+    "study_participants": (2, 16),  # a repeated-measures analysis needs two
+    "study_trials": (1, 8),
+    "study_time_limit_s": (0.0, 300.0),  # open below; 300 s is the full study's limit
+}
+"""Valid ranges (inclusive; the float ones open at zero) of the demo's sizes. The
+speed's top is the interactive task's trap-speed clamp (``otgym.runtime.trials``):
+beyond it the formation outruns what the traps are meant to carry."""
+
+
+def check_range(name: str, value, low, high, integer: bool = True, unit: str = "") -> None:
+    """Raise ValueError naming ``name``, its valid range and ``value`` if ``value`` is
+    not an integer (``integer``) or a finite number in [low, high] ((low, high] for
+    floats)."""
+    if integer:
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
+    elif (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
+          or not low < value <= high):
+        raise ValueError(f"{name} must lie in ({low:g}, {high:g}]{unit}, got {value!r}")
+
 
 @dataclasses.dataclass(frozen=True)
 class DemoConfig:
     policy: str = "pretrained"
-    episodes: int = 256
+    episodes: int = DEMO_EPISODES
     seed: int = 1
-    transport: TransportDemo = TransportDemo()
+    transport: TransportDemo = dataclasses.field(default_factory=lambda: _transport(n_runs=DEMO_RUNS, seed=1))
+    study: StudyConfig | None = StudyConfig()
+    """None leaves the shared-control study out."""
+    background_study: bool = True
+    """Run the study in a thread beside the speed control and the transport (they share
+    no state; the demo's work is mostly single-threaded, so two cores run both)."""
 
     def __post_init__(self):
-        if not isinstance(self.episodes, int) or self.episodes < 1:
-            raise ValueError(f"episodes must be a positive integer, got {self.episodes!r}")
+        check_range("--episodes", self.episodes, *SIZE_RANGES["episodes"])
+        check_range("--seed", self.seed, *SIZE_RANGES["seed"])
+        check_range("--runs", self.transport.n_runs, *SIZE_RANGES["runs"])
+        check_range("--speed-um-s", self.transport.speed_um_s, *SIZE_RANGES["speed_um_s"], integer=False,
+                    unit=" um/s")
+        check_range("transport seed", self.transport.seed, *SIZE_RANGES["seed"])
+
+
+def _transport(**options) -> TransportDemo:
+    from otgym.experiments.transport import TransportDemo
+
+    return TransportDemo(**options)
+
+
+def demo_config(policy: str = "pretrained", episodes: int = DEMO_EPISODES, speed_um_s: float = 4.0,
+                runs: int = DEMO_RUNS, seed: int = 1, study_participants: int = StudyConfig.participants,
+                study_trials: int = StudyConfig.trials,
+                study_time_limit_s: float = StudyConfig.time_limit_s, background_study: bool = True) -> DemoConfig:
+    """The demo's configuration from the command line's values (study_participants 0
+    leaves the study out); every value checked against ``SIZE_RANGES`` first, so a bad
+    one is named with its valid range."""
+    if policy != "pretrained" and Path(policy).is_dir():
+        raise ValueError(f"--policy {policy} is a folder; give a policy file (policy.npz from otgym train)")
+    check_range("--runs", runs, *SIZE_RANGES["runs"])
+    check_range("--speed-um-s", speed_um_s, *SIZE_RANGES["speed_um_s"], integer=False, unit=" um/s")
+    check_range("--seed", seed, *SIZE_RANGES["seed"])
+    study = None if study_participants == 0 else StudyConfig(study_participants, study_trials,
+                                                             time_limit_s=study_time_limit_s)
+    return DemoConfig(policy=policy, episodes=episodes, seed=seed, study=study, background_study=background_study,
+                      transport=_transport(speed_um_s=float(speed_um_s), n_runs=runs, seed=seed))
+
+
+def check_out_dir(out_dir: Path) -> Path:
+    """Refuse an output folder that is a file or cannot be written, before any work:
+    create it (with its parents) and write and delete a probe file in it."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"--out {out_dir} is a file, not a folder")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out_dir):
+            pass
+    except OSError as error:
+        raise ValueError(f"--out {out_dir} cannot be written: {error.strerror or error}") from None
+    return out_dir
+
+
+def stage_names(config: DemoConfig) -> list[str]:
+    """The demo's stages in the order they start, one progress line each, with their
+    sizes. The study, when there is one, starts second and runs in the background."""
+    transport = config.transport
+    names = ["planning on the default chip (Table I)",
+             f"speed control: RL, G1..G6 and untrained, {config.episodes} episodes each (Table II, Fig. 7; "
+             f"the full {FULL_EPISODES}: otgym evaluate)",
+             f"carrying the cell along the whole path: {transport.n_runs} run{'s' * (transport.n_runs > 1)} at "
+             f"{transport.speed_um_s:g} um/s"]
+    if config.study is not None:
+        study = config.study
+        names.insert(1, f"shared-control study (Fig. 8): {study.participants} simulated participants x "
+                        f"{study.trials} trial{'s' * (study.trials > 1)} x {len(study.modes)} modes, trials cut at "
+                        f"{study.time_limit_s:g} s (the full study: otgym experiment shared-control)"
+                        + (", in the background" if config.background_study else ""))
+    return names
+
+
+class _Cancelled(Exception):
+    """Raised inside the background study to stop it when the other stages failed."""
+
+
+class _Background:
+    """``work()`` in a daemon thread (a failed demo must not wait for it to exit);
+    ``result()`` waits for it and returns its value or raises its exception."""
+
+    def __init__(self, work: Callable[[], object]):
+        self._outcome: tuple[bool, object] | None = None
+        self._thread = threading.Thread(target=self._run, args=(work,), name="otgym-demo-study", daemon=True)
+        self._thread.start()
+
+    def _run(self, work) -> None:
+        try:
+            self._outcome = (True, work())
+        except BaseException as error:  # noqa: BLE001 - handed to the caller by result()
+            self._outcome = (False, error)
+
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def result(self, timeout_s: float | None = None):
+        self._thread.join(timeout_s)
+        if self._outcome is None:
+            return None
+        done, value = self._outcome
+        if not done:
+            raise value
+        return value
 
 
 def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = lambda _: None,
-             progress: Callable[[int, int], None] | None = None) -> dict:
-    """Run the four parts into ``out_dir``; ``stage(text)`` announces each part and
-    ``progress(done, total)`` follows the transport's control steps. Returns a summary
-    (also written as ``summary.json``). Policy problems raise before any work."""
-    out_dir = Path(out_dir)
+             progress: Callable[[int, int], None] | None = None,
+             detail: Callable[[str], None] = lambda _: None) -> dict:
+    """Run the stages into ``out_dir``; ``stage(text)`` announces each (``stage_names``),
+    ``progress(done, total)`` follows the transport's control steps and ``detail(text)``
+    the study's batches (from the study's thread when it runs in the background).
+    Returns a summary (also written as ``summary.json``). Policy and output-folder
+    problems raise before any work.
+
+    Most of the demo's work runs on one core (compiling, and Python between small
+    XLA calls), so with ``config.background_study`` the study runs in a thread beside
+    the speed control and the transport, after the plan stage has made what they share
+    (the chip's fields on disk, numba's planner). Its results do not depend on it."""
+    from otgym.envs import speed_control as spc
+    from otgym.envs import transport as tr
+    from otgym.envs.presets import preset
+    from otgym.experiments import report
+    from otgym.experiments.speed_control_eval import evaluate, write_safety_figure, write_table
+    from otgym.experiments.transport import run as run_transport
+    from otgym.planning.pipeline import write_plan
+    from otgym.rl.policy import load_policy, policy_meta, resolve_policy
+    from otgym.sim.cache import chip_fields
+    from otgym.sim.chip import load_chip
+
     policy_path = resolve_policy(config.policy)
     task = preset(policy_meta(policy_path).get("preset", "paper"))
     q_params, meta = load_policy(policy_path, tr.OBS_SIZE, task.n_actions)
+    out_dir = check_out_dir(out_dir)
+    names = iter(stage_names(config))
+    count = len(stage_names(config))
+    announce = lambda index: stage(f"[{index}/{count}] {next(names)}")  # noqa: E731
+    began = time.perf_counter()
     timings = {}
 
-    stage("planning on the default chip (Table I)")
+    announce(1)
     start = time.perf_counter()
     chip = load_chip("default")
+    chip_fields(chip)  # walls and flow, solved once into the disk cache for every later stage
     transport = config.transport
     metrics = write_plan(chip.image, chip.pixel_size_um, transport.start_um, transport.goal_um, out_dir / "plan",
                          robot_radius_um=PLAN_ROBOT_RADIUS_UM, threshold=0.5)
     timings["plan_s"] = time.perf_counter() - start
 
-    stage(f"speed control: RL and constant speeds, {config.episodes} episodes each (Table II)")
-    start = time.perf_counter()
-    evaluation = evaluate(spc.make_params(task), q_params, meta["hidden"], config.episodes, config.seed)
-    speed_dir = out_dir / "speed_control"
-    rows = write_table(evaluation, speed_dir)
-    limits = task.force_band_pn[1], task.deviation_limit_um
-    write_safety_figure(evaluation, speed_dir / "safety.png", *limits)
-    safety = {name: evaluation.safety(name, *limits) for name in ("RL", "untrained")}
-    (speed_dir / "safety.json").write_text(json.dumps(safety, indent=2))
-    timings["speed_control_s"] = time.perf_counter() - start
+    study, stop = None, threading.Event()
+    if config.study is not None:
+        announce(2)
 
-    stage("carrying the cell along the whole path")
-    start = time.perf_counter()
-    transport_summary = run_transport(transport, out_dir / "transport", progress)
-    timings["transport_s"] = time.perf_counter() - start
+        def study_work():
+            start = time.perf_counter()
 
+            def report_line(text: str) -> None:
+                if stop.is_set():
+                    raise _Cancelled("the demo stopped")
+                detail(text)
+
+            result = run_study(config.study, config.seed, out_dir / "shared_control", report_line)
+            return result, time.perf_counter() - start
+
+        if config.background_study:
+            study = _Background(study_work)
+        else:
+            study_result = study_work()
+    try:
+        announce(count - 1)
+        start = time.perf_counter()
+        evaluation = evaluate(spc.make_params(task), q_params, meta["hidden"], config.episodes, config.seed)
+        speed_dir = out_dir / "speed_control"
+        rows = write_table(evaluation, speed_dir)
+        limits = task.force_band_pn[1], task.deviation_limit_um
+        write_safety_figure(evaluation, speed_dir / "safety.png", *limits)
+        safety = {name: evaluation.safety(name, *limits) for name in ("RL", "untrained")}
+        (speed_dir / "safety.json").write_text(json.dumps(safety, indent=2))
+        timings["speed_control_s"] = time.perf_counter() - start
+
+        announce(count)
+        start = time.perf_counter()
+        transport_summary = run_transport(transport, out_dir / "transport", progress)
+        timings["transport_s"] = time.perf_counter() - start
+        if study is not None:
+            if study.running():
+                stage("waiting for the shared-control study")
+            study_result = study.result()
+    except BaseException:
+        stop.set()
+        if study is not None:
+            try:
+                study.result(timeout_s=10.0)  # it stops at its next report
+            except BaseException:  # noqa: BLE001 - the first error is the one to report
+                pass
+        raise
+
+    sections = [report.speed_control_section(rows, safety, *limits, task.name, full_episodes=FULL_EPISODES),
+                report.planning_section(metrics), report.transport_section(transport_summary)]
+    study_summary = None
+    if config.study is not None:
+        study_summary, timings["shared_control_s"] = study_result
+        sections.append(report.shared_control_section(study_summary["modes"], study_summary["size"]))
+    total = time.perf_counter() - began
+    beside = " (the study ran beside the speed control and the transport)" if study is not None else ""
     header = (f"Policy `{policy_path.name}` (preset `{task.name}`, trained {meta.get('env_steps', '?')} steps), "
-              f"evaluation seed {config.seed}. Wall times: " +
-              ", ".join(f"{name[:-2]} {seconds:.0f} s" for name, seconds in timings.items()) + ".")
-    report.write_report(out_dir / "report.md", [
-        report.speed_control_section(rows, safety, *limits, task.name),
-        report.planning_section(metrics),
-        report.transport_section(transport_summary),
-    ], header)
+              f"seed {config.seed}. The demo runs small samples to fit about two minutes on two cores; each "
+              f"section gives its sample size and the command of its full-size run. Wall times: " +
+              ", ".join(f"{name[:-2].replace('_', ' ')} {seconds:.0f} s" for name, seconds in timings.items()) +
+              f"{beside}; {total:.0f} s in all.")
+    report.write_report(out_dir / "report.md", sections, header)
     rl = next(row for row in rows if row["policy"] == "RL")
     summary = {"table_ii": rows, "safety": safety, "transport": transport_summary,
                "table_i": {name: dataclasses.asdict(row) for name, row in metrics.items()},
-               "rl_asr": rl["ASR"], "rl_atct_s": rl["ATCT_s"],
+               "rl_asr": rl["ASR"], "rl_atct_s": rl["ATCT_s"], "episodes": config.episodes,
                "limits": {"force_pn": limits[0], "distance_um": limits[1]},
-               "timings_s": {name: round(seconds, 1) for name, seconds in timings.items()}}
+               "shared_control": study_summary,
+               "timings_s": {**{name: round(seconds, 1) for name, seconds in timings.items()},
+                             "total_s": round(total, 1)}}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary
+
+
+def run_study(study: StudyConfig, seed: int, out_dir: Path, detail: Callable[[str], None] = lambda _: None) -> dict:
+    """The small shared-control study into ``out_dir`` with the full experiment's files
+    (``write_experiment``: trials.csv, summary.csv/md, stats.json, fig8.png,
+    acceptance.json). Returns its size, its per-mode rows as written to summary.csv
+    (``read_summary``) and the acceptance checks."""
+    from otgym.experiments.shared_control import run_experiment, write_experiment
+
+    out_dir = Path(out_dir)
+    trials = run_experiment(study.participants, study.trials, list(study.modes), seed, "default",
+                            report=lambda line: detail(line.strip()), time_limit_s=study.time_limit_s)
+    checks = write_experiment(trials, out_dir)
+    size = {"participants": study.participants, "trials_per_mode": study.trials, "modes": list(study.modes),
+            "time_limit_s": study.time_limit_s, "seed": seed,
+            "scenarios": sorted(int(s) for s in trials["scenario"].unique())}
+    return {"size": size, "modes": read_summary(out_dir / "summary.csv"), "acceptance": checks}
+
+
+def read_summary(path: Path) -> list[dict]:
+    """The per-mode rows of a study's ``summary.csv`` (``otgym.study.summarize``) as
+    plain dicts, NaN as None."""
+    import pandas as pd
+
+    table = pd.read_csv(path)
+    return [{key: (None if isinstance(value, float) and math.isnan(value) else value) for key, value in row.items()}
+            for row in table.to_dict("records")]

@@ -1,8 +1,9 @@
-"""``report.md`` of the demo: our planning, speed-control and transport figures
-beside the paper's (its Tables I and II and the safety claims of its Fig. 7).
+"""``report.md`` of the demo: our planning, speed-control, transport and shared-control
+figures beside the paper's (its Tables I and II, the safety claims of its Fig. 7 and
+its Fig. 8), each with its sample size.
 
 Pure text formatting of results computed elsewhere; the paper's numbers are quoted
-from ``shared/paper/interactive-ot-gym.tex``.
+from ``shared/paper/interactive-ot-gym.tex`` (``paper_tables``, ``otgym.study.paper_fig8``).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from pathlib import Path
 from otgym.experiments.paper_tables import PAPER_SAFETY, PAPER_TABLE_I, number, table_ii_markdown
 from otgym.experiments.speed_control_eval import acceptance
 from otgym.planning.metrics import PathMetrics
+from otgym.study import PAPER_FIG8, wilson_interval
 
 
 def planning_section(metrics: dict[str, PathMetrics]) -> list[str]:
@@ -35,21 +37,37 @@ def planning_section(metrics: dict[str, PathMetrics]) -> list[str]:
 
 
 def speed_control_section(rows: list[dict], safety: dict, force_limit_pn: float, distance_limit_um: float,
-                          preset: str) -> list[str]:
-    """Table II (ours beside the paper's) and the safety figures of the trained policy."""
-    lines = ["## Learned speed control (paper Table II)", "",
-             f"Preset `{preset}`; every policy runs the same seeded episodes.", "", *table_ii_markdown(rows)]
+                          preset: str, full_episodes: int | None = None) -> list[str]:
+    """Table II (ours beside the paper's) and the safety figures of the trained policy;
+    ``full_episodes``: the size of the full evaluation (``otgym evaluate``), named when
+    this one is smaller."""
     rl = next(row for row in rows if row["policy"] == "RL")
+    episodes = rl["episodes"]
+    size = f"every policy runs the same {episodes} seeded episodes"
+    if full_episodes is not None and episodes < full_episodes:
+        size += (f", a small sample that fits the demo's time (the full evaluation: `otgym evaluate --policy "
+                 f"pretrained --episodes {full_episodes}`)")
+    lines = ["## Learned speed control (paper Table II)", "", f"Preset `{preset}`; {size}.", "",
+             *table_ii_markdown(rows)]
     checks = acceptance(rows, safety["RL"])
     quicker = [row for row in rows if row["policy"] != "RL" and row["ATCT_s"] is not None
                and rl["ATCT_s"] is not None and row["ATCT_s"] < rl["ATCT_s"]]
-    verdict = (f"RL: ASR {rl['ASR']:.3f}, success rate {rl['success_rate']:.3f}; its ATCT is "
-               f"{'below' if checks['faster'] else 'not below'} that of every constant speed that always succeeds "
-               f"({', '.join(checks['faster_than']) or 'none'}).")
-    if quicker:
-        verdict += (" Constant speeds with a shorter ATCT lost episodes: " +
-                    ", ".join(f"{row['policy']} ({row['ATCT_s']:.2f} s, success {row['success_rate']:.3f})"
-                              for row in quicker) + ".")
+    won = round(rl["success_rate"] * episodes)
+    low, high = wilson_interval(won, episodes)
+    verdict = (f"RL: ASR {rl['ASR']:.3f}, success {won} of {episodes} episodes ({rl['success_rate']:.3f}, 95 % "
+               f"Wilson interval [{low:.3f}, {high:.3f}]); its ATCT is "
+               f"{'below' if checks['faster'] else 'not below'} that of every constant speed that succeeded in all "
+               f"{episodes} episodes ({', '.join(checks['faster_than']) or 'none'}).")
+
+    def describe(group: list[dict]) -> str:
+        return ", ".join(f"{row['policy']} ({row['ATCT_s']:.2f} s, success {row['success_rate']:.3f})" for row in group)
+
+    lost = [row for row in quicker if row["success_rate"] < 1.0]
+    kept = [row for row in quicker if row["success_rate"] == 1.0]
+    if lost:
+        verdict += f" Constant speeds with a shorter ATCT that lost episodes: {describe(lost)}."
+    if kept:
+        verdict += f" Constant speeds with a shorter ATCT that lost none of these {episodes}: {describe(kept)}."
     after, before = safety["RL"], safety["untrained"]
     lines += ["", verdict, "", "### Safety (paper Fig. 7)", "",
               "| policy | force < " + f"{force_limit_pn:g} pN | handle within {distance_limit_um:g} um | "
@@ -58,7 +76,8 @@ def speed_control_section(rows: list[dict], safety: dict, force_limit_pn: float,
     for name, values in (("before training (random speeds)", before), ("after training (RL)", after)):
         lines.append(f"| {name} | {values['force_below_limit']:.2%} | {values['distance_within_limit']:.2%} | "
                      f"{values['distance_median_um']:.3f} | {values['distance_p99_um']:.3f} | {values['samples']} |")
-    lines += ["", f"Paper: {PAPER_SAFETY}. Figure: `speed_control/safety.png`.", ""]
+    lines += ["", f"Samples: every control step of the {episodes} episodes per policy (force per robot, distance "
+              f"per handle). Paper: {PAPER_SAFETY}. Figure: `speed_control/safety.png`.", ""]
     if preset == "paper" and not checks["distance_safe"]:
         lines += ["The handle-distance limit is out of reach of the paper's trap law at these speeds: its centre "
                   "stiffness (0.455 pN/um) lets the handles wander 0.07 um (thermal, per axis), and the drag of "
@@ -71,11 +90,110 @@ def speed_control_section(rows: list[dict], safety: dict, force_limit_pn: float,
 def transport_section(summary: dict) -> list[str]:
     """The whole-path transport at constant speed (realistic preset)."""
     return ["## Whole-path transport (realistic preset, constant speed)", "",
-            f"{summary['reached_goal']} of {summary['runs']} runs carried the cell the whole "
+            f"{summary['reached_goal']} of {summary['runs']} runs (each its own noise and obstacles; `--runs` "
+            f"sets how many) carried the cell the whole "
             f"{summary['path_length_um']} um path at {summary['speed_um_s']:g} um/s "
             f"(mean fraction completed {summary['mean_completed_fraction']:.3f}); outcomes: "
             f"{', '.join(summary['outcomes'])}. Mean contact force {summary['mean_contact_force_pn']} pN, "
             f"largest {summary['max_contact_force_pn']} pN. Figure: `transport/transport.png`.", ""]
+
+
+def _percent(value: float | None, spec: str = ".1f") -> str:
+    return "-" if value is None else format(100 * value, spec)
+
+
+def _pooled_success(row: dict) -> tuple[float | None, float, float]:
+    """A mode's obstacles avoided / encountered, pooled over its trials, with its 95 %
+    Wilson interval (None, NaN, NaN when it met no obstacle)."""
+    encountered, avoided = int(row["obstacles_encountered"]), int(row["obstacles_avoided"])
+    low, high = wilson_interval(avoided, encountered)
+    return (avoided / encountered if encountered else None), low, high
+
+
+def shared_control_section(modes: list[dict], size: dict) -> list[str]:
+    """The demo's small shared-control study beside the paper's Fig. 8. ``modes``: the
+    per-mode rows of ``summary.csv`` (``otgym.study.summarize``; None for NaN);
+    ``size``: participants, trials_per_mode, time_limit_s, scenarios. Success is pooled
+    over a mode's trials (obstacles avoided / encountered) with its 95 % Wilson
+    interval; time is the mean over participants of their trials that reached the goal.
+    Every sentence is computed from these numbers."""
+    limit, per_mode = size["time_limit_s"], size["participants"] * size["trials_per_mode"]
+    n_scenarios = len(size["scenarios"])
+    lines = ["## Shared control: manual, autonomous, shared (paper Fig. 8), a small study", "",
+             f"A small study that fits the demo's time: {size['participants']} simulated participants x "
+             f"{size['trials_per_mode']} trial{'s' * (size['trials_per_mode'] > 1)} = {per_mode} trials per mode, "
+             f"every mode with the same participants on the same "
+             f"{'seeded scenario' if n_scenarios == 1 else f'{n_scenarios} seeded scenarios'}, each trial cut at "
+             f"{limit:g} s of simulated time. The paper had 8 participants x 8 trials per mode; the full study is "
+             f"`otgym experiment shared-control` (8 x 8, trials up to 300 s). With {per_mode} trials per mode "
+             f"the intervals are wide: compare the ordering, not the values.", "",
+             "| mode | trials | obstacles avoided / encountered | success % [95 % CI] | paper success % | "
+             "reached the goal | completion time (s) | paper time (s) | trap losses |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    rates = {}
+    for row in modes:
+        rate, low, high = _pooled_success(row)
+        rates[row["mode"]] = (rate, low, high)
+        paper = PAPER_FIG8.get(row["mode"])
+        success = "- (no obstacle met)" if rate is None else f"{_percent(rate)} [{_percent(low)}, {_percent(high)}]"
+        time_s = "-" if row["completion_time_mean_s"] is None else (
+            f"{row['completion_time_mean_s']:.1f}" +
+            ("" if row["completion_time_sd_s"] is None else f" ± {row['completion_time_sd_s']:.1f}"))
+        paper_success = "-" if paper is None else f"{_percent(paper['success_mean'], '.0f')} ± " \
+                                                  f"{_percent(paper['success_sd'], '.0f')}"
+        paper_time = "-" if paper is None else f"{paper['time_mean_s']:.1f} ± {paper['time_sd_s']:.1f}"
+        lines.append(f"| {row['mode']} | {row['trials']} | {row['obstacles_avoided']} / "
+                     f"{row['obstacles_encountered']} | {success} | {paper_success} | {row['goals_reached']} of "
+                     f"{row['trials']} | {time_s} | {paper_time} | {row['trap_losses']} |")
+    lines += ["", *_success_sentences(rates), *_time_sentences(modes, limit), "",
+              "Success: obstacles avoided / encountered, pooled over the mode's trials (the paper's metric), with "
+              "95 % Wilson intervals. Completion time: mean ± SD over participants of their trials that reached "
+              "the goal. Paper: Sec. III-C, mean ± SD. Files: `shared_control/trials.csv` (one row per trial), "
+              "`summary.md` (with the repeated-measures ANOVA and Holm-corrected paired tests, of little power "
+              f"with {size['participants']} participants), `stats.json`, `fig8.png`, `acceptance.json` (the "
+              "paper's ordering, checked on this small sample).", ""]
+    return lines
+
+
+def _success_sentences(rates: dict) -> list[str]:
+    measured = sorted(((mode, value) for mode, value in rates.items() if value[0] is not None),
+                      key=lambda item: -item[1][0])
+    if not measured:
+        return ["No trial met an obstacle before it ended, so success is undefined here."]
+
+    def ordering(pairs):
+        text = ""
+        for index, (mode, rate) in enumerate(pairs):
+            if index:
+                text += " = " if rate == pairs[index - 1][1] else " > "
+            text += f"{mode} {_percent(rate, '.0f')} %"
+        return text
+
+    ours = ordering([(mode, rate) for mode, (rate, _, _) in measured])
+    paper_order = sorted((mode for mode in rates if mode in PAPER_FIG8), key=lambda m: -PAPER_FIG8[m]["success_mean"])
+    paper = ordering([(mode, PAPER_FIG8[mode]["success_mean"]) for mode in paper_order])
+    text = f"Success ordering here: {ours}; the paper's: {paper}."
+    separated = [f"{a} and {b}" for i, (a, (_, low_a, high_a)) in enumerate(measured)
+                 for b, (_, low_b, high_b) in measured[i + 1:] if low_a > high_b or low_b > high_a]
+    if len(measured) > 1:
+        text += (" The 95 % intervals of every pair of modes overlap: this sample does not separate them."
+                 if not separated else f" Separated by their 95 % intervals: {', '.join(separated)}.")
+    unmet = [mode for mode, value in rates.items() if value[0] is None]
+    if unmet:
+        text += f" {', '.join(unmet).capitalize()}: no obstacle met before the trials ended, so no success rate."
+    return [text]
+
+
+def _time_sentences(modes: list[dict], limit: float) -> list[str]:
+    if not any(row["goals_reached"] for row in modes):
+        return [f"No trial reached the goal within the {limit:g} s limit, so there is no completion time to set "
+                f"beside the paper's; the full study has them."]
+    text = (f"Trials still running at {limit:g} s are left out of the times, which favours the fast ones.")
+    short = [mode["mode"] for mode in modes
+             if mode["mode"] in PAPER_FIG8 and PAPER_FIG8[mode["mode"]]["time_mean_s"] > limit]
+    if short:
+        text += f" The limit is below the paper's mean time for {', '.join(short)}."
+    return [text]
 
 
 def write_report(path: Path, sections: list[list[str]], header: str) -> Path:

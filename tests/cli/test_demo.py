@@ -1,17 +1,21 @@
 """The main job: ``otgym demo`` plans on the default chip, evaluates a speed-control
-policy against the constant speeds, carries a cell through the chip and writes its
-files and report.md; bad input is one clear line."""
+policy against the constant speeds, carries a cell through the chip, runs a small
+shared-control study and writes its files and report.md, one progress line per stage;
+bad input is one clear line before any work."""
 
 import csv
 import json
+import time
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from otgym.cli.app import main
 from otgym.envs import transport as tr
-from otgym.experiments.demo import DemoConfig, run_demo
+from otgym.experiments import demo as demo_module
 from otgym.experiments.transport import TransportDemo, run
+from otgym.study import wilson_interval
 from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
@@ -35,40 +39,137 @@ def test_transport_demo_carries_the_cell_to_the_goal_and_writes_its_files(tmp_pa
     assert json.loads((tmp_path / "summary.json").read_text()) == summary
 
 
-@pytest.mark.parametrize("arguments, name", [
-    (["--speed-um-s", "-1"], "speed_um_s"),
-    (["--runs", "0"], "n_runs"),
+@pytest.mark.parametrize("arguments, message", [
+    (["--speed-um-s", "-1"], "--speed-um-s must lie in (0, 20] um/s"),
+    (["--speed-um-s", "nan"], "--speed-um-s must lie in (0, 20] um/s"),
+    (["--runs", "0"], "--runs must be an integer in [1, 64]"),
+    (["--runs", "1000"], "--runs must be an integer in [1, 64]"),
     (["--policy", "missing.npz"], "does not exist"),
-    (["--episodes", "0"], "episodes"),
+    (["--episodes", "0"], "--episodes must be an integer in [1, 4096]"),
+    (["--episodes", "1000000"], "--episodes must be an integer in [1, 4096]"),
+    (["--seed", "-1"], "--seed must be an integer in [0, 4294967295]"),
+    (["--seed", str(2**32)], "--seed must be an integer in [0, 4294967295]"),
+    (["--study-participants", "1"], "--study-participants must be an integer in [2, 16]"),
+    (["--study-trials", "100"], "--study-trials must be an integer in [1, 8]"),
+    (["--study-time-limit-s", "0"], "--study-time-limit-s must lie in (0, 300] s"),
 ])
-def test_cli_rejects_bad_input_with_one_line(tmp_path, capsys, arguments, name):
+def test_cli_rejects_bad_input_with_one_line_before_any_work(tmp_path, capsys, arguments, message):
+    out = tmp_path / "never"
     with pytest.raises(SystemExit) as exit_info:
-        main(["demo", "--out", str(tmp_path), *arguments])
+        main(["demo", "--out", str(out), *arguments])
     assert exit_info.value.code == 2
-    error = capsys.readouterr().err.strip()
-    assert error.startswith("error:") and name in error and "\n" not in error
+    captured = capsys.readouterr()
+    error = captured.err.strip()
+    assert error.startswith("error:") and message in error and "\n" not in error
+    assert "[1/" not in captured.out and not out.exists()
 
 
-def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, fixed_action_q_params):
-    """The whole main job on a short leg with a policy that always drives at the slowest
-    level: its Table II row equals G1's exactly in time, and the report quotes both."""
+def test_cli_refuses_an_out_that_is_a_file_or_cannot_be_written(tmp_path, capsys):
+    target = tmp_path / "file.txt"
+    target.write_text("keep")
+    for out, message in ((target, "is a file, not a folder"), (target / "sub", "cannot be written")):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["demo", "--out", str(out)])
+        captured = capsys.readouterr()
+        assert exit_info.value.code == 2 and captured.err.strip() == captured.err.strip().splitlines()[0]
+        assert message in captured.err and "[1/" not in captured.out
+    assert target.read_text() == "keep"
+
+
+def _recomputed_rows(trials: pd.DataFrame) -> dict:
+    """The Fig. 8 section's row per mode, recomputed from trials.csv."""
+    rows = {}
+    for mode, group in trials.groupby("mode"):
+        encountered, avoided = int(group["obstacles_encountered"].sum()), int(group["obstacles_avoided"].sum())
+        if encountered:
+            low, high = wilson_interval(avoided, encountered)
+            success = f"{100 * avoided / encountered:.1f} [{100 * low:.1f}, {100 * high:.1f}]"
+        else:
+            success = "- (no obstacle met)"
+        means = group[group["reached_goal"]].groupby("participant")["completion_time_s"].mean()
+        time_s = "-" if means.empty else f"{means.mean():.1f}" + ("" if len(means) < 2 else f" ± {means.std():.1f}")
+        rows[mode] = (f"| {mode} | {len(group)} | {avoided} / {encountered} | {success} |",
+                      f"| {int(group['reached_goal'].sum())} of {len(group)} | {time_s} |")
+    return rows
+
+
+def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, capsys, monkeypatch,
+                                                                  fixed_action_q_params):
+    """The whole main job from the command line, small: a short leg of the transport, 4
+    episodes with a policy that always drives at the slowest level (its Table II row
+    equals G1's exactly in time), and a study of 2 participants x 1 trial x 3 modes cut
+    at 6 s. One line per stage on a stdout that is not a terminal; the report's
+    numbers are the written files' (Fig. 8: recomputed from trials.csv). The study runs
+    in a thread beside the other stages, as by default."""
     policy = save_policy(tmp_path / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(HIDDEN)})
-    stages = []
-    summary = run_demo(DemoConfig(policy=str(policy), episodes=EPISODES, transport=SHORT_LEG), tmp_path / "out",
-                       stages.append)
+    monkeypatch.setattr(demo_module, "_transport",
+                        lambda **options: TransportDemo(start_um=SHORT_LEG.start_um, goal_um=SHORT_LEG.goal_um,
+                                                        **options))
     out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--out", str(out), "--policy", str(policy), "--episodes", str(EPISODES), "--runs", "2",
+              "--study-participants", "2", "--study-trials", "1", "--study-time-limit-s", "6"])
+    assert exit_info.value.code == 0
+    printed = capsys.readouterr().out
+    stages = [line for line in printed.splitlines() if line.startswith("[")]
+    assert [line[:5] for line in stages] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
+    assert "planning" in stages[0] and "2 simulated participants" in stages[1] and "in the background" in stages[1]
+    assert f"{EPISODES} episodes each" in stages[2] and "2 runs" in stages[3]
     for name in ("report.md", "summary.json", "plan/metrics.md", "plan/paths.png", "speed_control/table.csv",
-                 "speed_control/safety.png", "speed_control/safety.json", "transport/transport.png"):
+                 "speed_control/safety.png", "speed_control/safety.json", "transport/transport.png",
+                 "shared_control/trials.csv", "shared_control/summary.csv", "shared_control/summary.md",
+                 "shared_control/stats.json", "shared_control/fig8.png", "shared_control/acceptance.json"):
         assert (out / name).is_file(), name
-    assert len(stages) == 3
+    summary = json.loads((out / "summary.json").read_text())
     rows = {row["policy"]: row for row in summary["table_ii"]}
     assert rows["RL"]["success_rate"] == rows["G1"]["success_rate"] == 1.0
     assert rows["RL"]["ATCT_s"] == pytest.approx(rows["G1"]["ATCT_s"], abs=1e-4)
     report = (out / "report.md").read_text()
     assert f"| RL | learned | {rows['RL']['ASR']:.3f} | {rows['RL']['ATCT_s']:.2f} |" in report
     assert "| 1.000 | 38.92 |" in report  # the paper's RL row beside ours
+    assert f"the same {EPISODES} seeded episodes" in report and "--episodes 256" in report
     assert f"{summary['transport']['reached_goal']} of 2 runs" in report
-    assert json.loads((out / "summary.json").read_text())["rl_asr"] == rows["RL"]["ASR"]
+    assert summary["rl_asr"] == rows["RL"]["ASR"]
+
+    trials = pd.read_csv(out / "shared_control" / "trials.csv")
+    assert len(trials) == 6 and set(trials["mode"]) == {"manual", "autonomous", "shared"}
+    section = report[report.index("## Shared control"):]
+    assert "2 simulated participants x 1 trial = 2 trials per mode" in section and "cut at 6 s" in section
+    assert "small study" in section and "otgym experiment shared-control" in section
+    for mode, (start, goal) in _recomputed_rows(trials).items():
+        line = next(line for line in section.splitlines() if line.startswith(f"| {mode} |"))
+        assert line.startswith(start) and goal in line, (line, start, goal)
+    assert summary["shared_control"]["size"]["participants"] == 2
+    assert [row["mode"] for row in summary["shared_control"]["modes"]] == ["manual", "autonomous", "shared"]
+
+
+def test_a_failing_stage_stops_the_background_study_and_is_the_error_reported(tmp_path, monkeypatch):
+    """The study thread (here a stand-in that reports until told to stop) is stopped at
+    its next report when the speed-control stage fails, and the demo raises that
+    stage's error, not the study's."""
+    import otgym.experiments.speed_control_eval as evaluation
+
+    ended = []
+
+    def endless_study(study, seed, out_dir, detail):
+        try:
+            while True:
+                detail("working")
+                time.sleep(0.01)
+        except BaseException as error:
+            ended.append(type(error).__name__)
+            raise
+
+    def broken_evaluation(*args, **kwargs):
+        time.sleep(0.2)  # the study is running by now
+        raise RuntimeError("broken evaluation")
+
+    monkeypatch.setattr(demo_module, "run_study", endless_study)
+    monkeypatch.setattr(evaluation, "evaluate", broken_evaluation)
+    config = demo_module.demo_config(episodes=EPISODES, study_participants=2)
+    with pytest.raises(RuntimeError, match="broken evaluation"):
+        demo_module.run_demo(config, tmp_path / "out")
+    assert ended == ["_Cancelled"]
 
 
 def test_pretrained_policy_ships_and_fits_the_paper_preset():
@@ -81,4 +182,10 @@ def test_demo_rejects_a_policy_of_the_wrong_shape(tmp_path, capsys, fixed_action
                          {"preset": "paper", "hidden": list(HIDDEN)})
     with pytest.raises(SystemExit):
         main(["demo", "--out", str(tmp_path / "out"), "--policy", str(policy)])
-    assert "does not fit" in capsys.readouterr().err
+    assert "does not fit" in capsys.readouterr().err and not (tmp_path / "out").exists()
+
+
+def test_demo_names_a_folder_given_as_policy(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--out", str(tmp_path / "out"), "--policy", str(tmp_path)])
+    assert exit_info.value.code == 2 and "is a folder" in capsys.readouterr().err
