@@ -53,6 +53,9 @@ def _panel(ax, means: pd.DataFrame, modes: list[str], result: dict, panel: tuple
         ax.scatter(x + rng.uniform(-0.12, 0.12, len(values)), values, s=14, color="black", alpha=0.7, zorder=3,
                    label="participant mean" if x == 0 else None)
         top = max([top, np.nanmax(values, initial=0.0), (mean + sd) if len(values) else 0.0])
+        if not len(values):  # say why a bar is missing rather than leave a blank
+            ax.text(x, 0.02, "no data", transform=ax.get_xaxis_transform(), ha="center", va="bottom",
+                    fontsize=9, color="dimgray", rotation=90)
         if mode in PAPER_FIG8:
             paper = PAPER_FIG8[mode]
             ax.errorbar(x + _PAPER_OFFSET, paper[paper_mean] * scale, yerr=paper[paper_sd] * scale, fmt="D",
