@@ -56,7 +56,9 @@ def numpy_substep(m, pose, trap_xy, noise):
     normal = delta / np.maximum(dist, 1e-9)[..., None]
     gap = dist - radius[a] - radius[b]
     contact = m["stiffness"] * np.maximum(-gap, 0)
-    vdw = m["hamaker"] * (radius[a] * radius[b] / (radius[a] + radius[b])) / (6 * np.maximum(gap, m["min_gap"]) ** 2)
+    reduced = radius[a] * radius[b] / (radius[a] + radius[b])
+    ratio = np.maximum(gap, m["min_gap"]) / m["wavelength"]  # Gregory's retarded van der Waals
+    vdw = m["hamaker"] * reduced * (1 + 28 * ratio) / (6 * np.maximum(gap, m["min_gap"]) ** 2 * (1 + 14 * ratio) ** 2)
     on_a = (vdw - contact)[..., None] * normal
     np.add.at(force, (slice(None), a), on_a)
     np.add.at(force, (slice(None), b), -on_a)
@@ -72,8 +74,8 @@ def numpy_substep(m, pose, trap_xy, noise):
 def numpy_arrays(model):
     get = lambda a: np.asarray(a, np.float64)  # noqa: E731
     return {"offset": get(model.sphere_offset_um), "radius": get(model.sphere_radius_um),
-            "stiffness": get(model.pair_stiffness_pn_per_um), "hamaker": float(model.hamaker_pn_um),
-            "min_gap": float(model.min_gap_um), "mobility": get(model.body_mobility),
+            "stiffness": get(model.pair_stiffness_pn_per_um), "hamaker": get(model.pair_hamaker_pn_um),
+            "min_gap": float(model.min_gap_um), "wavelength": float(model.retardation_wavelength_um), "mobility": get(model.body_mobility),
             "noise": get(model.body_noise_um), "dt": float(model.dt_s)}
 
 

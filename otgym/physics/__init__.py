@@ -9,6 +9,7 @@ Quick use::
     state, report = jax.jit(ph.control_step)(model, state, ph.Controls.zeros(model), key)
 """
 
+from otgym.physics.adhesion import MATERIALS, Adhesion
 from otgym.physics.bodies import (
     ROBOT_DESIGNS,
     TWO_HANDLE_GRIPPER_SPHERES,
@@ -37,8 +38,9 @@ from otgym.physics.model import (
 from otgym.physics.traps import TrapLaw
 
 __all__ = [
+    "MATERIALS", "Adhesion",
     "ROBOT_DESIGNS", "TWO_HANDLE_GRIPPER_SPHERES", "BodyKind", "BodySpec", "bead", "cell", "custom_body", "four_arm_robot",
-    "obstacle", "two_handle_robot", "simulate_trapped_bead", "NoWalls", "UniformFlow",
+    "obstacle", "two_handle_robot", "simulate_trapped_bead", "NoWalls", "UniformFlow", "resistance_matrix",
     "Controls", "StepReport", "control_step", "control_step_batch", "rollout", "Model",
     "PhysicsConfig", "PhysicsState", "build_model", "initial_state", "max_stable_dt_s",
     "sphere_positions_um", "TrapLaw",

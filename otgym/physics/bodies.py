@@ -10,6 +10,10 @@ shared/reference/original-release.md).
 Kinds follow shared/DESIGN.md: robot, cell (a soft sphere), obstacle, bead.
 Obstacles are kinematic by default: they move with a prescribed velocity and are
 not pushed by forces (the chip issue drives them).
+
+Each body has a material (``otgym.physics.adhesion``) that sets its van der Waals
+attraction: robots and beads ``polymer``, cells and obstacles (other cells of the
+sample) ``cell`` unless given.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from enum import IntEnum
 
 import numpy as np
 
+from otgym.physics.adhesion import MATERIALS
 from otgym.physics.validation import require_finite, require_positive, require_shape
 
 
@@ -29,6 +34,10 @@ class BodyKind(IntEnum):
     BEAD = 3
 
 
+DEFAULT_MATERIAL = {BodyKind.ROBOT: "polymer", BodyKind.CELL: "cell", BodyKind.OBSTACLE: "cell",
+                    BodyKind.BEAD: "polymer"}
+
+
 @dataclasses.dataclass(frozen=True)
 class BodySpec:
     """Geometry of one rigid body.
@@ -37,6 +46,7 @@ class BodySpec:
     radii_um: (S,) sphere radii.
     handle_indices: indices of the spheres that optical traps may hold.
     kinematic: True for bodies that follow a prescribed velocity (obstacles).
+    material: one of ``otgym.physics.adhesion.MATERIALS``; None: the kind's default.
     """
 
     name: str
@@ -45,6 +55,7 @@ class BodySpec:
     radii_um: np.ndarray
     handle_indices: tuple[int, ...] = ()
     kinematic: bool = False
+    material: str | None = None
 
     def __post_init__(self):
         offsets = require_finite(f"{self.name}.offsets_um", self.offsets_um)
@@ -60,6 +71,10 @@ class BodySpec:
         object.__setattr__(self, "offsets_um", offsets)
         object.__setattr__(self, "radii_um", radii)
         object.__setattr__(self, "kind", BodyKind(self.kind))
+        if self.material is None:
+            object.__setattr__(self, "material", DEFAULT_MATERIAL[self.kind])
+        elif self.material not in MATERIALS:
+            raise ValueError(f"{self.name}.material must be one of {MATERIALS}, got {self.material!r}")
         object.__setattr__(self, "handle_indices", tuple(int(i) for i in self.handle_indices))
 
     @property
@@ -79,10 +94,11 @@ def custom_body(
     kind: BodyKind = BodyKind.ROBOT,
     handle_indices=(),
     kinematic: bool = False,
+    material: str | None = None,
 ) -> BodySpec:
     """Define your own design: any cluster of spheres, any subset of them handles."""
     return BodySpec(name, kind, np.asarray(offsets_um, float), np.asarray(radii_um, float),
-                    tuple(handle_indices), kinematic)
+                    tuple(handle_indices), kinematic, material)
 
 
 TWO_HANDLE_GRIPPER_SPHERES = (5, 6)

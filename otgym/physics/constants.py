@@ -11,11 +11,6 @@ ROOM_TEMPERATURE_K = 298.15
 WATER_VISCOSITY_PA_S = 8.9e-4
 """Dynamic viscosity of water at 25 C (CRC Handbook), equal to pN*s/um^2."""
 
-HAMAKER_POLYSTYRENE_WATER_PN_UM = 9.5e-3
-"""Hamaker constant of polystyrene across water, 0.95e-20 J (Israelachvili,
-Intermolecular and Surface Forces, 3rd ed., table 13.2), in pN*um. The IP-L resin
-of two-photon-polymerised microrobots is a similar polymer."""
-
 
 def thermal_energy_pn_um(temperature_k: float) -> float:
     """kT in pN*um (4.11e-3 at 298.15 K)."""

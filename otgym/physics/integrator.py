@@ -141,7 +141,8 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields):
         radius = model.sphere_radius_um[:, None]
         on_a_x, on_a_y, contact_x, contact_y, overlap = sphere_pair_forces(
             x[b] - x[a], y[b] - y[a], radius[a], radius[b],
-            model.pair_stiffness_pn_per_um[:, None], model.hamaker_pn_um, model.min_gap_um)
+            model.pair_stiffness_pn_per_um[:, None], model.pair_hamaker_pn_um[:, None], model.min_gap_um,
+            model.retardation_wavelength_um)
         fx = fx + model.pair_incidence @ on_a_x
         fy = fy + model.pair_incidence @ on_a_y
         overlap_max = jnp.max(overlap, axis=0)
@@ -152,7 +153,8 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields):
         distance = distance0 + normal_x * (x - x0) + normal_y * (y - y0)
         wall_x, wall_y, wall_contact, wall_overlap = sphere_wall_forces(
             distance, normal_x, normal_y, model.sphere_radius_um[:, None],
-            model.wall_stiffness_pn_per_um[:, None], model.hamaker_pn_um, model.min_gap_um)
+            model.wall_stiffness_pn_per_um[:, None], model.wall_hamaker_pn_um[:, None], model.min_gap_um,
+            model.retardation_wavelength_um)
         fx, fy = fx + wall_x, fy + wall_y
         dynamic = (model.wall_stiffness_pn_per_um > 0)[:, None]
         overlap_max = jnp.maximum(overlap_max, jnp.max(wall_overlap * dynamic, axis=0))

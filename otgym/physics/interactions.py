@@ -9,21 +9,24 @@ together, so the reported contact force (pN) is the physical constraint force of
 overdamped dynamics. Same idea as the step-adapted repulsion of Brownian dynamics
 codes (e.g. Heyes & Melrose, J. Non-Newtonian Fluid Mech. 46, 1, 1993).
 
-Van der Waals: Hamaker attraction in the Derjaguin limit (Israelachvili, ch. 13),
-sphere-sphere F = A a1 a2 / (6 (a1 + a2) D^2), sphere-wall F = A a / (6 D^2), with the
-surface gap D clamped below at a minimum gap that stands for surface roughness and
-double-layer repulsion, so the force stays bounded.
+Van der Waals: the retarded Hamaker attraction of ``otgym.physics.adhesion`` (Hamaker
+constant per material pair, Gregory's retardation, the surface gap clamped below at
+the scene's minimum gap), sphere-wall with the sphere's radius, sphere-sphere with the
+Derjaguin reduced radius a1 a2 / (a1 + a2).
 """
 
 from __future__ import annotations
 
 import jax.numpy as jnp
 
+from otgym.physics.adhesion import vdw_force_pn
+
 CONTACT_STEP_FRACTION = 0.5
 """kappa: fraction of an overlap removed per step (stable below 2 / number of contacts)."""
 
 
-def sphere_pair_forces(dx, dy, radius_a, radius_b, contact_stiffness, hamaker_pn_um, min_gap_um):
+def sphere_pair_forces(dx, dy, radius_a, radius_b, contact_stiffness, hamaker_pn_um, min_gap_um,
+                       wavelength_um=jnp.inf):
     """Forces between sphere pairs, component-wise (arrays broadcast over pairs and
     environments). (dx, dy) is the vector from centre a to centre b.
 
@@ -39,17 +42,17 @@ def sphere_pair_forces(dx, dy, radius_a, radius_b, contact_stiffness, hamaker_pn
     overlap = jnp.maximum(-gap, 0.0)
     contact = contact_stiffness * overlap
     reduced_radius = radius_a * radius_b / (radius_a + radius_b)
-    vdw = hamaker_pn_um * reduced_radius / (6 * jnp.maximum(gap, min_gap_um) ** 2)
+    vdw = vdw_force_pn(hamaker_pn_um, reduced_radius, gap, min_gap_um, wavelength_um)
     net = vdw - contact
     return net * nx, net * ny, contact * nx, contact * ny, overlap
 
 
 def sphere_wall_forces(distance_um, normal_x, normal_y, radius, contact_stiffness,
-                       hamaker_pn_um, min_gap_um):
+                       hamaker_pn_um, min_gap_um, wavelength_um=jnp.inf):
     """Forces of the walls on spheres: (total_x, total_y, contact magnitude, overlap).
     The normal points from the wall into the fluid."""
     gap = distance_um - radius
     overlap = jnp.maximum(-gap, 0.0)
     contact = contact_stiffness * overlap
-    vdw = hamaker_pn_um * radius / (6 * jnp.maximum(gap, min_gap_um) ** 2)
+    vdw = vdw_force_pn(hamaker_pn_um, radius, gap, min_gap_um, wavelength_um)
     return (contact - vdw) * normal_x, (contact - vdw) * normal_y, contact, overlap

@@ -19,8 +19,8 @@ import numpy as np
 from flax import struct
 
 from otgym.physics.bodies import BodySpec
+from otgym.physics.adhesion import Adhesion
 from otgym.physics.constants import (
-    HAMAKER_POLYSTYRENE_WATER_PN_UM,
     ROOM_TEMPERATURE_K,
     WATER_VISCOSITY_PA_S,
     thermal_energy_pn_um,
@@ -54,8 +54,8 @@ class PhysicsConfig:
     substeps: int = 1
     temperature_k: float = ROOM_TEMPERATURE_K
     viscosity_pa_s: float = WATER_VISCOSITY_PA_S
-    hamaker_pn_um: float = HAMAKER_POLYSTYRENE_WATER_PN_UM
-    min_gap_um: float = 0.05
+    adhesion: Adhesion = Adhesion()
+    """Van der Waals between materials (``otgym.physics.adhesion``)."""
     height_above_floor_um: float | None = None
     trap_law: TrapLaw = TrapLaw()
     dtype: str = "float32"
@@ -72,8 +72,8 @@ class PhysicsConfig:
                              f"{self.substeps}, got {refresh!r}")
         require_non_negative("temperature_k", self.temperature_k)
         require_positive("viscosity_pa_s", self.viscosity_pa_s)
-        require_non_negative("hamaker_pn_um", self.hamaker_pn_um)
-        require_positive("min_gap_um", self.min_gap_um)
+        if not isinstance(self.adhesion, Adhesion):
+            raise ValueError(f"adhesion must be an otgym.physics.Adhesion, got {self.adhesion!r}")
         if self.height_above_floor_um is not None:
             require_positive("height_above_floor_um", self.height_above_floor_um)
         if self.dtype not in ("float32", "float64"):
@@ -107,9 +107,11 @@ class Model:
     pair_to_body_pair: jnp.ndarray  # (P, BP) one-hot
     trap_incidence: jnp.ndarray  # (N, T) one-hot: the sphere each trap holds
     wall_stiffness_pn_per_um: jnp.ndarray  # (N,); 0 for spheres of kinematic bodies
+    pair_hamaker_pn_um: jnp.ndarray  # (P,) Hamaker constant of each pair's materials
+    wall_hamaker_pn_um: jnp.ndarray  # (N,) Hamaker constant of each sphere with the walls
     dt_s: jnp.ndarray
-    hamaker_pn_um: jnp.ndarray
     min_gap_um: jnp.ndarray
+    retardation_wavelength_um: jnp.ndarray
     flow: object = struct.field(default_factory=UniformFlow)
     walls: object = struct.field(default_factory=NoWalls)
     pair_a: tuple = struct.field(pytree_node=False, default=())
@@ -253,16 +255,19 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
     point_mobility = np.array(point_mobility)
     kinematic = np.array([b.kinematic for b in bodies])
 
-    pair_a, pair_b, pair_stiffness, pair_body_pair = [], [], [], []
+    pair_a, pair_b, pair_stiffness, pair_body_pair, pair_hamaker = [], [], [], [], []
+    adhesion = config.adhesion
     body_pairs = [(i, j) for i, j in itertools.combinations(range(n_bodies), 2)
                   if not (kinematic[i] and kinematic[j])]
     for bp, (i, j) in enumerate(body_pairs):
         stiffness = CONTACT_STEP_FRACTION / (config.dt_s * (point_mobility[i] + point_mobility[j]))
+        hamaker = adhesion.hamaker_pn_um(bodies[i].material, bodies[j].material)
         for si in range(sphere_start[i], sphere_start[i] + bodies[i].n_spheres):
             for sj in range(sphere_start[j], sphere_start[j] + bodies[j].n_spheres):
                 pair_a.append(si)
                 pair_b.append(sj)
                 pair_stiffness.append(stiffness)
+                pair_hamaker.append(hamaker)
                 pair_body_pair.append(bp)
     n_pairs = len(pair_a)
     incidence = np.zeros((n_spheres, n_pairs))
@@ -295,9 +300,12 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
         pair_to_body_pair=arr(pair_to_body_pair),
         trap_incidence=arr(np.eye(n_spheres)[:, list(trap_sphere)].reshape(n_spheres, len(trap_sphere))),
         wall_stiffness_pn_per_um=arr(wall_stiffness),
+        pair_hamaker_pn_um=arr(pair_hamaker),
+        wall_hamaker_pn_um=arr([adhesion.hamaker_pn_um(bodies[b].material, adhesion.wall_material)
+                                for b in sphere_body]),
         dt_s=arr(config.dt_s),
-        hamaker_pn_um=arr(config.hamaker_pn_um),
-        min_gap_um=arr(config.min_gap_um),
+        min_gap_um=arr(adhesion.min_gap_um),
+        retardation_wavelength_um=arr(adhesion.retardation_wavelength_um),
         flow=UniformFlow(jnp.zeros(2, dtype)) if flow is None else flow,
         walls=NoWalls() if walls is None else walls,
         pair_a=tuple(pair_a),

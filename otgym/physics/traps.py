@@ -17,6 +17,13 @@ centre, with a magnitude f(r) of the handle-to-trap distance r (um):
 
 A handle farther than ``escape_distance_um`` from its trap counts as lost (default:
 never for ``harmonic``, 2 delta for ``paper``, the waist w for ``gaussian``).
+
+Capture radius: the paper's far field C + A / r^2 never vanishes, so a lost handle
+anywhere in the chip would still be pulled back, which a focused beam cannot do (its
+gradient force dies out within a few waists, as the Gaussian law's does). The paper law
+is therefore zero beyond ``capture_radius_um``, by default its escape distance 2 delta
+(0.89 um): a handle the law counts as lost is free. The Gaussian law is left as it is
+(its force at 2 w is e^-8 of its peak); the harmonic law has no reach.
 """
 
 from __future__ import annotations
@@ -48,6 +55,7 @@ class TrapLaw:
     paper_a_pn_um2: float = PAPER_A_PN_UM2
     paper_c_pn: float = PAPER_C_PN
     escape_distance_um: float | None = None
+    capture_radius_um: float | None = None
 
     def __post_init__(self):
         if self.name not in TRAP_LAWS:
@@ -66,6 +74,10 @@ class TrapLaw:
             or require_positive_scalar("escape_distance_um", self.escape_distance_um)
         ):
             raise ValueError("escape_distance_um must be positive")
+        if self.capture_radius_um is not None:
+            if self.name != "paper":
+                raise ValueError(f"capture_radius_um applies to the paper law only, not {self.name!r}")
+            require_positive_scalar("capture_radius_um", self.capture_radius_um)
 
     @classmethod
     def paper(cls, **overrides) -> "TrapLaw":
@@ -77,6 +89,14 @@ class TrapLaw:
             return float(self.escape_distance_um)
         return {"harmonic": math.inf, "paper": 2 * self.paper_delta_um,
                 "gaussian": self.waist_um}[self.name]
+
+    @property
+    def capture_radius(self) -> float:
+        """Distance (um) beyond which the law exerts no force (paper law: its escape
+        distance unless set; the other laws: unbounded)."""
+        if self.name != "paper":
+            return math.inf
+        return float(self.capture_radius_um) if self.capture_radius_um is not None else self.escape_distance
 
     @property
     def centre_stiffness_pn_per_um(self) -> float:
@@ -94,16 +114,17 @@ class TrapLaw:
             return max(k * d, self.paper_c_pn + self.paper_a_pn_um2 / d**2)
         return self.stiffness_pn_per_um * self.waist_um * math.exp(-0.5) / 2
 
-    def magnitude_pn(self, distance_um):
-        """Restoring force magnitude f(r) in pN for handle-to-trap distance r (um)."""
-        r = jnp.asarray(distance_um)
+    def magnitude_pn(self, distance_um, xp=jnp):
+        """Restoring force magnitude f(r) in pN for handle-to-trap distance r (um);
+        ``xp`` is the array module (``jax.numpy``, or ``numpy`` for host-side code)."""
+        r = xp.asarray(distance_um)
         if self.name == "harmonic":
             return self.stiffness_pn_per_um * r
         if self.name == "gaussian":
-            return self.stiffness_pn_per_um * r * jnp.exp(-2 * r**2 / self.waist_um**2)
-        safe_r = jnp.maximum(r, self.paper_delta_um)
-        far = self.paper_c_pn + self.paper_a_pn_um2 / safe_r**2
-        return jnp.where(r < self.paper_delta_um, self.paper_k_pn_per_um * r, far)
+            return self.stiffness_pn_per_um * r * xp.exp(-2 * r**2 / self.waist_um**2)
+        safe_r = xp.maximum(r, self.paper_delta_um)
+        far = xp.where(r <= self.capture_radius, self.paper_c_pn + self.paper_a_pn_um2 / safe_r**2, 0.0)
+        return xp.where(r < self.paper_delta_um, self.paper_k_pn_per_um * r, far)
 
     def force_pn(self, handle_to_trap_um):
         """Force (..., 2) on a handle given the vector (..., 2) from handle to trap."""

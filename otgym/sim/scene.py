@@ -62,6 +62,8 @@ class SceneConfig:
     bead_radius_um: float = 0.5
     grip_squeeze_um: float = 0.05
     detach_distance_um: float = 1.0
+    adhesion: ph.Adhesion = ph.Adhesion()
+    """Van der Waals between the scene's materials (``otgym.physics.adhesion``)."""
     field_refresh_substeps: int = 10
     """Sample flow and walls every this many physics steps (1 ms at the default step);
     the largest divisor of ``substeps`` not above it is used."""
@@ -183,7 +185,7 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     physics_config = ph.PhysicsConfig(
         dt_s=config.control_period_s / config.substeps, substeps=config.substeps,
         temperature_k=config.temperature_k, viscosity_pa_s=config.viscosity_pa_s, trap_law=config.trap_law,
-        field_refresh_substeps=config.field_refresh)
+        adhesion=config.adhesion, field_refresh_substeps=config.field_refresh)
     model = ph.build_model(bodies, physics_config, flow=flow, walls=walls)
     n_payload = len(bodies) - config.n_obstacles
     distance = np.asarray(walls.distance)

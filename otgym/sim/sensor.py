@@ -337,20 +337,8 @@ def trap_force_pn(law: TrapLaw, handle_to_trap_um) -> np.ndarray:
     vector = np.asarray(handle_to_trap_um, np.float64)
     distance = np.sqrt(np.sum(vector**2, axis=-1))
     safe = np.where(distance > 0, distance, 1.0)
-    scale = np.where(distance > 0, _trap_magnitude_pn(law, distance) / safe, 0.0)
+    scale = np.where(distance > 0, law.magnitude_pn(distance, np) / safe, 0.0)
     return vector * scale[..., None]
-
-
-def _trap_magnitude_pn(law: TrapLaw, r):
-    if law.name == "harmonic":
-        return law.stiffness_pn_per_um * r
-    if law.name == "gaussian":
-        return law.stiffness_pn_per_um * r * np.exp(-2 * r**2 / law.waist_um**2)
-    if law.name != "paper":
-        raise ValueError(f"no numpy form of trap law {law.name!r}")
-    safe_r = np.maximum(r, law.paper_delta_um)
-    far = law.paper_c_pn + law.paper_a_pn_um2 / safe_r**2
-    return np.where(r < law.paper_delta_um, law.paper_k_pn_per_um * r, far)
 
 
 def sensor_errors(reading: SensorReading, true_handle_xy_um, true_force_pn) -> dict[str, np.ndarray]:

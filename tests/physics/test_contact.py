@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from otgym import physics as ph
+from otgym.physics.adhesion import vdw_force_pn
 from otgym.physics.interactions import sphere_pair_forces
 from tests.physics.helpers import batch_state, run_batch, step
 
@@ -28,7 +29,8 @@ def settled_overlap_bound_um(model):
     radius = np.asarray(model.sphere_radius_um, float)
     a, b = np.array(model.pair_a), np.array(model.pair_b)
     reduced = radius[a] * radius[b] / (radius[a] + radius[b])
-    vdw_max = float(model.hamaker_pn_um) * reduced.max() / (6 * float(model.min_gap_um) ** 2)
+    vdw_max = float(np.max(vdw_force_pn(np.asarray(model.pair_hamaker_pn_um), reduced, 0.0,
+                                        float(model.min_gap_um), float(model.retardation_wavelength_um))))
     stiffness = float(model.pair_stiffness_pn_per_um.min())
     return 2 * vdw_max / stiffness + 3 * float(np.asarray(model.body_noise_um)[:, :2].max())
 
@@ -113,7 +115,7 @@ def test_traps_driving_bodies_into_each_other_stay_within_the_contact_compliance
 def test_reported_contact_force_equals_the_push_in_steady_contact():
     """Two beads at T = 0, one pushed against the other held by a stiff harmonic trap:
     overdamped force balance makes the contact force equal the push (3 pN)."""
-    config = ph.PhysicsConfig(dt_s=1e-5, substeps=200, temperature_k=0.0, hamaker_pn_um=0.0,
+    config = ph.PhysicsConfig(dt_s=1e-5, substeps=200, temperature_k=0.0, adhesion=ph.Adhesion.none(),
                               trap_law=ph.TrapLaw("harmonic", 100.0))
     model = ph.build_model([ph.bead("held"), ph.bead("pushed", radius_um=1.0)], config,
                            traps=[(0, 0)])

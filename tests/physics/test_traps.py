@@ -9,11 +9,29 @@ import pytest
 from otgym.physics.traps import TrapLaw
 
 
-def test_paper_law_matches_equation_3():
+def test_paper_law_matches_equation_3_within_its_capture_radius():
     law = TrapLaw.paper()
-    r = np.array([0.1, 0.3, 0.446, 0.6, 2.0])
+    r = np.array([0.1, 0.3, 0.446, 0.6, 0.85])
     expected = np.where(r < 0.446, 0.455 * r, 0.01 + 0.058 / r**2)
     assert np.allclose(np.asarray(law.magnitude_pn(r)), expected, rtol=1e-6)
+
+
+def test_paper_law_lets_a_lost_handle_go():
+    law = TrapLaw.paper()
+    assert law.capture_radius == pytest.approx(law.escape_distance)
+    beyond = np.array([law.escape_distance * 1.001, 2.0, 50.0])
+    assert np.all(np.asarray(law.magnitude_pn(beyond)) == 0.0)
+    assert np.all(np.asarray(law.force_pn(np.stack([beyond, beyond], axis=1))) == 0.0)
+    wider = TrapLaw.paper(capture_radius_um=3.0)
+    assert float(wider.magnitude_pn(2.0)) == pytest.approx(0.01 + 0.058 / 4.0, rel=1e-6)
+    assert float(wider.magnitude_pn(3.01)) == 0.0
+
+
+def test_capture_radius_is_validated():
+    with pytest.raises(ValueError, match="capture_radius_um"):
+        TrapLaw.paper(capture_radius_um=-1.0)
+    with pytest.raises(ValueError, match="paper law only"):
+        TrapLaw("gaussian", 10.0, 0.5, capture_radius_um=1.0)
 
 
 @pytest.mark.parametrize("law", [TrapLaw.paper(), TrapLaw("gaussian", 40.0, 0.7),
