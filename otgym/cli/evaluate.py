@@ -16,10 +16,14 @@ def register(app: typer.Typer) -> None:
         episodes: int = typer.Option(256, "--episodes", help="Episodes per policy (the same seeded episodes for each)."),
         out: Path = typer.Option(Path("results/evaluate"), "--out", help="Folder for the results."),
         seed: int = typer.Option(1, help="Random seed of the episodes."),
+        repeats: int = typer.Option(1, "--repeats", help="Batches of --episodes to pool, seeds SEED .. SEED+R-1 "
+                                    "(e.g. --episodes 256 --repeats 4: 1024 episodes over 4 seeds)."),
     ) -> None:
         """Table II: ASR, ATCT and success rate of RL and constant speeds G1..Gn, and the safety figure."""
         if episodes < 1:
             raise ValueError(f"--episodes must be at least 1, got {episodes}")
+        if not 1 <= repeats <= 1000:
+            raise ValueError(f"--repeats must be between 1 and 1000, got {repeats}")
         from otgym.envs import speed_control as spc
         from otgym.envs import transport as tr
         from otgym.envs.presets import preset
@@ -30,8 +34,13 @@ def register(app: typer.Typer) -> None:
         task = preset(policy_meta(path).get("preset", "paper"))
         q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
         console = Console()
+        def progress(done: int, total: int) -> None:
+            if total > 1:
+                console.print(f"batch {done}/{total} done (seed {seed + done - 1})")
+
         with console.status("planning, compiling and running the episodes"):
-            evaluation = run(spc.make_params(task), q_params, meta["hidden"], episodes, seed)
+            evaluation = run(spc.make_params(task), q_params, meta["hidden"], episodes, seed, repeats=repeats,
+                             progress=progress)
         out.mkdir(parents=True, exist_ok=True)
         rows = write_table(evaluation, out)
         limits = task.force_band_pn[1], task.deviation_limit_um

@@ -38,18 +38,20 @@ def table_ii_markdown(rows: list[dict]) -> list[str]:
     them only when the constant speeds are the paper's (the ``paper`` preset)."""
     speeds = tuple(row["speed_um_s"] for row in rows if row["speed_um_s"] is not None)
     with_paper = speeds == PAPER_SPEEDS_UM_S
-    head = "| policy | speed (um/s) | ASR | ATCT (s) | success rate | episodes |"
+    head = "| policy | speed (um/s) | ASR | ATCT (s) | success rate | 95 % interval | episodes |"
     lines = [head + (" paper ASR | paper ATCT (s) |" if with_paper else ""),
-             "|---|---:|---:|---:|---:|---:|" + ("---:|---:|" if with_paper else "")]
+             "|---|---:|---:|---:|---:|---:|---:|" + ("---:|---:|" if with_paper else "")]
     for row in rows:
         speed = "learned" if row["speed_um_s"] is None else f"{row['speed_um_s']:.3f}"
         line = (f"| {row['policy']} | {speed} | {row['ASR']:.3f} | {number(row['ATCT_s'], '.2f')} | "
-                f"{row['success_rate']:.3f} | {row['episodes']} |")
+                f"{row['success_rate']:.3f} | {row['success_ci95_low']:.3f}-{row['success_ci95_high']:.3f} | "
+                f"{row['episodes']} |")
         if with_paper:
             paper = paper_row(row["policy"])
             line += f" {number(paper[0], '.3f')} | {number(paper[1], '.2f')} |"
         lines.append(line)
-    note = "G1..Gn: constant speeds, slowest first, as in the paper's text."
+    note = ("G1..Gn: constant speeds, slowest first, as in the paper's text. Intervals: Wilson score "
+            "intervals of the success rate.")
     if with_paper:
         note += " The paper's values are matched by speed (its printed table runs from fastest to slowest)."
     return lines + ["", note]

@@ -25,6 +25,7 @@ from otgym.envs import speed_control as spc
 from otgym.envs import transport as tr
 from otgym.experiments.paper_tables import table_ii_markdown
 from otgym.rl.network import QNetwork
+from otgym.study.stats import wilson_interval
 
 @dataclasses.dataclass
 class Evaluation:
@@ -40,8 +41,10 @@ class Evaluation:
         for p, name in enumerate(self.names):
             won = self.success[p]
             atct = float(self.time_s[p][won].mean()) if won.any() else None
+            low, high = wilson_interval(int(won.sum()), int(won.size))
             yield {"policy": name, "speed_um_s": self.speeds_um_s[p], "ASR": float(self.progress[p].mean()),
-                   "ATCT_s": atct, "success_rate": float(won.mean()), "episodes": int(won.size)}
+                   "ATCT_s": atct, "success_rate": float(won.mean()), "success_ci95_low": low,
+                   "success_ci95_high": high, "episodes": int(won.size)}
 
     def safety(self, name: str, force_limit_pn: float, distance_limit_um: float) -> dict:
         p = self.names.index(name)
@@ -111,13 +114,32 @@ def make_rollout(params: tr.TransportParams, hidden, n_episodes: int, policies=N
 
 
 def evaluate(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed: int = 0,
-             policies=None) -> Evaluation:
+             policies=None, repeats: int = 1, progress=None) -> Evaluation:
     """Run the policies (indices as in ``make_rollout``; default RL, G1..Gn, untrained)
-    on the same ``n_episodes`` seeded episodes."""
+    on the same ``n_episodes`` seeded episodes; with ``repeats`` R > 1, on R batches of
+    them (seeds ``seed`` .. ``seed + R - 1``, one compiled rollout), pooled.
+    ``progress(done_batches, repeats)`` is called after each batch."""
+    if not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats must be a positive integer, got {repeats!r}")
+    policies = tuple(range(params.config.n_actions + 2)) if policies is None else tuple(policies)
+    rollout = make_rollout(params, hidden, n_episodes, policies)
+    batches = []
+    for index in range(repeats):
+        batches.append(_evaluate_batch(params, rollout, q_params, n_episodes, seed + index, policies))
+        if progress is not None:
+            progress(index + 1, repeats)
+    if repeats == 1:
+        return batches[0]
+    pool = lambda field: np.concatenate([getattr(b, field) for b in batches], axis=1)  # noqa: E731
+    samples = lambda field: [np.concatenate(parts) for parts in zip(*(getattr(b, field) for b in batches))]  # noqa: E731
+    first = batches[0]
+    return Evaluation(first.names, first.speeds_um_s, pool("progress"), pool("success"), pool("time_s"),
+                      samples("force_pn"), samples("distance_um"))
+
+
+def _evaluate_batch(params, rollout, q_params, n_episodes, seed, policies) -> Evaluation:
     config = params.config
     n_levels = config.n_actions
-    policies = tuple(range(n_levels + 2)) if policies is None else tuple(policies)
-    rollout = make_rollout(params, hidden, n_episodes, policies)
     (progress, success, time_s), (active, force, distance) = jax.device_get(rollout(q_params, jax.random.PRNGKey(seed)))
     all_names = ["RL"] + [f"G{i + 1}" for i in range(n_levels)] + ["untrained"]
     all_speeds = [None] + list(config.speed_levels_um_s) + [None]

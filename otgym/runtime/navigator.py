@@ -15,8 +15,8 @@ Each trap's increment is capped at ``max_speed_um_s`` times the tick. Numpy, bat
 over environments.
 
 The speed is a constant cruise speed, not the shipped DQN speed policy: that policy
-was trained on the ``paper`` preset (the paper's weak trap law, 0.27-0.51 um/s in a
-2.4 mPa s medium), whose speeds and observations do not carry over to this task's
+was trained on the ``paper`` preset (the paper's weak trap law, 0.27-0.51 um/s in
+water at 20 C), whose speeds and observations do not carry over to this task's
 literature traps in water, where obstacles, not trap loss, set the danger.
 """
 

@@ -41,10 +41,12 @@ TREND_EPISODES = 128
 
 def test_slow_episodes_reach_the_goal_and_fast_ones_lose_traps(paper_params):
     """Carry 128 segments at the slowest and 128 at the fastest paper speed to the end.
-    Measured while calibrating the preset (256 segments each, other seeds): 0.27 um/s
-    always reached the goal, 0.51 um/s in 72 %. P(<= 123 of 128 | p = 0.995) is 5e-4
-    and P(>= 113 of 128 | p = 0.72) is 8e-6 (binomial), so the assertions fail only if
-    the physics or the preset changed."""
+    Measured when the preset was re-derived (issue 10; 128 segments per speed, seed 101):
+    the five slower speeds (0.27-0.46 um/s) lost 4 of 640 runs (0.6 %), 0.51 um/s lost
+    8 of 128 (6 %). P(>= 5 failures of 128 | p = 0.006) is 7e-4 and P(<= 1 failure of
+    128 | p = 0.06) is 4e-3 (binomial), so the assertions fail only if the physics or the
+    preset changed (with the old van der Waals glue removed and the old 2.4 mPa s medium,
+    even the slowest speed lost every run)."""
     n_envs = 2 * TREND_EPISODES
     obs, state = reset_batch(jax.random.PRNGKey(5), paper_params, n_envs)
     action = jnp.concatenate([jnp.zeros(TREND_EPISODES, jnp.int32), jnp.full(TREND_EPISODES, 5, jnp.int32)])
@@ -60,7 +62,7 @@ def test_slow_episodes_reach_the_goal_and_fast_ones_lose_traps(paper_params):
             break
     assert done.all(), "every episode ends within max_steps (300 steps > 15 um / 0.27 um/s / 0.2 s = 278)"
     assert success[:TREND_EPISODES].sum() >= TREND_EPISODES - 4
-    assert success[TREND_EPISODES:].sum() <= TREND_EPISODES - 16
+    assert success[TREND_EPISODES:].sum() <= TREND_EPISODES - 2
 
 
 def test_auto_reset_replaces_only_finished_envs(paper_params):
