@@ -90,6 +90,7 @@ class Observation:
     contact_force_pn: np.ndarray  # (E, R) robot-cell contact force
     cell_gap_um: np.ndarray  # (E, R) gripper-to-cell surface gap
     trap_distance_um: np.ndarray  # (E, T)
+    obstacle_touched: np.ndarray | None = None  # (E, K) an obstacle touched the assembly during the tick
 
     @property
     def nearest_obstacle_gap_um(self) -> np.ndarray:
@@ -252,7 +253,8 @@ class InteractiveTask:
             obstacle_gap_um=measured["obstacle_gap_um"].astype(float),
             contact_force_pn=measured["contact_force_pn"].astype(float),
             cell_gap_um=measured["cell_gap_um"].astype(float),
-            trap_distance_um=measured["trap_distance_um"].astype(float))
+            trap_distance_um=measured["trap_distance_um"].astype(float),
+            obstacle_touched=measured["obstacle_touched"].astype(bool))
 
     def _route_index(self, cell_xy, previous):
         """Nearest route point to each cell, searched in a window ahead of the last one."""
@@ -276,7 +278,7 @@ class InteractiveTask:
         state.phase = np.where(active & (state.phase == APPROACH) & gripped, CARRY, state.phase)
         near = obs.obstacle_gap_um < config.encounter_gap_um
         metrics.encountered |= active[:, None] & near
-        metrics.collided |= active[:, None] & (obs.obstacle_gap_um <= 0.0)
+        metrics.collided |= active[:, None] & ((obs.obstacle_gap_um <= 0.0) | obs.obstacle_touched)
         metrics.peak_contact_force_pn = np.where(active, np.maximum(metrics.peak_contact_force_pn,
                                                                      obs.contact_force_pn.max(axis=1)),
                                                  metrics.peak_contact_force_pn)
@@ -319,7 +321,8 @@ def _measure(scene: sc.Scene, scene_state: sc.SceneState, config: InteractiveCon
             "robot_xy_um": pose[:, np.asarray(scene.robots), :2], "obstacle_xy_um": pose[:, obstacles, :2],
             "obstacle_gap_um": gap, "cell_gap_um": jnp.min(surface, axis=-1),
             "trap_distance_um": jnp.linalg.norm(handles - traps, axis=-1),
-            "contact_force_pn": jnp.zeros((pose.shape[0], len(scene.robots)), pose.dtype)}  # set by _advance
+            "contact_force_pn": jnp.zeros((pose.shape[0], len(scene.robots)), pose.dtype),  # set by _advance
+            "obstacle_touched": jnp.zeros((pose.shape[0], len(obstacles)), bool)}  # set by _advance
 
 
 def _advance(scene: sc.Scene, scene_state: sc.SceneState, increment_um, key, tracks, config: InteractiveConfig):
@@ -330,4 +333,5 @@ def _advance(scene: sc.Scene, scene_state: sc.SceneState, increment_um, key, tra
     new_state, events = sc.step_batch(scene, scene_state, increment_um / config.tick_s, key, propulsion)
     measured = _measure(scene, new_state, config)
     measured["contact_force_pn"] = events.contact_force_pn
+    measured["obstacle_touched"] = events.obstacle_touched
     return new_state, measured

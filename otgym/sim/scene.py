@@ -130,6 +130,7 @@ class SceneEvents:
     cell_gap_um: jnp.ndarray  # (R,) gap between each robot's gripper and the cell surface
     cell_detached: jnp.ndarray  # () bool, a gripper left the cell by more than detach_distance_um
     obstacle_collision: jnp.ndarray  # () bool, a robot, cell or bead touched an obstacle
+    obstacle_touched: jnp.ndarray  # (K,) bool, a robot, cell or bead touched obstacle k during the step
     wall_collision: jnp.ndarray  # () bool, a robot, cell or bead touched a wall
 
     @property
@@ -334,6 +335,9 @@ def _events(scene: Scene, physics: ph.PhysicsState, report: ph.StepReport) -> Sc
     obstacle_pairs = [model.body_pair_index(d, o) for d in dynamic for o in scene.obstacles]
     obstacle_collision = jnp.any(report.contact[:, np.asarray(obstacle_pairs, int)], axis=-1) \
         if obstacle_pairs else jnp.zeros(n_env, bool)
+    touched = [jnp.any(report.contact[:, np.asarray([model.body_pair_index(d, o) for d in dynamic], int)], axis=-1)
+               for o in scene.obstacles] if dynamic else []
+    obstacle_touched = jnp.stack(touched, axis=-1) if touched else jnp.zeros((n_env, 0), bool)
     wall_collision = jnp.any(report.wall_contact[:, np.asarray(dynamic)], axis=-1)
     if config.kind == "transport":
         cell_pairs = np.asarray([model.body_pair_index(r, scene.payload) for r in scene.robots])
@@ -350,4 +354,5 @@ def _events(scene: Scene, physics: ph.PhysicsState, report: ph.StepReport) -> Sc
         detached = jnp.zeros(n_env, bool)
     return SceneEvents(trap_lost=report.trap_lost, trap_distance_um=report.trap_distance_um,
                        contact_force_pn=force, cell_gap_um=gap, cell_detached=detached,
-                       obstacle_collision=obstacle_collision, wall_collision=wall_collision)
+                       obstacle_collision=obstacle_collision, obstacle_touched=obstacle_touched,
+                       wall_collision=wall_collision)

@@ -91,9 +91,13 @@ def _speed_rows(episodes: int) -> list[dict]:
     speeds = (0.27, 0.318, 0.366, 0.414, 0.462, 0.51)
     times = (55.6, 47.2, 41.0, 36.4, 32.6, 29.6)
     success = (1.0, 1.0, 1.0, 0.9375, 0.9375, 0.6875)
-    rows = [{"policy": "RL", "speed_um_s": None, "ASR": 1.0, "ATCT_s": 41.88, "success_rate": 1.0,
+    def interval(rate):
+        low, high = wilson(round(rate * episodes), episodes)
+        return {"success_ci95_low": low, "success_ci95_high": high}
+
+    rows = [{"policy": "RL", "speed_um_s": None, "ASR": 1.0, "ATCT_s": 41.88, "success_rate": 1.0, **interval(1.0),
              "episodes": episodes}]
-    return rows + [{"policy": f"G{i + 1}", "speed_um_s": s, "ASR": r, "ATCT_s": t, "success_rate": r,
+    return rows + [{"policy": f"G{i + 1}", "speed_um_s": s, "ASR": r, "ATCT_s": t, "success_rate": r, **interval(r),
                     "episodes": episodes} for i, (s, t, r) in enumerate(zip(speeds, times, success))]
 
 

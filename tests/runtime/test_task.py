@@ -192,7 +192,10 @@ def test_touching_obstacle_counts_as_encountered_and_collided(task, fresh):
     place_obstacle(fresh, task, 0, 1, cell - (reach + 10.0) * back)
     obs = task.step(fresh, np.zeros((E, task.n_traps, 2)), jax.random.PRNGKey(3), alpha=np.zeros(E))
     gap = obs.obstacle_gap_um
-    assert gap[0, 0] <= 0.0 and 0.0 < gap[0, 1] < task.config.encounter_gap_um  # the placement worked
+    # the placement worked: obstacle 0 touched during the tick (the contact pushes it off, so
+    # the end-of-tick gap is positive; collisions are counted from every physics step)
+    assert obs.obstacle_touched[0, 0] and not obs.obstacle_touched[0, 1:].any() and not obs.obstacle_touched[1:].any()
+    assert gap[0, 0] < 1.0 and 0.0 < gap[0, 1] < task.config.encounter_gap_um
     assert gap[0, 2:].min() > task.config.encounter_gap_um and gap[1:].min() > task.config.encounter_gap_um
     metrics = fresh.metrics
     np.testing.assert_array_equal(metrics.encountered[0], [True, True, False, False])
