@@ -108,8 +108,11 @@ def _anova(long: pd.DataFrame, notes: list[str]) -> dict:
     there is one (the conservative reading), else the uncorrected one."""
     with warnings.catch_warnings():  # degenerate data (pingouin then omits F and p): NaN below, with a note
         warnings.simplefilter("ignore")
-        row = pg.rm_anova(data=long, dv="value", within="mode", subject="participant",
-                          correction=True, detailed=False).iloc[0]
+        try:
+            row = pg.rm_anova(data=long, dv="value", within="mode", subject="participant",
+                              correction=True, detailed=False).iloc[0]
+        except ZeroDivisionError:  # pingouin's Mauchly test (run even uncorrected) divides by zero on some data
+            return _anova_uncorrected(long, notes)
     result = {"F": _float(row.get("F", np.nan)), "ddof1": int(row["ddof1"]), "ddof2": int(row["ddof2"]),
               "p_unc": _float(row.get("p_unc", np.nan)), "p_gg_corr": _float(row.get("p_GG_corr", np.nan)),
               "eps": _float(row.get("eps", np.nan)), "ng2": _float(row.get("ng2", np.nan))}
@@ -119,6 +122,20 @@ def _anova(long: pd.DataFrame, notes: list[str]) -> dict:
                      "value identical, so F is 0/0 or x/0; reported as NaN, not as significant.")
     result["p"] = result["p_gg_corr"] if not math.isnan(result["p_gg_corr"]) else result["p_unc"]
     return result
+
+
+def _anova_uncorrected(long: pd.DataFrame, notes: list[str]) -> dict:
+    """The same one-way repeated-measures ANOVA by statsmodels' ``AnovaRM``, without a
+    sphericity correction: used where pingouin's Mauchly test fails (it divides by zero
+    for some small or degenerate samples)."""
+    from statsmodels.stats.anova import AnovaRM
+
+    table = AnovaRM(long, depvar="value", subject="participant", within=["mode"]).fit().anova_table.iloc[0]
+    notes.append("Sphericity test undefined for these data (pingouin's Mauchly test failed); the ANOVA is "
+                 "statsmodels' AnovaRM and its p is uncorrected.")
+    p = _float(table["Pr > F"])
+    return {"F": _float(table["F Value"]), "ddof1": int(table["Num DF"]), "ddof2": int(table["Den DF"]),
+            "p_unc": p, "p_gg_corr": math.nan, "eps": math.nan, "ng2": math.nan, "p": p}
 
 
 def _posthoc(long: pd.DataFrame, modes: list[str], notes: list[str]) -> list[dict]:

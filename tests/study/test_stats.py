@@ -196,3 +196,20 @@ def test_bad_input_raises_a_clear_value_error(change, message):
 def test_unknown_metric_raises():
     with pytest.raises(ValueError, match="metric"):
         compare_modes(_big_effect(), "speed")
+
+
+def test_anova_survives_a_sample_on_which_mauchlys_test_fails():
+    """Two participants with times in every mode (as a seed-2 run of the experiment gave):
+    pingouin's Mauchly test divides by zero there, which used to abort the experiment
+    before its summary. The ANOVA falls back to statsmodels' uncorrected AnovaRM, says
+    so, and that fallback gives the same uncorrected F and p as pingouin where both run."""
+    import otgym.study.stats as st
+
+    two = make_trials({"manual": [145.37, 146.42], "autonomous": [60.72, 60.73], "shared": [88.79, 148.77]})
+    result = compare_modes(two, "time")
+    assert np.isfinite(result["anova"]["F"]) and math.isnan(result["anova"]["p_gg_corr"])
+    assert result["anova"]["p"] == result["anova"]["p_unc"] and "Mauchly" in result["note"]
+    big = compare_modes(_big_effect(), "time")
+    fallback = st._anova_uncorrected(participant_means(_big_effect(), "time"), [])
+    assert fallback["F"] == pytest.approx(big["anova"]["F"], rel=1e-9)
+    assert fallback["p_unc"] == pytest.approx(big["anova"]["p_unc"], rel=1e-6)
