@@ -149,7 +149,8 @@ class SimulatedParticipants:
         self.feedback_config = feedback
         self.bend_distance_um = bend_distance_um
         hands = [p for p in params for _ in range(N_HANDS)]
-        self.motor = HumanMotor(hands, 1.0 / tick_s, np.random.default_rng(seed))
+        self.motor = HumanMotor(hands, 1.0 / tick_s, np.random.default_rng(seed),
+                                hands_per_person=N_HANDS if task.bimanual else 1)
         self.retargeter = BatchRetargeter(retarget, 1.0 / tick_s, self.n_env * N_HANDS)
         self.delay_s = self.motor.delay_ticks[::N_HANDS] * tick_s
         self._glimpses = max(1, int(round(task.glimpse_s / tick_s)))
