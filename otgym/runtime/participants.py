@@ -27,6 +27,14 @@ from the motor model), re-planned at the next correction from what is then seen:
   they close on it (and open again if it slips twice that far before the grip). Closing
   on a misaligned cell pinches it between the robots' front spheres, a grip that
   cannot be carried.
+* Walls: the person sees the channel's walls and keeps each robot's handles
+  ``wall_clearance_um`` from them (a handle's radius, 1.25 um, plus a visible 0.75 um
+  of water; a modelling choice): a robot's place that lies closer is moved out along
+  the wall's normal. While approaching, only that robot's place moves (it nudges a
+  free cell off the wall); while carrying, the whole formation moves (moving one robot
+  would squeeze the cell). Without this the wall-side robot was pressed into the wall
+  by a hand chasing a cell that drifted toward it, and its trap lost it (the first
+  cause of trap losses in manual trials).
 * A gripped cell seen more than ``seat_tolerance_um`` off-centre along the notches is
   let go and gripped again.
 * CARRY: the places moved along the route at the intended assembly speed:
@@ -84,6 +92,7 @@ class ParticipantTask:
     hurry_factor: float = 1.6
     fine_tune_alpha: float = 0.3
     pending_memory_s: float = 0.5
+    wall_clearance_um: float = 2.0
     bimanual: bool = True
     """True: one stylus per robot (the paper's set-up). False: one stylus moves all four
     traps as a rigid formation (the grip cannot be squeezed by the hands)."""
@@ -140,8 +149,10 @@ class SimulatedParticipants:
 
     def __init__(self, params: list[HumanParams], tick_s: float, seed: int, navigator,
                  retarget: RetargetConfig, feedback: FeedbackConfig, bend_distance_um: float,
-                 task: ParticipantTask = ParticipantTask()):
+                 task: ParticipantTask = ParticipantTask(), wall_distance_um=None):
         self.n_env = len(params)
+        self.wall_distance_um = wall_distance_um
+        """``(n, 2) um -> (n,)`` distance to the chip's walls, or None (no walls)."""
         self.tick_s = tick_s
         self.navigator = navigator
         self.task = task
@@ -180,6 +191,26 @@ class SimulatedParticipants:
         opened = offsets + np.where(closing[:, None, None], 0.0, task.open_gap_um * side[None, :, None] * [0.0, 1.0])
         about = np.where(((phase == CARRY) & closing)[:, None], centre, cell_now)
         return about[:, None] + rotate(opened, heading)
+
+    def _off_walls(self, places, carried, trap_robot, step_um: float = 0.1):
+        """``places`` (E, T, 2) with each robot's moved out along the wall normal until
+        its handles are ``wall_clearance_um`` from the walls; for ``carried`` (E,)
+        environments every robot moves by the robots' summed shift."""
+        if self.wall_distance_um is None:
+            return places
+        flat = places.reshape(-1, 2)
+        probes = np.concatenate([flat, flat + [step_um, 0.0], flat + [0.0, step_um]])
+        distance = np.asarray(self.wall_distance_um(probes), float).reshape(3, *places.shape[:2])
+        normal = _unit(np.stack([distance[1] - distance[0], distance[2] - distance[0]], axis=-1))
+        short = np.maximum(self.task.wall_clearance_um - distance[0], 0.0)  # (E, T)
+        shift = np.zeros_like(places)
+        for r in range(N_HANDS):
+            mine = trap_robot == r
+            worst = np.argmax(short[:, mine], axis=1)
+            rows = np.arange(len(places))
+            shift[:, mine] = (short[:, mine][rows, worst, None] * normal[:, mine][rows, worst])[:, None]
+        common = np.stack([shift[:, trap_robot == r][:, 0] for r in range(N_HANDS)], axis=1).sum(axis=1)
+        return places + np.where(carried[:, None, None], common[:, None], shift)
 
     def moved(self, trap_increment_um: np.ndarray, human_weight: np.ndarray, trap_robot) -> None:
         """The traps' commanded increments (E, T, 2) um this tick, plus the planned hand
@@ -240,7 +271,13 @@ class SimulatedParticipants:
         tolerance_mm = task.grip_tolerance_um / scale
         duration = self.motor.submovement_duration_s(np.linalg.norm(error, axis=-1).ravel() / scale, tolerance_mm,
                                                      limit_mm_s).reshape(self.n_env, N_HANDS)
-        reach_um = error + want[:, None] * duration[..., None]  # where the hands go in this sub-movement
+        # where the hands go in this sub-movement: the places where they will be when it
+        # ends, kept off the walls
+        ahead = places + want[:, None] * duration[:, trap_robot, None]  # (E, T, 2)
+        ahead = self._off_walls(ahead, (phase == CARRY) & self.closing, trap_robot)
+        reach_um = np.stack([(ahead - traps_now)[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        if not task.bimanual:
+            reach_um = np.repeat(reach_um.mean(axis=1, keepdims=True), N_HANDS, axis=1)
         duration = self.motor.submovement_duration_s(np.linalg.norm(reach_um, axis=-1).ravel() / scale, tolerance_mm,
                                                      limit_mm_s).reshape(self.n_env, N_HANDS)
         hand_um_s = reach_um / duration[..., None]
