@@ -29,8 +29,14 @@ def navigator():
     return RouteNavigator(route, route[:, 0].copy(), OFFSETS_UM, TICK_S)
 
 
-def people(params, seed=0, task=TASK):
-    return SimulatedParticipants(params, TICK_S, seed, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, task)
+def people(params, seed=0, task=TASK, wall_distance_um=None):
+    return SimulatedParticipants(params, TICK_S, seed, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, task,
+                                 wall_distance_um)
+
+
+def wall_below(y_um):
+    """Signed distance to a straight wall filling y < ``y_um``."""
+    return lambda points: np.asarray(points, float)[:, 1] - y_um
 
 
 def scene(cell_xy, trap_xy, phase, obstacle_xy=((200.0, 100.0),)):
@@ -128,6 +134,43 @@ def test_approach_lines_up_with_the_cell_before_closing():
         drive(participants, obs, ["manual"], 1)
     error = obs.trap_xy_um[0] - (cell[0] + OFFSETS_UM)
     assert np.all(np.abs(error[:, 0]) < TASK.align_tolerance_um) and np.all(np.abs(error[:, 1]) < 0.25), error
+
+
+def test_approach_keeps_the_wall_side_robot_off_the_wall():
+    """A still cell 1.5 um toward a wall at y = -9 um: robot 0's closed place below it
+    (handles at y = -8.03) lies 0.97 um from the wall, inside the 2 um clearance. The
+    participant who sees the wall stops robot 0 at the clearance (it would nudge the
+    free cell off the wall) and closes robot 1 as before; without walls robot 0's
+    handles end about 1 um from the wall (where the chip's walls held them and the
+    traps lost them)."""
+    cell = np.array([[10.0, -1.5]])
+    start = np.array([[10.0, 0.0]])[:, None] + OFFSETS_UM
+    ends = {}
+    for walls in (wall_below(-9.0), None):
+        obs = scene(cell, start.copy(), APPROACH)
+        drive(people([STEADY], wall_distance_um=walls), obs, ["manual"], 150)
+        ends[walls is None] = obs.trap_xy_um[0]
+    seeing, blind = ends[False], ends[True]
+    assert seeing[TRAP_ROBOT == 0, 1].min() + 9.0 == pytest.approx(TASK.wall_clearance_um, abs=0.3), seeing
+    assert blind[TRAP_ROBOT == 0, 1].min() + 9.0 < 1.3, blind
+    np.testing.assert_allclose(seeing[TRAP_ROBOT == 1], blind[TRAP_ROBOT == 1], atol=0.15)
+
+
+def test_carrying_near_a_wall_shifts_the_whole_formation():
+    """A gripped cell whose robot 0 handles sit 1.47 um from a wall (inside the 2 um
+    clearance): the participant moves both robots off the wall together (the cell stays
+    gripped: the robots' separation does not change by more than 0.1 um) while
+    carrying along x."""
+    cell = np.array([[10.0, 0.0]])
+    obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
+    wall_y = OFFSETS_UM[:, 1].min() - 1.47
+    separation = lambda traps: traps[TRAP_ROBOT == 1].mean(axis=0) - traps[TRAP_ROBOT == 0].mean(axis=0)  # noqa: E731
+    before = separation(obs.trap_xy_um[0])
+    moved = drive(people([STEADY], wall_distance_um=wall_below(wall_y)), obs, ["manual"], 150)[0]
+    assert obs.trap_xy_um[0, :, 1].min() - wall_y > TASK.wall_clearance_um - 0.3, obs.trap_xy_um[0]
+    assert moved[:, 1].min() > 0.2, moved  # both hands moved off the wall
+    np.testing.assert_allclose(separation(obs.trap_xy_um[0]), before, atol=0.1)
+    assert moved[:, 0].min() > 2.0  # and carried along the route
 
 
 def test_miss_distance_of_a_head_on_and_a_parallel_obstacle():
