@@ -44,7 +44,15 @@ from the motor model), re-planned at the next correction from what is then seen:
   obstacle comes within ``clearance_um`` of the cell in the next ``horizon_s``: the
   intended one, a hurried one (``hurry_factor`` times faster, passing ahead), a slowed
   one (half), holding still, backing along the route, stepping away from the
-  obstacle; if none is safe, the one with the widest miss.
+  obstacle, side-stepping it (along the route and away at 45 degrees); if none is
+  safe, the one with the widest miss. An obstacle seen standing still (slower than
+  ``still_speed_um_s``, 1 um/s: half the obstacles' 2 um/s track speed and above the
+  ~0.5 um/s that Brownian jitter of a 3 um sphere in water, D = kT / (6 pi eta r) =
+  0.07 um^2/s, shows between glimpses 0.5 s apart; a modelling choice) will not clear
+  the way: the person side-steps it
+  before trying to wait, and passes it closer, ``still_clearance_um`` (0.5 um to
+  spare: its path need not be guessed). (Without this a person waited forever beside an obstacle
+  held against a wall 9.6 um from the route, inside the assembly's corridor.)
 * Shared mode: the person rests and lets the autonomy drive unless the interface's cue
   shows alpha at ``fine_tune_alpha`` or more while a threat is seen; then they
   command what brings the blend to their intention, dP_h = (dP_want - (1 - alpha)
@@ -90,6 +98,8 @@ class ParticipantTask:
     horizon_s: float = 6.0
     glimpse_s: float = 0.5
     hurry_factor: float = 1.6
+    still_speed_um_s: float = 1.0
+    still_clearance_um: float = 12.2
     fine_tune_alpha: float = 0.3
     pending_memory_s: float = 0.5
     wall_clearance_um: float = 2.0
@@ -110,33 +120,60 @@ def _unit(vectors):
     return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-9)
 
 
-def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
-    """(E,) the closest any obstacle (E, K, 2) moving at its velocity comes to the cell
-    (E, 2) within ``horizon_s`` if the assembly moves at ``assembly_velocity_um_s`` (E, 2),
-    and (E, 2) the unit vector from that obstacle to the cell now."""
+def _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
+    """(E, K) the closest each obstacle comes to the cell within ``horizon_s``."""
     relative = obstacle_um - cell_um[:, None]
     closing = obstacle_velocity_um_s - assembly_velocity_um_s[:, None]
     speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
     t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, horizon_s)
-    miss = np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
+    return np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
+
+
+def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
+    """(E,) the closest any obstacle (E, K, 2) moving at its velocity comes to the cell
+    (E, 2) within ``horizon_s`` if the assembly moves at ``assembly_velocity_um_s`` (E, 2),
+    and (E, 2) the unit vector from that obstacle to the cell now."""
+    miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s)
     worst = np.argmin(miss, axis=1)
-    return miss.min(axis=1), _unit(-relative[np.arange(len(cell_um)), worst])
+    return miss.min(axis=1), _unit(cell_um - obstacle_um[np.arange(len(cell_um)), worst])
+
+
+WAITING_ORDER = (0, 1, 2, 3, 4, 5, 6, 7)
+"""Options tried in turn when the threat moves: intended, hurried, slowed, still, back,
+away, side-step, steep side-step."""
+DETOUR_ORDER = (0, 6, 7, 1, 2, 3, 4, 5)
+"""When it stands still: intended, the side-steps, then the others (waiting cannot clear it)."""
 
 
 def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, route_direction, task: ParticipantTask):
     """The person's choice of assembly velocity (E, 2) and whether it differs from
-    ``want_um_s``: the first of intended, hurried, slowed, still, backing along the
-    route, stepping away, under which no obstacle comes within ``task.clearance_um``
-    in ``task.horizon_s``; if none is safe, the one with the widest miss."""
+    ``want_um_s``: the first safe option of intended, hurried, slowed, still, backing
+    along the route, stepping away, side-stepping (along the route and sideways away
+    from the threat, at 45 and at 70 degrees); if none is safe, the one with the most
+    room. Safe: no obstacle comes within ``task.clearance_um`` of the cell in
+    ``task.horizon_s``, or within ``task.still_clearance_um`` for an obstacle seen
+    moving slower than ``task.still_speed_um_s``. Such an obstacle will not clear the
+    way by itself: when it is the threat, a person side-steps before waiting
+    (``DETOUR_ORDER``)."""
+    rows = np.arange(len(cell_um))
     _, away = miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, np.zeros_like(want_um_s), task.horizon_s)
+    still_k = np.linalg.norm(obstacle_velocity_um_s, axis=-1) < task.still_speed_um_s  # (E, K)
+    clearance = np.where(still_k, task.still_clearance_um, task.clearance_um)
+    worst = np.argmin(_closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, task.horizon_s)
+                      - clearance, axis=1)
+    toward = _unit(cell_um - obstacle_um[rows, worst])
     pace = np.linalg.norm(want_um_s, axis=-1, keepdims=True)
+    sideways = _unit(toward - np.sum(toward * route_direction, axis=-1, keepdims=True) * route_direction)
+    side = [(np.cos(a) * route_direction + np.sin(a) * sideways) * pace for a in np.radians([45.0, 70.0])]
     options = [want_um_s, task.hurry_factor * want_um_s, 0.5 * want_um_s, np.zeros_like(want_um_s),
-               -route_direction * pace, away * pace]
-    misses = np.stack([miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, v, task.horizon_s)[0] for v in options],
-                      axis=1)  # (E, options)
-    safe = misses >= task.clearance_um
-    choice = np.where(safe.any(axis=1), np.argmax(safe, axis=1), np.argmax(misses, axis=1))
-    return np.stack(options, axis=1)[np.arange(len(cell_um)), choice], choice > 0
+               -route_direction * pace, away * pace, *side]
+    room = np.stack([(_closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, v, task.horizon_s)
+                      - clearance).min(axis=1) for v in options], axis=1)  # (E, options)
+    order = np.where(still_k[rows, worst][:, None], DETOUR_ORDER, WAITING_ORDER)
+    safe = np.take_along_axis(room >= 0.0, order, axis=1)
+    ranked = np.argmax(safe, axis=1)
+    choice = np.where(safe.any(axis=1), order[rows, ranked], np.argmax(room, axis=1))
+    return np.stack(options, axis=1)[rows, choice], choice > 0
 
 
 class SimulatedParticipants:

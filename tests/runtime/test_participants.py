@@ -201,6 +201,23 @@ def test_the_person_gives_way_to_an_obstacle_crossing_ahead():
     assert miss_um(cell[:1], obstacles[:1], velocity[:1], chosen[:1], TASK.horizon_s)[0][0] >= TASK.clearance_um
 
 
+def test_the_person_side_steps_an_obstacle_that_stands_in_the_corridor():
+    """Carrying along +x at 2 um/s past an obstacle standing still 12 um ahead and 10 um
+    to the side (inside the clearance of the route): holding still would be "safe" but
+    never clears the way, so the person side-steps it (forward and away from it, -y)
+    with at least the still-obstacle clearance. The same obstacle crossing toward the
+    route at 2 um/s is waited for instead: no forward motion."""
+    cell = np.zeros((2, 2))
+    obstacles = np.array([[[12.0, 10.0]], [[12.0, 10.0]]])
+    velocity = np.array([[[0.0, 0.0]], [[0.0, -2.0]]])
+    want = np.array([[2.0, 0.0], [2.0, 0.0]])
+    chosen, changed = choose_velocity(cell, obstacles, velocity, want, np.array([[1.0, 0.0]] * 2), TASK)
+    assert changed.tolist() == [True, True]
+    assert chosen[0, 0] > 0.5 and chosen[0, 1] < -0.5, chosen[0]
+    assert miss_um(cell[:1], obstacles[:1], velocity[:1], chosen[:1], TASK.horizon_s)[0][0] >= TASK.still_clearance_um
+    assert chosen[1, 0] <= 1.0 + 1e-9, chosen[1]  # slowed, held or backed, not side-stepping past it
+
+
 def test_shared_mode_rests_until_the_cue_then_overrides_the_autonomy():
     """Shared mode, the autonomy carrying along +x at 5 um/s: with no obstacle the
     steady participant's hands stay still (they let the autonomy drive); with an
