@@ -35,6 +35,18 @@ from the motor model), re-planned at the next correction from what is then seen:
   would squeeze the cell). Without this the wall-side robot was pressed into the wall
   by a hand chasing a cell that drifted toward it, and its trap lost it (the first
   cause of trap losses in manual trials).
+* Careful closing: while approaching, a hand moves its robot toward the cell (beyond
+  the cell's own drift) fast until it is ``close_guard_um`` (1.5 um) from its grip
+  place, then at most ``close_speed_um_s`` (a fast reach to a point short of the
+  target, then slow homing in: the two phases of aimed movements, Woodworth 1899;
+  Meyer et al., Psychol. Rev. 95, 340, 1988; the guard is about what the fast reach's
+  momentum through the arm's lag and the tremor filter carries on). A hand keeps moving for a
+  reaction time plus up to a correction interval (about 0.6 s) after the robot
+  touches the cell; at 0.75 um/s it then presses about 0.45 um into the cell, below
+  the 0.6 um at which a 50 pN/um trap loses its handle. The value follows from those
+  numbers, not from a measurement of operators (a modelling choice: operators slow
+  down before contact). Closing at the 5-10 um/s of a free reach overshot by 1-2 um
+  and the trap lost the squeezed robot (the second cause of manual trap losses).
 * A gripped cell seen more than ``seat_tolerance_um`` off-centre along the notches is
   let go and gripped again.
 * CARRY: the places moved along the route at the intended assembly speed:
@@ -103,6 +115,8 @@ class ParticipantTask:
     fine_tune_alpha: float = 0.3
     pending_memory_s: float = 0.5
     wall_clearance_um: float = 2.0
+    close_speed_um_s: float = 0.75
+    close_guard_um: float = 1.5
     bimanual: bool = True
     """True: one stylus per robot (the paper's set-up). False: one stylus moves all four
     traps as a rigid formation (the grip cannot be squeezed by the hands)."""
@@ -229,6 +243,21 @@ class SimulatedParticipants:
         about = np.where(((phase == CARRY) & closing)[:, None], centre, cell_now)
         return about[:, None] + rotate(opened, heading)
 
+    def _guard_closing(self, reach_um, want, duration, traps_now, places, phase, trap_robot):
+        """While approaching, each hand closes its robot on the cell (moves it toward the
+        other robot, beyond the cell's own drift ``want`` (E, 2)) fast only while it is
+        more than ``close_guard_um`` from its grip place (``places`` (E, T, 2)); the last
+        ``close_guard_um`` at most ``close_speed_um_s``: the careful end of a grip."""
+        robots = np.stack([traps_now[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        goals = np.stack([places[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        across = _unit(robots[:, 1] - robots[:, 0])  # closing is along the line between the robots
+        inward = np.stack([across, -across], axis=1)  # (E, hands, 2)
+        needed = np.sum((goals - robots) * inward, axis=-1)
+        allowed = np.maximum(self.task.close_speed_um_s * duration, needed - self.task.close_guard_um)
+        closing = np.sum((reach_um - want[:, None] * duration[..., None]) * inward, axis=-1)
+        excess = np.where((phase == APPROACH)[:, None], np.maximum(closing - allowed, 0.0), 0.0)
+        return reach_um - excess[..., None] * inward
+
     def _off_walls(self, places, carried, trap_robot, step_um: float = 0.1):
         """``places`` (E, T, 2) with each robot's moved out along the wall normal until
         its handles are ``wall_clearance_um`` from the walls; for ``carried`` (E,)
@@ -311,12 +340,16 @@ class SimulatedParticipants:
         # where the hands go in this sub-movement: the places where they will be when it
         # ends, kept off the walls
         ahead = places + want[:, None] * duration[:, trap_robot, None]  # (E, T, 2)
-        ahead = self._off_walls(ahead, (phase == CARRY) & self.closing, trap_robot)
-        reach_um = np.stack([(ahead - traps_now)[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        off_wall = self._off_walls(ahead, (phase == CARRY) & self.closing, trap_robot) - ahead
+        per_hand = lambda traps: np.stack([traps[:, trap_robot == r].mean(axis=1)  # noqa: E731
+                                           for r in range(N_HANDS)], axis=1)
+        reach_um = per_hand(ahead - traps_now)
+        duration = self.motor.submovement_duration_s(np.linalg.norm(reach_um + per_hand(off_wall), axis=-1).ravel()
+                                                     / scale, tolerance_mm, limit_mm_s).reshape(self.n_env, N_HANDS)
+        reach_um = self._guard_closing(reach_um, want, duration, traps_now, places, phase, trap_robot)
+        reach_um = reach_um + per_hand(off_wall)  # a wall is escaped at once, not closed on carefully
         if not task.bimanual:
             reach_um = np.repeat(reach_um.mean(axis=1, keepdims=True), N_HANDS, axis=1)
-        duration = self.motor.submovement_duration_s(np.linalg.norm(reach_um, axis=-1).ravel() / scale, tolerance_mm,
-                                                     limit_mm_s).reshape(self.n_env, N_HANDS)
         hand_um_s = reach_um / duration[..., None]
         robot_hand = np.stack([autonomy_um_s[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
         safe_alpha = np.maximum(alpha, 1e-3)[:, None, None]

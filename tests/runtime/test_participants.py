@@ -102,14 +102,38 @@ def test_carrying_moves_both_hands_along_the_route_at_the_carry_pace():
 
 def test_approach_closes_the_open_robot_onto_an_aligned_cell():
     """Robot 0 held 1.5 um out from its place below a still, aligned cell: the steady
-    participant moves hand 0 up (+y, toward the cell) by about the 1.5 um gap and leaves
-    hand 1 where it is. A flipped sign, or a grip about absolute places, fails."""
+    participant moves hand 0 up (+y, toward the cell) by about the 1.5 um gap within
+    4 s (closing at most 0.75 um/s) and leaves hand 1 where it is. A flipped sign, or a
+    grip about absolute places, fails."""
     cell = np.array([[10.0, 0.0]])
     traps = cell[:, None] + OFFSETS_UM
     traps[:, TRAP_ROBOT == 0, 1] -= 1.5
-    moved = drive(people([STEADY]), scene(cell, traps, APPROACH), ["manual"], 100)[0]
+    moved = drive(people([STEADY]), scene(cell, traps, APPROACH), ["manual"], 200)[0]
     assert moved[0, 1] == pytest.approx(1.5, abs=0.3), moved
     assert np.abs(moved[1]).max() < 0.1 and abs(moved[0, 0]) < 0.1, moved
+
+
+def test_approach_closes_the_last_half_micrometre_slowly():
+    """Robot 0 held 4 um out below a still, aligned cell: the participant closes it
+    fast while far out but, once well within ``close_guard_um`` (1.5 um) of its grip
+    place (0.5 um in, past the fast reach's momentum), at most ``close_speed_um_s``
+    (0.75 um/s; it stops pressing before the trap would lose a squeezed robot), over
+    every 0.5 s window. Without the guard the reach ends at 5-10 um/s."""
+    cell = np.array([[10.0, 0.0]])
+    traps = cell[:, None] + OFFSETS_UM
+    traps[:, TRAP_ROBOT == 0, 1] -= 4.0
+    obs = scene(cell, traps, APPROACH)
+    participants = people([STEADY])
+    heights = []
+    for _ in range(300):
+        drive(participants, obs, ["manual"], 1)
+        heights.append(obs.trap_xy_um[0, TRAP_ROBOT == 0, 1].mean())
+    heights = np.asarray(heights)[::25]
+    speeds = np.diff(heights) / 0.5
+    remaining = (cell[0, 1] + OFFSETS_UM[TRAP_ROBOT == 0, 1].mean()) - heights[:-1]
+    near = remaining < TASK.close_guard_um - 0.5  # past the fast reach's momentum (lag and filter)
+    assert near.any() and speeds.max() > 2.0, (remaining, speeds)  # it closes, fast while far
+    assert speeds[near].max() <= TASK.close_speed_um_s * 1.1, (remaining, speeds)
 
 
 def test_approach_lines_up_with_the_cell_before_closing():
@@ -117,7 +141,7 @@ def test_approach_lines_up_with_the_cell_before_closing():
     tolerance), both robots held 1.5 um open: the steady participant first moves the
     robots along +x to line up, without closing while they are more than 0.8 um out of
     line (closing then would pinch the cell between their front spheres), then
-    closes: by 2 s both robots are within the alignment tolerance (0.4 um) of their
+    closes (at most 0.75 um/s): by 4 s both robots are within the alignment tolerance (0.4 um) of their
     places along x and within 0.25 um across. Smaller errors stay: a correction
     slower than the retargeting's dead band (0.6 um/s at the trap, 0.24 um over a
     0.4 s sub-movement) never reaches the traps."""
@@ -127,7 +151,7 @@ def test_approach_lines_up_with_the_cell_before_closing():
     traps[:, TRAP_ROBOT == 1, 1] += 1.5
     obs = scene(cell, traps, APPROACH)
     participants = people([STEADY])
-    for _ in range(100):
+    for _ in range(200):
         out_of_line = abs(cell[0, 0] - obs.trap_xy_um[0].mean(axis=0)[0]) > 0.8
         inward = obs.trap_xy_um[0, TRAP_ROBOT == 0, 1].mean() - (cell[0, 1] + OFFSETS_UM[0, 1] - 1.5)
         assert not (out_of_line and inward > 0.1), (obs.trap_xy_um[0], inward)
