@@ -76,6 +76,18 @@ The model, per participant (``HumanParams``; defaults are population means):
   long (Peiris, Jones, Davidson, Carroll & Bones, J. Sleep Res. 15, 291, 2006). During
   a lapse no sub-movement starts (the current one runs out and the hand stops); a
   correction follows as soon as it ends. Lapses start as a Poisson process in time.
+* **Two hands, one plan** (``HumanMotor(..., hands_per_person=2)``): a person's two
+  hands are consecutive rows of the batch. Their corrective sub-movements start and end
+  together (simultaneous bimanual reaches to targets of different difficulty start and
+  end together: Kelso, Southard & Goodman, Science 203, 1029, 1979), lapses are the
+  person's, and a bimanual movement is one plan with a common part (the mean of the
+  hands' displacements) and each hand's difference from it ("two hands, one brain":
+  Swinnen & Wenderoth, Trends Cogn. Sci. 8, 18, 2004). The extent and direction errors
+  above apply to each part in proportion to its size: one draw for the common part,
+  one per hand for its difference. That errors split this way is a modelling choice
+  consistent with that view (no study gives the split); it means two hands moving a
+  rigid load together err together, and their relative placement errs in proportion
+  to the relative movement. Noise, tremor and yielding stay per hand.
 
 ``sample_population`` draws participants: each parameter log-normal around its mean
 (``POPULATION_CV``, sources there). Participant ``i`` of seed ``s`` is drawn from its
@@ -205,6 +217,7 @@ class HumanMotor:
         tick_rate_hz: float,
         rng: np.random.Generator | int,
         batch: int | None = None,
+        hands_per_person: int = 1,
     ):
         if isinstance(params, HumanParams):
             if batch is not None and not (isinstance(batch, (int, np.integer)) and batch >= 1):
@@ -218,6 +231,12 @@ class HumanMotor:
             raise ValueError("params must be a HumanParams or a non-empty sequence of them")
         if not (math.isfinite(tick_rate_hz) and tick_rate_hz > 0):
             raise ValueError(f"tick_rate_hz must be positive, got {tick_rate_hz!r}")
+        if not (isinstance(hands_per_person, (int, np.integer)) and hands_per_person >= 1
+                and len(params) % hands_per_person == 0):
+            raise ValueError(f"hands_per_person must be a positive integer dividing the batch {len(params)}, "
+                             f"got {hands_per_person!r}")
+        if any(len(set(params[i:i + hands_per_person])) != 1 for i in range(0, len(params), hands_per_person)):
+            raise ValueError("the hands of one person (consecutive rows) must share their HumanParams")
         for p in params:
             if p.tremor_band_hz[1] >= tick_rate_hz / 2:
                 raise ValueError(
@@ -226,6 +245,7 @@ class HumanMotor:
                 )
         self.params = params
         self.batch = len(params)
+        self.hands_per_person = int(hands_per_person)
         self.tick_rate_hz = float(tick_rate_hz)
         self._rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         self._dt = 1.0 / self.tick_rate_hz
@@ -324,7 +344,10 @@ class HumanMotor:
 
     def decide_due(self) -> np.ndarray:
         """(B,) bool: a corrective sub-movement starts this tick (not during a lapse)."""
-        return (self._ticks == self._next_due) & ~self.lapsed
+        due = (self._ticks == self._next_due) & ~self.lapsed
+        if self.hands_per_person > 1:  # a person's hands start together (whole persons only)
+            due = np.repeat(due.reshape(-1, self.hands_per_person).all(axis=1), self.hands_per_person)
+        return due
 
     def submovement_duration_s(self, distance_mm, tolerance_mm, max_speed_mm_s=None) -> np.ndarray:
         """(B,) planned duration of a sub-movement over ``distance_mm`` to within
@@ -359,12 +382,18 @@ class HumanMotor:
         due = self.decide_due()
         if not due.any():
             return
+        hands = self.hands_per_person
         count = int(due.sum())
         scale = 1.0 + self._extent_error[due] * self._rng.standard_normal(count)
         angle = self._direction_error_rad[due] * self._rng.standard_normal(count)
-        cos, sin = np.cos(angle), np.sin(angle)
-        x, y = displacement[due, 0], displacement[due, 1]
-        executed = scale[:, None] * np.stack((cos * x - sin * y, sin * x + cos * y), axis=1)
+        if hands == 1:
+            executed = _scale_rotate(displacement[due], scale, angle)
+        else:  # one plan: the common part errs once per person, each hand's difference on its own
+            duration = np.repeat(duration.reshape(-1, hands).max(axis=1), hands)
+            common = np.repeat(displacement.reshape(-1, hands, 2).mean(axis=1), hands, axis=0)[due]
+            leader = np.repeat(np.arange(0, count, hands), hands)  # due rows come in whole persons
+            executed = (_scale_rotate(common, scale[leader], angle[leader])
+                        + _scale_rotate(displacement[due] - common, scale, angle))
         self._command[due] = executed / duration[due, None]
         self._remaining[due] = np.maximum(np.rint(duration[due] * self.tick_rate_hz), 1).astype(np.int64)
 
@@ -412,6 +441,10 @@ class HumanMotor:
             self._lapse_until[starting] = self._ticks[starting] + np.maximum(
                 np.rint(duration * self.tick_rate_hz), 1
             ).astype(np.int64)
+        if self.hands_per_person > 1:  # the person's schedule and lapses: the first hand's
+            for name in ("_next_due", "_lapse_until"):
+                value = getattr(self, name).reshape(-1, self.hands_per_person)
+                setattr(self, name, np.repeat(value[:, 0], self.hands_per_person))
         # a correction that falls due during a lapse comes as soon as the lapse ends
         self._next_due = np.maximum(self._next_due, self._lapse_until)
 
@@ -434,6 +467,13 @@ class HumanMotor:
         if mask.shape != (self.batch,) or mask.dtype != np.bool_:
             raise ValueError(f"mask must be a boolean array of shape (B={self.batch},), got {mask.dtype} {mask.shape}")
         return mask
+
+
+def _scale_rotate(vectors, scale, angle_rad) -> np.ndarray:
+    """(n, 2) vectors scaled by (n,) factors and rotated by (n,) angles."""
+    cos, sin = np.cos(angle_rad), np.sin(angle_rad)
+    x, y = vectors[:, 0], vectors[:, 1]
+    return scale[:, None] * np.stack((cos * x - sin * y, sin * x + cos * y), axis=1)
 
 
 @functools.lru_cache(maxsize=32)

@@ -27,6 +27,26 @@ from the motor model), re-planned at the next correction from what is then seen:
   they close on it (and open again if it slips twice that far before the grip). Closing
   on a misaligned cell pinches it between the robots' front spheres, a grip that
   cannot be carried.
+* Walls: the person sees the channel's walls and keeps each robot's handles
+  ``wall_clearance_um`` from them (a handle's radius, 1.25 um, plus a visible 0.75 um
+  of water; a modelling choice): a robot's place that lies closer is moved out along
+  the wall's normal. While approaching, only that robot's place moves (it nudges a
+  free cell off the wall); while carrying, the whole formation moves (moving one robot
+  would squeeze the cell). Without this the wall-side robot was pressed into the wall
+  by a hand chasing a cell that drifted toward it, and its trap lost it (the first
+  cause of trap losses in manual trials).
+* Careful closing: while approaching, a hand moves its robot toward the cell (beyond
+  the cell's own drift) fast until it is ``close_guard_um`` (1.5 um) from its grip
+  place, then at most ``close_speed_um_s`` (a fast reach to a point short of the
+  target, then slow homing in: the two phases of aimed movements, Woodworth 1899;
+  Meyer et al., Psychol. Rev. 95, 340, 1988; the guard is about what the fast reach's
+  momentum through the arm's lag and the tremor filter carries on). A hand keeps moving for a
+  reaction time plus up to a correction interval (about 0.6 s) after the robot
+  touches the cell; at 0.75 um/s it then presses about 0.45 um into the cell, below
+  the 0.6 um at which a 50 pN/um trap loses its handle. The value follows from those
+  numbers, not from a measurement of operators (a modelling choice: operators slow
+  down before contact). Closing at the 5-10 um/s of a free reach overshot by 1-2 um
+  and the trap lost the squeezed robot (the second cause of manual trap losses).
 * A gripped cell seen more than ``seat_tolerance_um`` off-centre along the notches is
   let go and gripped again.
 * CARRY: the places moved along the route at the intended assembly speed:
@@ -36,7 +56,15 @@ from the motor model), re-planned at the next correction from what is then seen:
   obstacle comes within ``clearance_um`` of the cell in the next ``horizon_s``: the
   intended one, a hurried one (``hurry_factor`` times faster, passing ahead), a slowed
   one (half), holding still, backing along the route, stepping away from the
-  obstacle; if none is safe, the one with the widest miss.
+  obstacle, side-stepping it (along the route and away at 45 degrees); if none is
+  safe, the one with the widest miss. An obstacle seen standing still (slower than
+  ``still_speed_um_s``, 1 um/s: half the obstacles' 2 um/s track speed and above the
+  ~0.5 um/s that Brownian jitter of a 3 um sphere in water, D = kT / (6 pi eta r) =
+  0.07 um^2/s, shows between glimpses 0.5 s apart; a modelling choice) will not clear
+  the way: the person side-steps it
+  before trying to wait, and passes it closer, ``still_clearance_um`` (0.5 um to
+  spare: its path need not be guessed). (Without this a person waited forever beside an obstacle
+  held against a wall 9.6 um from the route, inside the assembly's corridor.)
 * Shared mode: the person rests and lets the autonomy drive unless the interface's cue
   shows alpha at ``fine_tune_alpha`` or more while a threat is seen; then they
   command what brings the blend to their intention, dP_h = (dP_want - (1 - alpha)
@@ -82,8 +110,13 @@ class ParticipantTask:
     horizon_s: float = 6.0
     glimpse_s: float = 0.5
     hurry_factor: float = 1.6
+    still_speed_um_s: float = 1.0
+    still_clearance_um: float = 12.2
     fine_tune_alpha: float = 0.3
     pending_memory_s: float = 0.5
+    wall_clearance_um: float = 2.0
+    close_speed_um_s: float = 0.75
+    close_guard_um: float = 1.5
     bimanual: bool = True
     """True: one stylus per robot (the paper's set-up). False: one stylus moves all four
     traps as a rigid formation (the grip cannot be squeezed by the hands)."""
@@ -101,33 +134,60 @@ def _unit(vectors):
     return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-9)
 
 
-def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
-    """(E,) the closest any obstacle (E, K, 2) moving at its velocity comes to the cell
-    (E, 2) within ``horizon_s`` if the assembly moves at ``assembly_velocity_um_s`` (E, 2),
-    and (E, 2) the unit vector from that obstacle to the cell now."""
+def _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
+    """(E, K) the closest each obstacle comes to the cell within ``horizon_s``."""
     relative = obstacle_um - cell_um[:, None]
     closing = obstacle_velocity_um_s - assembly_velocity_um_s[:, None]
     speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
     t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, horizon_s)
-    miss = np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
+    return np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
+
+
+def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
+    """(E,) the closest any obstacle (E, K, 2) moving at its velocity comes to the cell
+    (E, 2) within ``horizon_s`` if the assembly moves at ``assembly_velocity_um_s`` (E, 2),
+    and (E, 2) the unit vector from that obstacle to the cell now."""
+    miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s)
     worst = np.argmin(miss, axis=1)
-    return miss.min(axis=1), _unit(-relative[np.arange(len(cell_um)), worst])
+    return miss.min(axis=1), _unit(cell_um - obstacle_um[np.arange(len(cell_um)), worst])
+
+
+WAITING_ORDER = (0, 1, 2, 3, 4, 5, 6, 7)
+"""Options tried in turn when the threat moves: intended, hurried, slowed, still, back,
+away, side-step, steep side-step."""
+DETOUR_ORDER = (0, 6, 7, 1, 2, 3, 4, 5)
+"""When it stands still: intended, the side-steps, then the others (waiting cannot clear it)."""
 
 
 def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, route_direction, task: ParticipantTask):
     """The person's choice of assembly velocity (E, 2) and whether it differs from
-    ``want_um_s``: the first of intended, hurried, slowed, still, backing along the
-    route, stepping away, under which no obstacle comes within ``task.clearance_um``
-    in ``task.horizon_s``; if none is safe, the one with the widest miss."""
+    ``want_um_s``: the first safe option of intended, hurried, slowed, still, backing
+    along the route, stepping away, side-stepping (along the route and sideways away
+    from the threat, at 45 and at 70 degrees); if none is safe, the one with the most
+    room. Safe: no obstacle comes within ``task.clearance_um`` of the cell in
+    ``task.horizon_s``, or within ``task.still_clearance_um`` for an obstacle seen
+    moving slower than ``task.still_speed_um_s``. Such an obstacle will not clear the
+    way by itself: when it is the threat, a person side-steps before waiting
+    (``DETOUR_ORDER``)."""
+    rows = np.arange(len(cell_um))
     _, away = miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, np.zeros_like(want_um_s), task.horizon_s)
+    still_k = np.linalg.norm(obstacle_velocity_um_s, axis=-1) < task.still_speed_um_s  # (E, K)
+    clearance = np.where(still_k, task.still_clearance_um, task.clearance_um)
+    worst = np.argmin(_closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, task.horizon_s)
+                      - clearance, axis=1)
+    toward = _unit(cell_um - obstacle_um[rows, worst])
     pace = np.linalg.norm(want_um_s, axis=-1, keepdims=True)
+    sideways = _unit(toward - np.sum(toward * route_direction, axis=-1, keepdims=True) * route_direction)
+    side = [(np.cos(a) * route_direction + np.sin(a) * sideways) * pace for a in np.radians([45.0, 70.0])]
     options = [want_um_s, task.hurry_factor * want_um_s, 0.5 * want_um_s, np.zeros_like(want_um_s),
-               -route_direction * pace, away * pace]
-    misses = np.stack([miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, v, task.horizon_s)[0] for v in options],
-                      axis=1)  # (E, options)
-    safe = misses >= task.clearance_um
-    choice = np.where(safe.any(axis=1), np.argmax(safe, axis=1), np.argmax(misses, axis=1))
-    return np.stack(options, axis=1)[np.arange(len(cell_um)), choice], choice > 0
+               -route_direction * pace, away * pace, *side]
+    room = np.stack([(_closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, v, task.horizon_s)
+                      - clearance).min(axis=1) for v in options], axis=1)  # (E, options)
+    order = np.where(still_k[rows, worst][:, None], DETOUR_ORDER, WAITING_ORDER)
+    safe = np.take_along_axis(room >= 0.0, order, axis=1)
+    ranked = np.argmax(safe, axis=1)
+    choice = np.where(safe.any(axis=1), order[rows, ranked], np.argmax(room, axis=1))
+    return np.stack(options, axis=1)[rows, choice], choice > 0
 
 
 class SimulatedParticipants:
@@ -140,8 +200,10 @@ class SimulatedParticipants:
 
     def __init__(self, params: list[HumanParams], tick_s: float, seed: int, navigator,
                  retarget: RetargetConfig, feedback: FeedbackConfig, bend_distance_um: float,
-                 task: ParticipantTask = ParticipantTask()):
+                 task: ParticipantTask = ParticipantTask(), wall_distance_um=None):
         self.n_env = len(params)
+        self.wall_distance_um = wall_distance_um
+        """``(n, 2) um -> (n,)`` distance to the chip's walls, or None (no walls)."""
         self.tick_s = tick_s
         self.navigator = navigator
         self.task = task
@@ -149,7 +211,8 @@ class SimulatedParticipants:
         self.feedback_config = feedback
         self.bend_distance_um = bend_distance_um
         hands = [p for p in params for _ in range(N_HANDS)]
-        self.motor = HumanMotor(hands, 1.0 / tick_s, np.random.default_rng(seed))
+        self.motor = HumanMotor(hands, 1.0 / tick_s, np.random.default_rng(seed),
+                                hands_per_person=N_HANDS if task.bimanual else 1)
         self.retargeter = BatchRetargeter(retarget, 1.0 / tick_s, self.n_env * N_HANDS)
         self.delay_s = self.motor.delay_ticks[::N_HANDS] * tick_s
         self._glimpses = max(1, int(round(task.glimpse_s / tick_s)))
@@ -179,6 +242,41 @@ class SimulatedParticipants:
         opened = offsets + np.where(closing[:, None, None], 0.0, task.open_gap_um * side[None, :, None] * [0.0, 1.0])
         about = np.where(((phase == CARRY) & closing)[:, None], centre, cell_now)
         return about[:, None] + rotate(opened, heading)
+
+    def _guard_closing(self, reach_um, want, duration, traps_now, places, phase, trap_robot):
+        """While approaching, each hand closes its robot on the cell (moves it toward the
+        other robot, beyond the cell's own drift ``want`` (E, 2)) fast only while it is
+        more than ``close_guard_um`` from its grip place (``places`` (E, T, 2)); the last
+        ``close_guard_um`` at most ``close_speed_um_s``: the careful end of a grip."""
+        robots = np.stack([traps_now[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        goals = np.stack([places[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        across = _unit(robots[:, 1] - robots[:, 0])  # closing is along the line between the robots
+        inward = np.stack([across, -across], axis=1)  # (E, hands, 2)
+        needed = np.sum((goals - robots) * inward, axis=-1)
+        allowed = np.maximum(self.task.close_speed_um_s * duration, needed - self.task.close_guard_um)
+        closing = np.sum((reach_um - want[:, None] * duration[..., None]) * inward, axis=-1)
+        excess = np.where((phase == APPROACH)[:, None], np.maximum(closing - allowed, 0.0), 0.0)
+        return reach_um - excess[..., None] * inward
+
+    def _off_walls(self, places, carried, trap_robot, step_um: float = 0.1):
+        """``places`` (E, T, 2) with each robot's moved out along the wall normal until
+        its handles are ``wall_clearance_um`` from the walls; for ``carried`` (E,)
+        environments every robot moves by the robots' summed shift."""
+        if self.wall_distance_um is None:
+            return places
+        flat = places.reshape(-1, 2)
+        probes = np.concatenate([flat, flat + [step_um, 0.0], flat + [0.0, step_um]])
+        distance = np.asarray(self.wall_distance_um(probes), float).reshape(3, *places.shape[:2])
+        normal = _unit(np.stack([distance[1] - distance[0], distance[2] - distance[0]], axis=-1))
+        short = np.maximum(self.task.wall_clearance_um - distance[0], 0.0)  # (E, T)
+        shift = np.zeros_like(places)
+        for r in range(N_HANDS):
+            mine = trap_robot == r
+            worst = np.argmax(short[:, mine], axis=1)
+            rows = np.arange(len(places))
+            shift[:, mine] = (short[:, mine][rows, worst, None] * normal[:, mine][rows, worst])[:, None]
+        common = np.stack([shift[:, trap_robot == r][:, 0] for r in range(N_HANDS)], axis=1).sum(axis=1)
+        return places + np.where(carried[:, None, None], common[:, None], shift)
 
     def moved(self, trap_increment_um: np.ndarray, human_weight: np.ndarray, trap_robot) -> None:
         """The traps' commanded increments (E, T, 2) um this tick, plus the planned hand
@@ -239,9 +337,19 @@ class SimulatedParticipants:
         tolerance_mm = task.grip_tolerance_um / scale
         duration = self.motor.submovement_duration_s(np.linalg.norm(error, axis=-1).ravel() / scale, tolerance_mm,
                                                      limit_mm_s).reshape(self.n_env, N_HANDS)
-        reach_um = error + want[:, None] * duration[..., None]  # where the hands go in this sub-movement
-        duration = self.motor.submovement_duration_s(np.linalg.norm(reach_um, axis=-1).ravel() / scale, tolerance_mm,
-                                                     limit_mm_s).reshape(self.n_env, N_HANDS)
+        # where the hands go in this sub-movement: the places where they will be when it
+        # ends, kept off the walls
+        ahead = places + want[:, None] * duration[:, trap_robot, None]  # (E, T, 2)
+        off_wall = self._off_walls(ahead, (phase == CARRY) & self.closing, trap_robot) - ahead
+        per_hand = lambda traps: np.stack([traps[:, trap_robot == r].mean(axis=1)  # noqa: E731
+                                           for r in range(N_HANDS)], axis=1)
+        reach_um = per_hand(ahead - traps_now)
+        duration = self.motor.submovement_duration_s(np.linalg.norm(reach_um + per_hand(off_wall), axis=-1).ravel()
+                                                     / scale, tolerance_mm, limit_mm_s).reshape(self.n_env, N_HANDS)
+        reach_um = self._guard_closing(reach_um, want, duration, traps_now, places, phase, trap_robot)
+        reach_um = reach_um + per_hand(off_wall)  # a wall is escaped at once, not closed on carefully
+        if not task.bimanual:
+            reach_um = np.repeat(reach_um.mean(axis=1, keepdims=True), N_HANDS, axis=1)
         hand_um_s = reach_um / duration[..., None]
         robot_hand = np.stack([autonomy_um_s[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
         safe_alpha = np.maximum(alpha, 1e-3)[:, None, None]

@@ -186,11 +186,11 @@ class InteractiveTask:
         return self.scene.model.n_traps
 
     def scenario(self, seed: int) -> Scenario:
-        return make_scenario(seed, self.route_um, self.route_arc_um, self._wall_distance,
+        return make_scenario(seed, self.route_um, self.route_arc_um, self.wall_distance_um,
                              self.config.scene.obstacle_radius_um, self.config.scenario)
 
-    def _wall_distance(self, points_um) -> np.ndarray:
-        """Wall distance (n,) at points (n, 2), padded to a power of two so that one
+    def wall_distance_um(self, points_um) -> np.ndarray:
+        """Wall distance (n,) at points (n, 2) (what the microscope shows of the chip), padded to a power of two so that one
         compiled sampler serves every track length."""
         points = np.asarray(points_um, np.float32)
         size = 1 << max(int(np.ceil(np.log2(max(len(points), 1)))), 4)

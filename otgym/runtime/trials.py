@@ -88,7 +88,7 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
     law = task.config.scene.trap_law
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
     people = SimulatedParticipants([participants[s.participant] for s in specs], tick, seed, navigator, retarget,
-                                   feedback, law.escape_distance, participant_task)
+                                   feedback, law.escape_distance, participant_task, task.wall_distance_um)
     max_step = retarget.max_trap_speed_um_s * tick
     obs = state.observation
     total_ticks = int(np.ceil(task.config.time_limit_s / tick))

@@ -29,8 +29,14 @@ def navigator():
     return RouteNavigator(route, route[:, 0].copy(), OFFSETS_UM, TICK_S)
 
 
-def people(params, seed=0, task=TASK):
-    return SimulatedParticipants(params, TICK_S, seed, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, task)
+def people(params, seed=0, task=TASK, wall_distance_um=None):
+    return SimulatedParticipants(params, TICK_S, seed, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, task,
+                                 wall_distance_um)
+
+
+def wall_below(y_um):
+    """Signed distance to a straight wall filling y < ``y_um``."""
+    return lambda points: np.asarray(points, float)[:, 1] - y_um
 
 
 def scene(cell_xy, trap_xy, phase, obstacle_xy=((200.0, 100.0),)):
@@ -96,14 +102,38 @@ def test_carrying_moves_both_hands_along_the_route_at_the_carry_pace():
 
 def test_approach_closes_the_open_robot_onto_an_aligned_cell():
     """Robot 0 held 1.5 um out from its place below a still, aligned cell: the steady
-    participant moves hand 0 up (+y, toward the cell) by about the 1.5 um gap and leaves
-    hand 1 where it is. A flipped sign, or a grip about absolute places, fails."""
+    participant moves hand 0 up (+y, toward the cell) by about the 1.5 um gap within
+    4 s (closing at most 0.75 um/s) and leaves hand 1 where it is. A flipped sign, or a
+    grip about absolute places, fails."""
     cell = np.array([[10.0, 0.0]])
     traps = cell[:, None] + OFFSETS_UM
     traps[:, TRAP_ROBOT == 0, 1] -= 1.5
-    moved = drive(people([STEADY]), scene(cell, traps, APPROACH), ["manual"], 100)[0]
+    moved = drive(people([STEADY]), scene(cell, traps, APPROACH), ["manual"], 200)[0]
     assert moved[0, 1] == pytest.approx(1.5, abs=0.3), moved
     assert np.abs(moved[1]).max() < 0.1 and abs(moved[0, 0]) < 0.1, moved
+
+
+def test_approach_closes_the_last_half_micrometre_slowly():
+    """Robot 0 held 4 um out below a still, aligned cell: the participant closes it
+    fast while far out but, once well within ``close_guard_um`` (1.5 um) of its grip
+    place (0.5 um in, past the fast reach's momentum), at most ``close_speed_um_s``
+    (0.75 um/s; it stops pressing before the trap would lose a squeezed robot), over
+    every 0.5 s window. Without the guard the reach ends at 5-10 um/s."""
+    cell = np.array([[10.0, 0.0]])
+    traps = cell[:, None] + OFFSETS_UM
+    traps[:, TRAP_ROBOT == 0, 1] -= 4.0
+    obs = scene(cell, traps, APPROACH)
+    participants = people([STEADY])
+    heights = []
+    for _ in range(300):
+        drive(participants, obs, ["manual"], 1)
+        heights.append(obs.trap_xy_um[0, TRAP_ROBOT == 0, 1].mean())
+    heights = np.asarray(heights)[::25]
+    speeds = np.diff(heights) / 0.5
+    remaining = (cell[0, 1] + OFFSETS_UM[TRAP_ROBOT == 0, 1].mean()) - heights[:-1]
+    near = remaining < TASK.close_guard_um - 0.5  # past the fast reach's momentum (lag and filter)
+    assert near.any() and speeds.max() > 2.0, (remaining, speeds)  # it closes, fast while far
+    assert speeds[near].max() <= TASK.close_speed_um_s * 1.1, (remaining, speeds)
 
 
 def test_approach_lines_up_with_the_cell_before_closing():
@@ -111,7 +141,7 @@ def test_approach_lines_up_with_the_cell_before_closing():
     tolerance), both robots held 1.5 um open: the steady participant first moves the
     robots along +x to line up, without closing while they are more than 0.8 um out of
     line (closing then would pinch the cell between their front spheres), then
-    closes: by 2 s both robots are within the alignment tolerance (0.4 um) of their
+    closes (at most 0.75 um/s): by 4 s both robots are within the alignment tolerance (0.4 um) of their
     places along x and within 0.25 um across. Smaller errors stay: a correction
     slower than the retargeting's dead band (0.6 um/s at the trap, 0.24 um over a
     0.4 s sub-movement) never reaches the traps."""
@@ -121,13 +151,50 @@ def test_approach_lines_up_with_the_cell_before_closing():
     traps[:, TRAP_ROBOT == 1, 1] += 1.5
     obs = scene(cell, traps, APPROACH)
     participants = people([STEADY])
-    for _ in range(100):
+    for _ in range(200):
         out_of_line = abs(cell[0, 0] - obs.trap_xy_um[0].mean(axis=0)[0]) > 0.8
         inward = obs.trap_xy_um[0, TRAP_ROBOT == 0, 1].mean() - (cell[0, 1] + OFFSETS_UM[0, 1] - 1.5)
         assert not (out_of_line and inward > 0.1), (obs.trap_xy_um[0], inward)
         drive(participants, obs, ["manual"], 1)
     error = obs.trap_xy_um[0] - (cell[0] + OFFSETS_UM)
     assert np.all(np.abs(error[:, 0]) < TASK.align_tolerance_um) and np.all(np.abs(error[:, 1]) < 0.25), error
+
+
+def test_approach_keeps_the_wall_side_robot_off_the_wall():
+    """A still cell 1.5 um toward a wall at y = -9 um: robot 0's closed place below it
+    (handles at y = -8.03) lies 0.97 um from the wall, inside the 2 um clearance. The
+    participant who sees the wall stops robot 0 at the clearance (it would nudge the
+    free cell off the wall) and closes robot 1 as before; without walls robot 0's
+    handles end about 1 um from the wall (where the chip's walls held them and the
+    traps lost them)."""
+    cell = np.array([[10.0, -1.5]])
+    start = np.array([[10.0, 0.0]])[:, None] + OFFSETS_UM
+    ends = {}
+    for walls in (wall_below(-9.0), None):
+        obs = scene(cell, start.copy(), APPROACH)
+        drive(people([STEADY], wall_distance_um=walls), obs, ["manual"], 150)
+        ends[walls is None] = obs.trap_xy_um[0]
+    seeing, blind = ends[False], ends[True]
+    assert seeing[TRAP_ROBOT == 0, 1].min() + 9.0 == pytest.approx(TASK.wall_clearance_um, abs=0.3), seeing
+    assert blind[TRAP_ROBOT == 0, 1].min() + 9.0 < 1.3, blind
+    np.testing.assert_allclose(seeing[TRAP_ROBOT == 1], blind[TRAP_ROBOT == 1], atol=0.15)
+
+
+def test_carrying_near_a_wall_shifts_the_whole_formation():
+    """A gripped cell whose robot 0 handles sit 1.47 um from a wall (inside the 2 um
+    clearance): the participant moves both robots off the wall together (the cell stays
+    gripped: the robots' separation does not change by more than 0.1 um) while
+    carrying along x."""
+    cell = np.array([[10.0, 0.0]])
+    obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
+    wall_y = OFFSETS_UM[:, 1].min() - 1.47
+    separation = lambda traps: traps[TRAP_ROBOT == 1].mean(axis=0) - traps[TRAP_ROBOT == 0].mean(axis=0)  # noqa: E731
+    before = separation(obs.trap_xy_um[0])
+    moved = drive(people([STEADY], wall_distance_um=wall_below(wall_y)), obs, ["manual"], 150)[0]
+    assert obs.trap_xy_um[0, :, 1].min() - wall_y > TASK.wall_clearance_um - 0.3, obs.trap_xy_um[0]
+    assert moved[:, 1].min() > 0.2, moved  # both hands moved off the wall
+    np.testing.assert_allclose(separation(obs.trap_xy_um[0]), before, atol=0.1)
+    assert moved[:, 0].min() > 2.0  # and carried along the route
 
 
 def test_miss_distance_of_a_head_on_and_a_parallel_obstacle():
@@ -156,6 +223,23 @@ def test_the_person_gives_way_to_an_obstacle_crossing_ahead():
     assert changed.tolist() == [True, False]
     np.testing.assert_array_equal(chosen[1], want[1])
     assert miss_um(cell[:1], obstacles[:1], velocity[:1], chosen[:1], TASK.horizon_s)[0][0] >= TASK.clearance_um
+
+
+def test_the_person_side_steps_an_obstacle_that_stands_in_the_corridor():
+    """Carrying along +x at 2 um/s past an obstacle standing still 12 um ahead and 10 um
+    to the side (inside the clearance of the route): holding still would be "safe" but
+    never clears the way, so the person side-steps it (forward and away from it, -y)
+    with at least the still-obstacle clearance. The same obstacle crossing toward the
+    route at 2 um/s is waited for instead: no forward motion."""
+    cell = np.zeros((2, 2))
+    obstacles = np.array([[[12.0, 10.0]], [[12.0, 10.0]]])
+    velocity = np.array([[[0.0, 0.0]], [[0.0, -2.0]]])
+    want = np.array([[2.0, 0.0], [2.0, 0.0]])
+    chosen, changed = choose_velocity(cell, obstacles, velocity, want, np.array([[1.0, 0.0]] * 2), TASK)
+    assert changed.tolist() == [True, True]
+    assert chosen[0, 0] > 0.5 and chosen[0, 1] < -0.5, chosen[0]
+    assert miss_um(cell[:1], obstacles[:1], velocity[:1], chosen[:1], TASK.horizon_s)[0][0] >= TASK.still_clearance_um
+    assert chosen[1, 0] <= 1.0 + 1e-9, chosen[1]  # slowed, held or backed, not side-stepping past it
 
 
 def test_shared_mode_rests_until_the_cue_then_overrides_the_autonomy():
