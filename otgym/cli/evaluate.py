@@ -1,5 +1,6 @@
 """``otgym evaluate``: the RL policy against each constant speed on the same seeded
-episodes; writes table.csv, table.md (Table II), safety.png (Fig. 7) and safety.json."""
+episodes; writes table.csv, table.md (Table II), safety.png (Fig. 7), safety.json and
+acceptance.json (RL against the fastest constant speed as safe as it, paired tests)."""
 
 from __future__ import annotations
 
@@ -27,7 +28,8 @@ def register(app: typer.Typer) -> None:
         from otgym.envs import speed_control as spc
         from otgym.envs import transport as tr
         from otgym.envs.presets import preset
-        from otgym.experiments.speed_control_eval import evaluate as run, write_safety_figure, write_table
+        from otgym.experiments.report import reference_verdict
+        from otgym.experiments.speed_control_eval import acceptance, evaluate as run, passes, write_safety_figure, write_table
         from otgym.rl.policy import load_policy, policy_meta, resolve_policy
 
         path = resolve_policy(policy)
@@ -47,7 +49,10 @@ def register(app: typer.Typer) -> None:
         write_safety_figure(evaluation, out / "safety.png", *limits)
         safety = {name: evaluation.safety(name, *limits) for name in ("RL", "untrained")}
         (out / "safety.json").write_text(json.dumps(safety, indent=2))
+        checks = acceptance(evaluation, safety["RL"])
+        (out / "acceptance.json").write_text(json.dumps({**checks, "passes": passes(checks)}, indent=2))
         console.print((out / "table.md").read_text())
+        console.print(reference_verdict(checks, rows))
         console.print(f"safety of RL: force < {limits[0]:g} pN in {safety['RL']['force_below_limit']:.2%} of samples, "
                       f"handle within {limits[1]:g} um in {safety['RL']['distance_within_limit']:.2%}")
-        console.print(f"wrote {out}/table.csv, table.md, safety.png, safety.json ({len(rows)} rows)")
+        console.print(f"wrote {out}/table.csv, table.md, safety.png, safety.json, acceptance.json ({len(rows)} rows)")

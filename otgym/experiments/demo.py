@@ -235,7 +235,7 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
     from otgym.envs import transport as tr
     from otgym.envs.presets import preset
     from otgym.experiments import report
-    from otgym.experiments.speed_control_eval import evaluate, write_safety_figure, write_table
+    from otgym.experiments.speed_control_eval import acceptance, evaluate, write_safety_figure, write_table
     from otgym.experiments.transport import run as run_transport
     from otgym.planning.pipeline import write_plan
     from otgym.rl.policy import load_policy, policy_meta, resolve_policy
@@ -290,6 +290,7 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
         write_safety_figure(evaluation, speed_dir / "safety.png", *limits)
         safety = {name: evaluation.safety(name, *limits) for name in ("RL", "untrained")}
         (speed_dir / "safety.json").write_text(json.dumps(safety, indent=2))
+        checks = acceptance(evaluation, safety["RL"])
         timings["speed_control_s"] = time.perf_counter() - start
 
         announce(count)
@@ -309,7 +310,7 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
                 pass
         raise
 
-    sections = [report.speed_control_section(rows, safety, *limits, task.name, full_episodes=FULL_EPISODES),
+    sections = [report.speed_control_section(rows, safety, checks, *limits, task.name, full_episodes=FULL_EPISODES),
                 report.planning_section(metrics), report.transport_section(transport_summary)]
     study_summary = None
     if config.study is not None:

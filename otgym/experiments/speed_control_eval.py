@@ -20,6 +20,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
+from scipy.stats import binomtest
 
 from otgym.envs import speed_control as spc
 from otgym.envs import transport as tr
@@ -59,19 +60,56 @@ SAFE_FRACTION = 0.99
 """Safety acceptance (issue 5): contact force under its limit and every handle within
 the deviation limit of its trap in at least this fraction of the steps."""
 
+SIGNIFICANCE = 0.05
+"""Level of the one-sided binomial tests in ``acceptance``."""
 
-def acceptance(rows: list[dict], rl_safety: dict) -> dict:
-    """The acceptance checks of the trained policy against the constant speeds: RL
-    completes every episode (ASR 1.00); its ATCT is below that of every constant
-    speed that also completes every episode; force and handle-distance safety."""
-    rl = next(row for row in rows if row["policy"] == "RL")
-    safe = [row["policy"] for row in rows if row["policy"] != "RL" and row["success_rate"] == 1.0]
-    atct = {row["policy"]: row["ATCT_s"] for row in rows}
-    return {"asr_one": rl["success_rate"] == 1.0,
-            "faster_than": safe,
-            "faster": rl["ATCT_s"] is not None and all(rl["ATCT_s"] < atct[name] for name in safe),
-            "force_safe": rl_safety["force_below_limit"] >= SAFE_FRACTION,
-            "distance_safe": rl_safety["distance_within_limit"] >= SAFE_FRACTION}
+
+def acceptance(evaluation: Evaluation, rl_safety: dict, significance: float = SIGNIFICANCE) -> dict:
+    """The trained policy against the constant speeds (issue 10, item 5).
+
+    The reference is the fastest constant speed that is at least as safe as RL: its
+    success rate on the same episodes is no lower than RL's (when none is, RL is safer
+    than every constant speed and there is nothing to beat). RL beats it when, on the
+    episodes both completed, RL finished first in significantly more than half of those
+    that were not tied: a one-sided sign test (binomial, p = 1/2; Dixon & Mood 1946)
+    below ``significance``. Its safety against the reference is McNemar's exact test on
+    the episodes exactly one of the two lost (binomial on the discordant pairs):
+    ``safety_p`` is the one-sided p of "RL loses more often", reported, not required.
+    Also: force and handle-distance safety of RL's steps (``SAFE_FRACTION``)."""
+    rl = evaluation.names.index("RL")
+    constant = [p for p, speed in enumerate(evaluation.speeds_um_s) if speed is not None]
+    rl_rate = float(evaluation.success[rl].mean())
+    as_safe = [p for p in constant if evaluation.success[p].mean() >= rl_rate]
+    checks = {"force_safe": rl_safety["force_below_limit"] >= SAFE_FRACTION,
+              "distance_safe": rl_safety["distance_within_limit"] >= SAFE_FRACTION,
+              "episodes": int(evaluation.success.shape[1]), "reference": None, "faster_episodes": 0,
+              "slower_episodes": 0, "speed_p": None, "rl_only_lost": 0, "reference_only_lost": 0, "safety_p": None}
+    if not as_safe:
+        checks["beats_reference"] = True
+        return checks
+    reference = max(as_safe, key=lambda p: evaluation.speeds_um_s[p])
+    both = evaluation.success[rl] & evaluation.success[reference]
+    faster = int(np.sum(both & (evaluation.time_s[rl] < evaluation.time_s[reference] - 1e-6)))
+    slower = int(np.sum(both & (evaluation.time_s[rl] > evaluation.time_s[reference] + 1e-6)))
+    speed_p = binomtest(faster, faster + slower, 0.5, alternative="greater").pvalue if faster + slower else 1.0
+    rl_only = int(np.sum(~evaluation.success[rl] & evaluation.success[reference]))
+    reference_only = int(np.sum(evaluation.success[rl] & ~evaluation.success[reference]))
+    discordant = rl_only + reference_only
+    safety_p = binomtest(rl_only, discordant, 0.5, alternative="greater").pvalue if discordant else 1.0
+    checks.update(reference=evaluation.names[reference], faster_episodes=faster, slower_episodes=slower,
+                  speed_p=float(speed_p), rl_only_lost=rl_only, reference_only_lost=reference_only,
+                  safety_p=float(safety_p), beats_reference=bool(speed_p < significance))
+    return checks
+
+
+def passes(checks: dict) -> bool:
+    """Whether a policy passes the acceptance: it beats the reference constant speed and
+    its contact force stays under the limit. The handle-distance check is reported, not
+    required: with the paper's trap law the drag of the assembly holds the handles about
+    0.3 um behind their traps at every speed of the preset, the slowest included (about
+    half of the steps within 0.2 um, README), so no policy could meet it; the trap
+    losses it guards against count in the success rate."""
+    return checks["beats_reference"] and checks["force_safe"]
 
 
 def make_rollout(params: tr.TransportParams, hidden, n_episodes: int, policies=None):

@@ -45,6 +45,10 @@ def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params):
     # contact forces in the paper preset stay below 0.5 pN (docs/images/speed_control_safety.png)
     assert set(safety) == {"RL", "untrained"} and safety["RL"]["force_below_limit"] == 1.0
     assert (tmp_path / "eval" / "safety.png").is_file()
+    # a policy that always drives at the slowest speed is never first against an as-safe constant speed
+    checks = json.loads((tmp_path / "eval" / "acceptance.json").read_text())
+    assert checks["reference"] in {"G1", "G2", "G3", "G4", "G5", "G6"} and checks["faster_episodes"] == 0
+    assert not checks["beats_reference"] and not checks["passes"]
 
 
 @pytest.mark.parametrize("arguments, message", [

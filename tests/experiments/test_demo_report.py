@@ -105,15 +105,23 @@ def test_table_ii_section_names_its_size_and_reads_the_rows():
     """16 episodes: G3 is quicker than RL and lost none of them; G4-G6 are quicker and lost some."""
     safety = {name: {"force_below_limit": 1.0, "distance_within_limit": 0.03, "distance_median_um": 0.33,
                      "distance_p99_um": 0.46, "samples": 6700} for name in ("RL", "untrained")}
-    text = "\n".join(speed_control_section(_speed_rows(16), safety, 10.0, 0.2, "paper", full_episodes=256))
+    checks = {"distance_safe": False, "reference": "G3", "faster_episodes": 0, "slower_episodes": 16, "speed_p": 1.0, "rl_only_lost": 0,
+              "reference_only_lost": 0, "safety_p": 1.0, "beats_reference": False}
+    text = "\n".join(speed_control_section(_speed_rows(16), safety, checks, 10.0, 0.2, "paper", full_episodes=256))
     low, high = wilson(16, 16)
     assert f"success 16 of 16 episodes (1.000, 95 % Wilson interval [{low:.3f}, {high:.3f}])" in text
     assert "the same 16 seeded episodes" in text and "`otgym evaluate --policy pretrained --episodes 256`" in text
-    assert "not below that of every constant speed that succeeded in all 16 episodes (G1, G2, G3)" in text
+    assert "The fastest constant speed at least as safe is G3 (success 1.000, ATCT 41.00 s)" in text
+    assert "RL finished first in 0 and later in 16 (one-sided sign test p = 1): RL is not significantly faster" in text
     assert "that lost none of these 16: G3 (41.00 s, success 1.000)" in text
     assert "that lost episodes: G4 (36.40 s, success 0.938), G5 (32.60 s, success 0.938), G6" in text
-    full = "\n".join(speed_control_section(_speed_rows(256), safety, 10.0, 0.2, "paper", full_episodes=256))
+    full = "\n".join(speed_control_section(_speed_rows(256), safety, dict(checks, reference=None), 10.0, 0.2, "paper",
+                                           full_episodes=256))
     assert "the same 256 seeded episodes." in full and "otgym evaluate" not in full
+    assert "No constant speed was as safe as RL" in full
+    assert "limit of 0.2 um was kept in 3.0% of RL's steps" in text and "median handle sat 0.330 um" in text
+    assert "handle-distance limit" not in "\n".join(
+        speed_control_section(_speed_rows(16), safety, dict(checks, distance_safe=True), 10.0, 0.2, "paper"))
 
 
 @pytest.mark.parametrize("options, message", [

@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from otgym.experiments.speed_control_eval import SAFE_FRACTION, acceptance, evaluate, write_safety_figure, write_table
+from otgym.experiments.speed_control_eval import (SAFE_FRACTION, Evaluation, acceptance, evaluate, passes,
+                                                write_safety_figure, write_table)
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 
 EPISODES = 4  # shared with the demo test, so both run one compiled rollout
@@ -70,18 +71,52 @@ def test_safety_samples_are_the_steps_each_policy_ran(paper_params, fastest_poli
     assert safety["distance_p99_um"] >= safety["distance_median_um"] > 0
 
 
-def test_acceptance_reads_the_rows():
-    rows = [{"policy": "RL", "ATCT_s": 40.0, "success_rate": 1.0},
-            {"policy": "G1", "ATCT_s": 55.0, "success_rate": 1.0},
-            {"policy": "G2", "ATCT_s": 39.0, "success_rate": 0.9}]
-    safe = {"force_below_limit": 1.0, "distance_within_limit": SAFE_FRACTION - 0.01}
-    checks = acceptance(rows, safe)
-    assert checks["asr_one"] and checks["faster"] and checks["faster_than"] == ["G1"]
-    assert checks["force_safe"] and not checks["distance_safe"]
-    rows[2]["success_rate"] = 1.0
-    assert not acceptance(rows, safe)["faster"]
-    rows[0]["success_rate"] = 0.98
-    assert not acceptance(rows, safe)["asr_one"]
+def _paired_evaluation(rl_time_s: float, g3_success: int) -> Evaluation:
+    """40 episodes: RL loses episode 0; G1 none; G2 loses episode 5; G3 keeps ``g3_success``.
+    Times: G1 15 s, G2 11 s, G3 9 s, RL ``rl_time_s`` in every episode but the last
+    four (11 s there, ties with G2)."""
+    n = 40
+    success = np.ones((5, n), bool)
+    success[0, 0] = success[2, 5] = False
+    success[3, g3_success:] = False
+    time_s = np.stack([np.full(n, rl_time_s), np.full(n, 15.0), np.full(n, 11.0), np.full(n, 9.0), np.full(n, 20.0)])
+    time_s[0, -4:] = 11.0
+    empty = [np.zeros(0)] * 5
+    return Evaluation(["RL", "G1", "G2", "G3", "untrained"], [None, 1.0, 2.0, 3.0, None], success.astype(float),
+                      success, time_s, empty, empty)
+
+
+SAFE = {"force_below_limit": 1.0, "distance_within_limit": 1.0}
+
+
+def test_acceptance_tests_rl_against_the_fastest_constant_speed_as_safe():
+    """The reference is the fastest constant speed with a success rate >= RL's; RL must
+    finish first significantly often on the episodes both completed (sign test), and
+    McNemar's test counts the episodes only one of them lost."""
+    checks = acceptance(_paired_evaluation(10.0, g3_success=30), SAFE)
+    assert checks["reference"] == "G2"  # G3 (30/40) is less safe than RL (39/40), G2 (39/40) as safe
+    # both completed 38 episodes; 4 of them tied at 11 s, RL first in the other 34
+    assert (checks["faster_episodes"], checks["slower_episodes"]) == (34, 0)
+    assert checks["speed_p"] == pytest.approx(0.5 ** 34) and checks["beats_reference"] and passes(checks)
+    assert (checks["rl_only_lost"], checks["reference_only_lost"], checks["safety_p"]) == (1, 1, 0.75)
+    slower = acceptance(_paired_evaluation(12.0, g3_success=30), SAFE)
+    assert slower["faster_episodes"] == 0 and slower["speed_p"] == 1.0 and not passes(slower)
+    # G3 as safe as RL and quicker than it: RL is beaten
+    faster_reference = acceptance(_paired_evaluation(10.0, g3_success=40), SAFE)
+    assert faster_reference["reference"] == "G3" and not faster_reference["beats_reference"]
+    forceful = dict(SAFE, force_below_limit=SAFE_FRACTION - 0.01)
+    assert acceptance(_paired_evaluation(10.0, g3_success=30), forceful)["beats_reference"]
+    assert not passes(acceptance(_paired_evaluation(10.0, g3_success=30), forceful))
+    wandering = acceptance(_paired_evaluation(10.0, g3_success=30), dict(SAFE, distance_within_limit=0.5))
+    assert not wandering["distance_safe"] and passes(wandering)
+
+
+def test_acceptance_without_an_as_safe_constant_speed():
+    evaluation = _paired_evaluation(10.0, g3_success=30)
+    evaluation.success[0] = True  # RL loses none; every constant speed loses some
+    evaluation.success[1, 7] = False
+    checks = acceptance(evaluation, SAFE)
+    assert checks["reference"] is None and checks["beats_reference"] and passes(checks)
 
 
 def test_table_and_figure_files(tmp_path, fastest_policy_evaluation):
