@@ -149,7 +149,8 @@ def observe_batch(params: TransportParams, state: TransportState):
     return jax.vmap(lambda s: _observe(params, s))(state)
 
 
-def _reward(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal):
+def reward_terms(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal) -> dict:
+    """Each term of the per-step reward (E,), weighted, by name; they sum to the reward."""
     weights = config.reward
     low, high = config.force_band_pn
     force = events.contact_force_pn
@@ -157,12 +158,19 @@ def _reward(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal):
     deviation = jnp.mean(events.trap_distance_um > config.deviation_limit_um, axis=-1)
     fraction = events.trap_distance_um / config.scene.trap_law.escape_distance
     margin = jnp.sum(jnp.maximum(fraction - weights.trap_margin_fraction, 0.0), axis=-1) / 0.1
-    return (weights.time + weights.speed * speed / max(config.speed_levels_um_s)
-            + weights.force_in_band * jnp.all(in_band, axis=-1)
-            + weights.force_out_of_band * jnp.sum(~in_band, axis=-1)
-            + weights.handle_deviation * deviation
-            + weights.trap_margin * margin
-            + jnp.where(failed, weights.failure, 0.0) + jnp.where(goal, weights.goal, 0.0))
+    zeros = jnp.zeros(force.shape[:-1], force.dtype)
+    return {"time": zeros + weights.time,
+            "speed": zeros + weights.speed * speed / max(config.speed_levels_um_s),
+            "force_in_band": weights.force_in_band * jnp.all(in_band, axis=-1),
+            "force_out_of_band": weights.force_out_of_band * jnp.sum(~in_band, axis=-1),
+            "handle_deviation": weights.handle_deviation * deviation,
+            "trap_margin": weights.trap_margin * margin,
+            "failure": jnp.where(failed, weights.failure, 0.0),
+            "goal": jnp.where(goal, weights.goal, 0.0)}
+
+
+def _reward(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal):
+    return sum(reward_terms(config, events, speed, failed, goal).values())
 
 
 def advance_batch(key, params: TransportParams, state: TransportState, trap_velocity_um_s, arc_of, speed_um_s):

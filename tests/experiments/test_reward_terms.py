@@ -1,0 +1,17 @@
+"""The reward-term table: which fraction of steps each term binds in, and its share."""
+
+import numpy as np
+import pytest
+
+from otgym.experiments.reward_terms import markdown, summarize
+
+
+def test_summary_counts_binding_steps_and_shares():
+    samples = {"RL": {"time": np.full(4, -0.05), "failure": np.array([0.0, 0.0, 0.0, -100.0])},
+               "random": {"time": np.full(2, -0.05), "failure": np.zeros(2)}}
+    rows = {(row["policy"], row["term"]): row for row in summarize(samples)}
+    assert rows["RL", "failure"]["binds"] == 0.25 and rows["RL", "time"]["binds"] == 1.0
+    assert rows["random", "failure"]["binds"] == 0.0 and rows["random", "failure"]["max"] == 0.0
+    assert rows["RL", "failure"]["share_of_abs_reward"] == pytest.approx(100 / 100.2)
+    assert rows["RL", "time"]["mean"] == pytest.approx(-0.05) and rows["RL", "time"]["steps"] == 4
+    assert "| RL | failure | 4 | 0.2500 |" in "\n".join(markdown(list(rows.values())))
