@@ -4,11 +4,11 @@ acceptance.json (RL against the fastest constant speed as safe as it, paired tes
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import typer
 from rich.console import Console
+
 
 def register(app: typer.Typer) -> None:
     @app.command()
@@ -25,17 +25,21 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--episodes must be at least 1, got {episodes}")
         if not 1 <= repeats <= 1000:
             raise ValueError(f"--repeats must be between 1 and 1000, got {repeats}")
+        from otgym.experiments.output_folder import check_out_dir
+
+        check_out_dir(out)
         from otgym.envs import speed_control as spc
         from otgym.envs import transport as tr
         from otgym.envs.presets import preset
         from otgym.experiments.report import reference_verdict
-        from otgym.experiments.speed_control_eval import acceptance, evaluate as run, passes, write_safety_figure, write_table
+        from otgym.experiments.speed_control_eval import evaluate as run, write_results
         from otgym.rl.policy import load_policy, policy_meta, resolve_policy
 
         path = resolve_policy(policy)
         task = preset(policy_meta(path).get("preset", "paper"))
         q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
         console = Console()
+
         def progress(done: int, total: int) -> None:
             if total > 1:
                 console.print(f"batch {done}/{total} done (seed {seed + done - 1})")
@@ -43,14 +47,8 @@ def register(app: typer.Typer) -> None:
         with console.status("planning, compiling and running the episodes"):
             evaluation = run(spc.make_params(task), q_params, meta["hidden"], episodes, seed, repeats=repeats,
                              progress=progress)
-        out.mkdir(parents=True, exist_ok=True)
-        rows = write_table(evaluation, out)
         limits = task.force_band_pn[1], task.deviation_limit_um
-        write_safety_figure(evaluation, out / "safety.png", *limits)
-        safety = {name: evaluation.safety(name, *limits) for name in ("RL", "untrained")}
-        (out / "safety.json").write_text(json.dumps(safety, indent=2))
-        checks = acceptance(evaluation, safety["RL"])
-        (out / "acceptance.json").write_text(json.dumps({**checks, "passes": passes(checks)}, indent=2))
+        rows, safety, checks = write_results(evaluation, out, *limits)
         console.print((out / "table.md").read_text())
         console.print(reference_verdict(checks, rows))
         console.print(f"safety of RL: force < {limits[0]:g} pN in {safety['RL']['force_below_limit']:.2%} of samples, "

@@ -23,11 +23,12 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import tempfile
 import threading
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
+
+from otgym.experiments.output_folder import check_out_dir
 
 if TYPE_CHECKING:  # imported when needed: the command line reads this module's sizes without loading JAX
     from otgym.experiments.transport import TransportDemo
@@ -153,21 +154,6 @@ def demo_config(policy: str = "pretrained", episodes: int = DEMO_EPISODES, speed
                       transport=_transport(speed_um_s=float(speed_um_s), n_runs=runs, seed=seed))
 
 
-def check_out_dir(out_dir: Path) -> Path:
-    """Refuse an output folder that is a file or cannot be written, before any work:
-    create it (with its parents) and write and delete a probe file in it."""
-    out_dir = Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise ValueError(f"--out {out_dir} is a file, not a folder")
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=out_dir):
-            pass
-    except OSError as error:
-        raise ValueError(f"--out {out_dir} cannot be written: {error.strerror or error}") from None
-    return out_dir
-
-
 def stage_names(config: DemoConfig) -> list[str]:
     """The demo's stages in the order they start, one progress line each, with their
     sizes. The study, when there is one, starts second and runs in the background."""
@@ -235,7 +221,7 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
     from otgym.envs import transport as tr
     from otgym.envs.presets import preset
     from otgym.experiments import report
-    from otgym.experiments.speed_control_eval import acceptance, evaluate, write_safety_figure, write_table
+    from otgym.experiments.speed_control_eval import evaluate, write_results
     from otgym.experiments.transport import run as run_transport
     from otgym.planning.pipeline import write_plan
     from otgym.rl.policy import load_policy, policy_meta, resolve_policy
@@ -285,12 +271,8 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
         start = time.perf_counter()
         evaluation = evaluate(spc.make_params(task), q_params, meta["hidden"], config.episodes, config.seed)
         speed_dir = out_dir / "speed_control"
-        rows = write_table(evaluation, speed_dir)
         limits = task.force_band_pn[1], task.deviation_limit_um
-        write_safety_figure(evaluation, speed_dir / "safety.png", *limits)
-        safety = {name: evaluation.safety(name, *limits) for name in ("RL", "untrained")}
-        (speed_dir / "safety.json").write_text(json.dumps(safety, indent=2))
-        checks = acceptance(evaluation, safety["RL"])
+        rows, safety, checks = write_results(evaluation, speed_dir, *limits)
         timings["speed_control_s"] = time.perf_counter() - start
 
         announce(count)

@@ -43,8 +43,9 @@ def reference_verdict(checks: dict, rows: list[dict]) -> str:
     reference = next(row for row in rows if row["policy"] == checks["reference"])
     name = checks["reference"]
     outcome = "faster" if checks["beats_reference"] else "not significantly faster"
+    atct = "none completed" if reference["ATCT_s"] is None else f"{reference['ATCT_s']:.2f} s"
     return (f"The fastest constant speed at least as safe is {name} (success {reference['success_rate']:.3f}, "
-            f"ATCT {reference['ATCT_s']:.2f} s). On the episodes both completed RL finished first in "
+            f"ATCT {atct}). On the episodes both completed RL finished first in "
             f"{checks['faster_episodes']} and later in {checks['slower_episodes']} (one-sided sign test "
             f"p = {checks['speed_p']:.2g}): RL is {outcome}. Episodes only RL lost: {checks['rl_only_lost']}, only "
             f"{name} lost: {checks['reference_only_lost']} (McNemar's exact test, p = {checks['safety_p']:.2g} that "

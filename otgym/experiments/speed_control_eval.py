@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import json
 from pathlib import Path
 
 import jax
@@ -202,6 +203,21 @@ def write_table(evaluation: Evaluation, out_dir: Path) -> list[dict]:
     lines = table_ii_markdown(rows)
     (out_dir / "table.md").write_text("\n".join(lines) + "\n")
     return rows
+
+
+def write_results(evaluation: Evaluation, out_dir: Path, force_limit_pn: float,
+                  distance_limit_um: float) -> tuple[list[dict], dict, dict]:
+    """Everything an evaluation writes into ``out_dir``: table.csv and table.md
+    (``write_table``), safety.png, safety.json (RL and untrained) and acceptance.json
+    (``acceptance`` plus ``passes``). Returns (rows, safety, checks)."""
+    out_dir = Path(out_dir)
+    rows = write_table(evaluation, out_dir)
+    write_safety_figure(evaluation, out_dir / "safety.png", force_limit_pn, distance_limit_um)
+    safety = {name: evaluation.safety(name, force_limit_pn, distance_limit_um) for name in ("RL", "untrained")}
+    (out_dir / "safety.json").write_text(json.dumps(safety, indent=2))
+    checks = acceptance(evaluation, safety["RL"])
+    (out_dir / "acceptance.json").write_text(json.dumps({**checks, "passes": passes(checks)}, indent=2))
+    return rows, safety, checks
 
 
 def write_safety_figure(evaluation: Evaluation, path: Path, force_limit_pn: float, distance_limit_um: float) -> None:
