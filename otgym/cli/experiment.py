@@ -23,15 +23,14 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Manual, autonomous and shared control on the same seeded scenarios: success
         (obstacles avoided / encountered) and completion time per mode (Fig. 8 a, b)."""
+        from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.shared_control import check_arguments, parse_modes, run_experiment, write_experiment
 
-        if out.exists() and not out.is_dir():
-            raise ValueError(f"--out {out} is a file, not a folder")
         chosen = parse_modes(modes)
         check_arguments(participants, trials, seed)
         if not 0 < time_limit_s <= 3600:
             raise ValueError(f"--time-limit-s must lie in (0, 3600], got {time_limit_s}")
-        out.mkdir(parents=True, exist_ok=True)
+        check_out_dir(out)
         frame = run_experiment(participants, trials, chosen, seed, chip, report=lambda line: print(line, flush=True),
                                time_limit_s=time_limit_s)
         checks = write_experiment(frame, out)

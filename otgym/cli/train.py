@@ -21,12 +21,14 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Train the DQN speed controller (the paper's progressive scheme: planned path, learned speed)."""
         from otgym.envs.presets import preset as make_preset
+        from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.speed_control import train as run_training
         from otgym.experiments.speed_control import write_training
         from otgym.rl.dqn import DQNConfig
 
         task = make_preset(preset)
         config = DQNConfig(n_envs=envs, total_env_steps=steps)
+        check_out_dir(out)
         console = Console()
         columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} chunks"),
                    TimeElapsedColumn())

@@ -129,15 +129,23 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     if not 1 <= args.episodes <= 4096:
         parser.error(f"--episodes must be an integer in [1, 4096], got {args.episodes}")
+    if not 0 <= args.seed < 2**32:
+        parser.error(f"--seed must be an integer in [0, {2**32 - 1}], got {args.seed}")
     from otgym.envs.presets import preset
+    from otgym.experiments.output_folder import check_out_dir
     from otgym.rl.policy import load_policy, policy_meta, resolve_policy
 
-    path = resolve_policy(args.policy)
-    task = preset(policy_meta(path).get("preset", "paper"))
-    q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
+    try:
+        check_out_dir(args.out)
+        path = resolve_policy(args.policy)
+        task = preset(policy_meta(path).get("preset", "paper"))
+        q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
+    except (ValueError, OSError) as error:
+        parser.error(str(error))
+    print(f"running {args.episodes} episodes for the policy and for random speeds (compile included, about a "
+          "minute for 256 on 2 cores)", flush=True)
     samples = collect(spc.make_params(task), q_params, meta["hidden"], args.episodes, args.seed)
     rows = summarize(samples)
-    args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / "reward_terms.csv", "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()

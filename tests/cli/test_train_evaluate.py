@@ -62,3 +62,13 @@ def test_bad_input_is_one_line(tmp_path, capsys, arguments, message):
     assert run_cli([*arguments, "--out", str(tmp_path)]) == 2
     error = capsys.readouterr().err.strip()
     assert error.startswith("error:") and message in error and "\n" not in error
+
+
+@pytest.mark.parametrize("command", [["train"], ["evaluate", "--policy", "pretrained"]])
+def test_an_out_that_is_a_file_is_refused_before_any_work(tmp_path, capsys, command):
+    target = tmp_path / "taken"
+    target.write_text("not a folder")
+    assert run_cli([*command, "--out", str(target)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error == f"error: --out {target} is a file, not a folder"
+    assert target.read_text() == "not a folder"

@@ -9,8 +9,8 @@ import math
 import pandas as pd
 import pytest
 
-from otgym.experiments.demo import (DemoConfig, StudyConfig, check_out_dir, demo_config, read_summary,
-                                    stage_names)
+from otgym.experiments.demo import DemoConfig, StudyConfig, demo_config, read_summary, stage_names
+from otgym.experiments.output_folder import check_out_dir
 from otgym.experiments.report import shared_control_section, speed_control_section
 from otgym.study import summarize
 from tests.study import make_trials

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from otgym.experiments.reward_terms import markdown, summarize
+from otgym.experiments.reward_terms import main, markdown, summarize
 
 
 def test_summary_counts_binding_steps_and_shares():
@@ -15,3 +15,22 @@ def test_summary_counts_binding_steps_and_shares():
     assert rows["RL", "failure"]["share_of_abs_reward"] == pytest.approx(100 / 100.2)
     assert rows["RL", "time"]["mean"] == pytest.approx(-0.05) and rows["RL", "time"]["steps"] == 4
     assert "| RL | failure | 4 | 0.2500 |" in "\n".join(markdown(list(rows.values())))
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--episodes", "0"], "--episodes must be an integer in [1, 4096], got 0"),
+    (["--seed", "-1"], "--seed must be an integer in [0, 4294967295]"),
+    (["--policy", "nowhere.npz"], "nowhere.npz does not exist"),
+])
+def test_bad_input_is_one_line_before_any_work(tmp_path, capsys, arguments, message):
+    with pytest.raises(SystemExit) as exit_info:
+        main([*arguments, "--out", str(tmp_path / "out")])
+    assert exit_info.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_an_out_that_is_a_file_is_refused(tmp_path, capsys):
+    target = tmp_path / "taken"
+    target.write_text("x")
+    with pytest.raises(SystemExit):
+        main(["--out", str(target)])
+    assert "is a file, not a folder" in capsys.readouterr().err
