@@ -2,8 +2,8 @@
 
 * Tick: the real-time loop of ``otgym.runtime.loop`` on the interactive task (shared
   mode, 50 Hz ticks of 20 ms), one simulated haptic stylus driving both robots as a
-  formation: device read, retargeting, the route navigator, arbitration, physics (50
-  steps of 0.4 ms), four 48 x 48 px microscope crops at 0.1 um around the traps (the
+  formation: device read, retargeting, the route navigator, arbitration, physics (80
+  steps of 0.25 ms), four 48 x 48 px microscope crops at 0.1 um around the traps (the
   chip as background), the vision force sensor, the feedback law and the force sent
   back. Ticks run back to back; the real-time factor is simulated seconds per wall
   second (goal >= 10). Latency p50/p99 per stage. Reference in the same run: the

@@ -68,15 +68,28 @@ def numpy_substep(m, pose, trap_xy, noise):
         mask = body == index
         generalised[:, index, :2] = force[:, mask].sum(axis=1)
         generalised[:, index, 2] = torque[:, mask].sum(axis=1)
-    return pose + m["mobility"] * generalised * m["dt"] + m["noise"] * noise
+    noise = np.broadcast_to(noise, pose.shape)
+    cos, sin = np.cos(pose[..., 2]), np.sin(pose[..., 2])  # body frame: anisotropic mobility, Cholesky noise
+    body_x = cos * generalised[..., 0] + sin * generalised[..., 1]
+    body_y = -sin * generalised[..., 0] + cos * generalised[..., 1]
+    mob, chol = m["mobility"], m["noise"]
+    step_x = (mob[:, 0, 0] * body_x + mob[:, 0, 1] * body_y) * m["dt"] + chol[:, 0, 0] * noise[..., 0]
+    step_y = ((mob[:, 1, 0] * body_x + mob[:, 1, 1] * body_y) * m["dt"] + chol[:, 1, 0] * noise[..., 0]
+              + chol[:, 1, 1] * noise[..., 1])
+    new = pose.copy()
+    new[..., 0] += cos * step_x - sin * step_y
+    new[..., 1] += sin * step_x + cos * step_y
+    new[..., 2] += m["rotational_mobility"] * generalised[..., 2] * m["dt"] + m["rotational_noise"] * noise[..., 2]
+    return new
 
 
 def numpy_arrays(model):
     get = lambda a: np.asarray(a, np.float64)  # noqa: E731
     return {"offset": get(model.sphere_offset_um), "radius": get(model.sphere_radius_um),
             "stiffness": get(model.pair_stiffness_pn_per_um), "hamaker": get(model.pair_hamaker_pn_um),
-            "min_gap": float(model.min_gap_um), "wavelength": float(model.retardation_wavelength_um), "mobility": get(model.body_mobility),
-            "noise": get(model.body_noise_um), "dt": float(model.dt_s)}
+            "min_gap": float(model.min_gap_um), "wavelength": float(model.retardation_wavelength_um), "mobility": get(model.body_translational_mobility),
+            "noise": get(model.body_translational_noise_um), "rotational_mobility": get(model.body_rotational_mobility),
+            "rotational_noise": get(model.body_rotational_noise_rad), "dt": float(model.dt_s)}
 
 
 class NumpyModel(dict):

@@ -31,6 +31,7 @@ from otgym.physics.model import (
     PhysicsConfig,
     PhysicsState,
     build_model,
+    drag_force_pn,
     initial_state,
     max_stable_dt_s,
     sphere_positions_um,
@@ -42,6 +43,6 @@ __all__ = [
     "ROBOT_DESIGNS", "TWO_HANDLE_GRIPPER_SPHERES", "BodyKind", "BodySpec", "bead", "cell", "custom_body", "four_arm_robot",
     "obstacle", "two_handle_robot", "simulate_trapped_bead", "NoWalls", "UniformFlow", "resistance_matrix",
     "Controls", "StepReport", "control_step", "control_step_batch", "rollout", "Model",
-    "PhysicsConfig", "PhysicsState", "build_model", "initial_state", "max_stable_dt_s",
+    "PhysicsConfig", "PhysicsState", "build_model", "drag_force_pn", "initial_state", "max_stable_dt_s",
     "sphere_positions_um", "TrapLaw",
 ]

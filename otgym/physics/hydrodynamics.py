@@ -59,7 +59,7 @@ import scipy.linalg
 
 from otgym.physics.validation import require_finite, require_positive, require_positive_scalar
 
-__all__ = ["grand_mobility", "resistance_matrix", "resistance_6x6"]
+__all__ = ["grand_mobility", "planar_flow_weights", "resistance_matrix", "resistance_6x6"]
 
 
 def _pair_geometry(centres):
@@ -200,9 +200,9 @@ def _validated(offsets_um, radii_um, viscosity_pa_s):
     return centres, radii, eta
 
 
-def resistance_6x6(offsets_um, radii_um, viscosity_pa_s, *, sphere_rotation: bool = True) -> np.ndarray:
-    """Full rigid-body resistance K^T M^-1 K about the origin of the offsets, ordered
-    (Ux, Uy, Uz, Ox, Oy, Oz) -> (Fx, Fy, Fz, Tx, Ty, Tz); see ``resistance_matrix``."""
+def _solved_rigid_motion(offsets_um, radii_um, viscosity_pa_s, sphere_rotation: bool):
+    """(K, M^-1 K) for the cluster: the rigid-motion matrix and the sphere forces (and
+    torques) per unit rigid motion."""
     centres, radii, eta = _validated(offsets_um, radii_um, viscosity_pa_s)
     mobility = grand_mobility(centres, radii, eta, sphere_rotation=sphere_rotation)
     k = _rigid_motion_matrix(centres, sphere_rotation)
@@ -212,8 +212,38 @@ def resistance_6x6(offsets_um, radii_um, viscosity_pa_s, *, sphere_rotation: boo
         # Only coincident identical spheres make M singular (their rows are equal);
         # the pseudo-inverse then counts them once, which is the right physics.
         solved = scipy.linalg.pinvh(mobility) @ k
+    return k, solved
+
+
+def resistance_6x6(offsets_um, radii_um, viscosity_pa_s, *, sphere_rotation: bool = True) -> np.ndarray:
+    """Full rigid-body resistance K^T M^-1 K about the origin of the offsets, ordered
+    (Ux, Uy, Uz, Ox, Oy, Oz) -> (Fx, Fy, Fz, Tx, Ty, Tz); see ``resistance_matrix``."""
+    k, solved = _solved_rigid_motion(offsets_um, radii_um, viscosity_pa_s, sphere_rotation)
     resistance = k.T @ solved
     return (resistance + resistance.T) / 2
+
+
+PLANAR = [0, 1, 5]
+"""Rows/columns of (Ux, Uy, Uz, Ox, Oy, Oz) that stay in the focal plane."""
+
+
+def planar_flow_weights(offsets_um, radii_um, viscosity_pa_s) -> np.ndarray:
+    """Force and torque on the held-still body from a background flow, per sphere.
+
+    Returns W (S, 3, 3): the body's [F_x, F_y, T_z] about the origin of the offsets is
+    sum_i W[i] [u_x, u_y, w_z / 2](x_i), with u the flow velocity (um/s) and w_z its
+    vorticity (1/s) at sphere i (a sphere in a flow spins at half the local vorticity).
+    This is (M^-1 K)^T applied to the background motion of the spheres, the rigid
+    multiblob's drag from an imposed flow (Usabiaga et al. 2016, eq. for the
+    "slip"/background term), with sphere rotations (generalised RPY). In a uniform flow
+    sum_i W[i][:, :2] equals the first two columns of ``resistance_matrix``; for one
+    sphere W is diag(6 pi eta a, 6 pi eta a, 8 pi eta a^3) plus the lever arm.
+    """
+    k, solved = _solved_rigid_motion(offsets_um, radii_um, viscosity_pa_s, sphere_rotation=True)
+    n = np.asarray(radii_um).size
+    weights = solved.T[PLANAR]  # (3, 6S): planar body force per sphere velocity/spin
+    columns = np.stack([3 * np.arange(n), 3 * np.arange(n) + 1, 3 * n + 3 * np.arange(n) + 2], axis=1)
+    return np.moveaxis(weights[:, columns], 1, 0)  # (S, 3, 3)
 
 
 def resistance_matrix(offsets_um, radii_um, viscosity_pa_s, *, wall_height_um=None,
@@ -243,7 +273,7 @@ def resistance_matrix(offsets_um, radii_um, viscosity_pa_s, *, wall_height_um=No
             "rotations; call with wall_height_um=None (unbounded fluid). The free-draining model "
             "has a per-sphere Faxen factor: otgym.physics.mobility.faxen_parallel_factor.")
     full = resistance_6x6(offsets_um, radii_um, viscosity_pa_s, sphere_rotation=sphere_rotation)
-    planar = full[np.ix_([0, 1, 5], [0, 1, 5])]
+    planar = full[np.ix_(PLANAR, PLANAR)]
     eigenvalues = np.linalg.eigvalsh(planar)
     if not eigenvalues[0] > 1e-10 * eigenvalues[-1]:
         raise ValueError(

@@ -1,16 +1,21 @@
 """Euler-Maruyama integration of overdamped rigid-body dynamics.
 
-For each body (drag-centre pose q = (x, y, theta)) and step dt:
+For each body (pose q = (x, y, theta) of its hydrodynamic centre) and step dt:
 
-    q <- q + M F(q) dt + sqrt(2 kT dt M) xi,        xi ~ N(0, I)
+    q <- q + M(theta) F(q) dt + sqrt(2 kT dt) L(theta) xi,     xi ~ N(0, I),  L L^T = M
 
-with M = diag(1/gamma_t, 1/gamma_t, 1/gamma_r) (otgym.physics.mobility) and F the
-generalised force (force and torque about the drag centre) of the optical traps,
-contact, van der Waals, flow drag (gamma_i u(x_i) on each sphere, plus the torque
-8 pi eta a^3 * vorticity / 2) and user forces. The noise amplitude follows from the
-fluctuation-dissipation theorem; with a diagonal, pose-independent M in the body
-frame no spurious-drift term arises. Kinematic bodies (obstacles) move with their
-prescribed velocity instead. Traps move with a prescribed velocity each step.
+with M(theta) = diag(R A^-1 R^T, 1/r) the body's mobility about its hydrodynamic
+centre (otgym.physics.mobility: rigid multiblob with RPY interaction between its
+spheres; A the body-frame translational resistance, R the rotation by theta) and F the
+generalised force (force and torque about the centre) of the optical traps, contact,
+van der Waals, flow drag and user forces. The flow's drag is the multiblob's response
+to the flow velocity u and half the vorticity w/2 at each sphere, sum_i W_i [u, w/2]
+(in the body frame). The noise amplitude follows from the fluctuation-dissipation
+theorem; about the hydrodynamic centre translation and rotation decouple and M
+depends on the pose only through theta in its translational block, so the mobility's
+divergence vanishes and no spurious-drift term arises. Kinematic bodies (obstacles)
+move with their prescribed velocity instead. Traps move with a prescribed velocity
+each step.
 
 The chip's flow and wall distance are sampled every ``model.field_refresh`` steps
 (default every step); in between the flow is held and the wall distance is carried to
@@ -38,7 +43,7 @@ from jax.custom_batching import custom_vmap
 from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.batching import batch_through
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
-from otgym.physics.model import Model, PhysicsState, sphere_positions_um
+from otgym.physics.model import Model, PhysicsState, rotate_body_frame, sphere_positions_um
 
 
 @struct.dataclass
@@ -85,7 +90,7 @@ def _check_controls(model: Model, controls: Controls, lead: tuple) -> None:
 
 
 def _sphere_xy(model: Model, px, py, theta):
-    """Sphere centres (N, E) and their lever arms from the drag centre."""
+    """Sphere centres (N, E) and their lever arms from the hydrodynamic centre."""
     body = np.asarray(model.sphere_body, dtype=int)
     cos, sin = jnp.cos(theta)[body], jnp.sin(theta)[body]
     ox, oy = model.sphere_offset_um[:, 0:1], model.sphere_offset_um[:, 1:2]
@@ -112,6 +117,29 @@ def _sample_fields(model: Model, x, y):
     return flow + walls + (x, y)
 
 
+def _flow_drag(model: Model, theta, fields):
+    """Generalised drag (3 arrays (B, E)) of the flow on each body held still.
+
+    Uniform flow: the body's translational resistance, no torque about its centre.
+    Otherwise the multiblob weights applied to the sampled flow and half its vorticity
+    at each sphere, in the body frame."""
+    if isinstance(model.flow, UniformFlow):
+        velocity = model.flow.velocity.astype(theta.dtype)
+        to_body_x, to_body_y = rotate_body_frame(-theta, velocity[0], velocity[1])
+        resistance = model.body_translational_resistance_pn_s_per_um[:, :, :, None]
+        force_x, force_y = rotate_body_frame(theta, resistance[:, 0, 0] * to_body_x + resistance[:, 0, 1] * to_body_y,
+                                             resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y)
+        return force_x, force_y, jnp.zeros_like(theta)
+    sphere_theta = theta[np.asarray(model.sphere_body, dtype=int)]
+    u_x, u_y = rotate_body_frame(-sphere_theta, fields[0], fields[1])
+    spin = fields[2] / 2
+    weight = model.sphere_flow_weight[:, :, :, None]
+    per_sphere = [weight[:, row, 0] * u_x + weight[:, row, 1] * u_y + weight[:, row, 2] * spin for row in range(3)]
+    to_body = model.body_of_sphere.T
+    force_x, force_y = rotate_body_frame(theta, to_body @ per_sphere[0], to_body @ per_sphere[1])
+    return force_x, force_y, to_body @ per_sphere[2]
+
+
 def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields):
     """Generalised forces (3 arrays (B, E)) and the contact details for reporting.
 
@@ -119,12 +147,7 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields):
     ago: the flow is held, the wall distance is carried to the current positions to
     first order, d(x) = d(x0) + n(x0).(x - x0) (exact for straight walls)."""
     x, y, lever_x, lever_y = _sphere_xy(model, px, py, theta)
-    drag = model.sphere_drag_pn_s_per_um[:, None]
-    if isinstance(model.flow, UniformFlow):  # no sampling, and no torque about the drag centre
-        fx = drag * model.flow.velocity[0].astype(x.dtype) + jnp.zeros_like(x)
-        fy = drag * model.flow.velocity[1].astype(x.dtype) + jnp.zeros_like(y)
-    else:
-        fx, fy = drag * fields[0], drag * fields[1]
+    fx, fy = jnp.zeros_like(x), jnp.zeros_like(y)
     traps = np.asarray(model.trap_sphere, dtype=int)
     e = x.shape[-1]
     to_trap_x, to_trap_y = trap_x - x[traps], trap_y - y[traps]
@@ -160,10 +183,10 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields):
         overlap_max = jnp.maximum(overlap_max, jnp.max(wall_overlap * dynamic, axis=0))
         wall_touch = (wall_contact > 0) & dynamic
     torque = lever_x * fy - lever_y * fx
-    if not isinstance(model.flow, UniformFlow):
-        torque = torque + model.sphere_rotational_drag_pn_s_um[:, None] * fields[2] / 2
     to_body = model.body_of_sphere.T
-    generalised = (to_body @ fx + external[0], to_body @ fy + external[1], to_body @ torque + external[2])
+    flow_x, flow_y, flow_torque = _flow_drag(model, theta, fields)
+    generalised = (to_body @ fx + flow_x + external[0], to_body @ fy + flow_y + external[1],
+                   to_body @ torque + flow_torque + external[2])
     return generalised, contact_x, contact_y, wall_touch, overlap_max, trap_distance
 
 
@@ -174,11 +197,19 @@ def _substep(model: Model, controls, trap_start, fields, carry, inputs):
     trap_vx, trap_vy, body_velocity, external = controls
     (gx, gy, gt), cx, cy, wall_touch, overlap, distance = _forces(
         model, px, py, theta, trap_x, trap_y, external, fields)
-    mobility, noise_um, kinematic = model.body_mobility, model.body_noise_um, model.kinematic_mask
+    kinematic = model.kinematic_mask
     dt = model.dt_s
-    px = px + (mobility[:, 0:1] * gx + kinematic[:, 0:1] * body_velocity[0]) * dt + noise_um[:, 0:1] * noise[0]
-    py = py + (mobility[:, 1:2] * gy + kinematic[:, 1:2] * body_velocity[1]) * dt + noise_um[:, 1:2] * noise[1]
-    theta = theta + (mobility[:, 2:3] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt + noise_um[:, 2:3] * noise[2]
+    # translational step in the body frame: A^-1 (R^T F) dt + sqrt(2 kT dt) L xi, then back to the lab
+    body_gx, body_gy = rotate_body_frame(-theta, gx, gy)
+    mobility, noise_t = model.body_translational_mobility[:, :, :, None], model.body_translational_noise_um[:, :, :, None]
+    step_x = (mobility[:, 0, 0] * body_gx + mobility[:, 0, 1] * body_gy) * dt + noise_t[:, 0, 0] * noise[0]
+    step_y = ((mobility[:, 1, 0] * body_gx + mobility[:, 1, 1] * body_gy) * dt
+              + noise_t[:, 1, 0] * noise[0] + noise_t[:, 1, 1] * noise[1])
+    step_x, step_y = rotate_body_frame(theta, step_x, step_y)
+    px = px + step_x + kinematic[:, 0:1] * body_velocity[0] * dt
+    py = py + step_y + kinematic[:, 1:2] * body_velocity[1] * dt
+    theta = (theta + (model.body_rotational_mobility[:, None] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt
+             + model.body_rotational_noise_rad[:, None] * noise[2])
     # traps move from their start by v * t, not by summing v * dt: in float32 a sum of
     # many steps far smaller than a position's last digit would drift systematically
     elapsed = (index + 1).astype(dt.dtype) * dt

@@ -27,7 +27,7 @@ from otgym.physics.constants import (
 )
 from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.interactions import CONTACT_STEP_FRACTION
-from otgym.physics.mobility import body_drag, sphere_drag
+from otgym.physics.mobility import body_hydrodynamics
 from otgym.physics.traps import TrapLaw
 from otgym.physics.validation import (
     require_non_negative,
@@ -56,7 +56,11 @@ class PhysicsConfig:
     viscosity_pa_s: float = WATER_VISCOSITY_PA_S
     adhesion: Adhesion = Adhesion()
     """Van der Waals between materials (``otgym.physics.adhesion``)."""
+    hydrodynamic_interaction: bool = True
+    """True: a body's spheres interact hydrodynamically (RPY rigid multiblob); False:
+    free-draining spheres (``otgym.physics.mobility``)."""
     height_above_floor_um: float | None = None
+    """Near-floor (Faxen) drag correction; only with ``hydrodynamic_interaction=False``."""
     trap_law: TrapLaw = TrapLaw()
     dtype: str = "float32"
     field_refresh_substeps: int = 1
@@ -74,8 +78,13 @@ class PhysicsConfig:
         require_positive("viscosity_pa_s", self.viscosity_pa_s)
         if not isinstance(self.adhesion, Adhesion):
             raise ValueError(f"adhesion must be an otgym.physics.Adhesion, got {self.adhesion!r}")
+        if not isinstance(self.hydrodynamic_interaction, bool):
+            raise ValueError(f"hydrodynamic_interaction must be True or False, got {self.hydrodynamic_interaction!r}")
         if self.height_above_floor_um is not None:
             require_positive("height_above_floor_um", self.height_above_floor_um)
+            if self.hydrodynamic_interaction:
+                raise ValueError("height_above_floor_um: the near-floor correction exists only for free-draining "
+                                 "spheres; set hydrodynamic_interaction=False to use it")
         if self.dtype not in ("float32", "float64"):
             raise ValueError(f"dtype must be 'float32' or 'float64', got {self.dtype!r}")
         if not isinstance(self.trap_law, TrapLaw):
@@ -94,13 +103,15 @@ class PhysicsConfig:
 class Model:
     """Flat arrays of one scene structure (N spheres, B bodies, P pairs, T traps)."""
 
-    sphere_offset_um: jnp.ndarray  # (N, 2) in the body frame, about the drag centre
+    sphere_offset_um: jnp.ndarray  # (N, 2) in the body frame, about the hydrodynamic centre
     sphere_radius_um: jnp.ndarray  # (N,)
-    sphere_drag_pn_s_per_um: jnp.ndarray  # (N,)
-    sphere_rotational_drag_pn_s_um: jnp.ndarray  # (N,)
+    sphere_flow_weight: jnp.ndarray  # (N, 3, 3) body frame: [F, T] from [u, w/2] at the sphere
     body_of_sphere: jnp.ndarray  # (N, B) one-hot
-    body_mobility: jnp.ndarray  # (B, 3): 1/gamma_t, 1/gamma_t, 1/gamma_r; 0 if kinematic
-    body_noise_um: jnp.ndarray  # (B, 3): sqrt(2 kT dt mobility) per step
+    body_translational_resistance_pn_s_per_um: jnp.ndarray  # (B, 2, 2) body frame
+    body_translational_mobility: jnp.ndarray  # (B, 2, 2) body frame, um/(pN s); 0 if kinematic
+    body_rotational_mobility: jnp.ndarray  # (B,) 1/(pN um s); 0 if kinematic
+    body_translational_noise_um: jnp.ndarray  # (B, 2, 2): sqrt(2 kT dt) chol(mobility), body frame
+    body_rotational_noise_rad: jnp.ndarray  # (B,): sqrt(2 kT dt rotational mobility)
     kinematic_mask: jnp.ndarray  # (B, 3): 1 for kinematic bodies
     pair_stiffness_pn_per_um: jnp.ndarray  # (P,)
     pair_incidence: jnp.ndarray  # (N, P): +1 at the pair's first sphere, -1 at its second
@@ -150,7 +161,7 @@ class Model:
 
 @struct.dataclass
 class PhysicsState:
-    """Pose (x_um, y_um, theta_rad) of each body's drag centre and each trap's centre."""
+    """Pose (x_um, y_um, theta_rad) of each body's hydrodynamic centre and each trap's centre."""
 
     pose: jnp.ndarray  # (B, 3)
     trap_xy_um: jnp.ndarray  # (T, 2)
@@ -173,9 +184,7 @@ def max_stable_dt_s(bodies: Sequence[BodySpec], config: PhysicsConfig,
     for index, body in enumerate(bodies):
         if body.kinematic:
             continue
-        drag = body_drag(body.offsets_um, body.radii_um, config.viscosity_pa_s,
-                         config.height_above_floor_um)
-        mobility = drag.max_point_mobility_um_per_pn_s
+        mobility = _hydrodynamics(body, config).max_point_mobility_um_per_pn_s
         n_traps = sum(1 for b, _ in traps if b == index)
         if n_traps:
             limit = min(limit, STABILITY_LIMIT / (mobility * n_traps * law.centre_stiffness_pn_per_um))
@@ -189,6 +198,12 @@ def max_stable_dt_s(bodies: Sequence[BodySpec], config: PhysicsConfig,
             root = step_budget / noise if noise > 0 else math.inf
         limit = min(limit, root**2)
     return limit
+
+
+def _hydrodynamics(body: BodySpec, config: PhysicsConfig):
+    return body_hydrodynamics(body.offsets_um, body.radii_um, config.viscosity_pa_s,
+                              interaction=config.hydrodynamic_interaction,
+                              height_above_floor_um=config.height_above_floor_um)
 
 
 def _check_traps(bodies: Sequence[BodySpec], traps) -> list[tuple[int, int]]:
@@ -230,29 +245,26 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
 
     dtype = jnp.float64 if config.dtype == "float64" else jnp.float32
     kt = config.kt_pn_um
-    offsets, radii, drag_t, drag_r, sphere_body, mobility, point_mobility = [], [], [], [], [], [], []
-    sphere_start = []
+    offsets, radii, flow_weights, sphere_body, sphere_start = [], [], [], [], []
+    resistance_t = np.zeros((len(bodies), 2, 2))
+    mobility_t = np.zeros((len(bodies), 2, 2))
+    mobility_r = np.zeros(len(bodies))
+    point_mobility = np.zeros(len(bodies))
     for index, body in enumerate(bodies):
-        drag = body_drag(body.offsets_um, body.radii_um, config.viscosity_pa_s,
-                         config.height_above_floor_um)
-        gamma_i, gamma_rot_i = sphere_drag(body.radii_um, config.viscosity_pa_s,
-                                           config.height_above_floor_um)
+        hydro = _hydrodynamics(body, config)
         sphere_start.append(len(radii))
-        offsets.extend(body.offsets_um - drag.drag_centre_um)
+        offsets.extend(body.offsets_um - hydro.centre_um)
         radii.extend(body.radii_um)
-        drag_t.extend(gamma_i)
-        drag_r.extend(gamma_rot_i)
+        flow_weights.extend(hydro.flow_weights)
         sphere_body.extend([index] * body.n_spheres)
-        if body.kinematic:
-            mobility.append((0.0, 0.0, 0.0))
-            point_mobility.append(0.0)
-        else:
-            mu_t = 1.0 / drag.translational_pn_s_per_um
-            mobility.append((mu_t, mu_t, 1.0 / drag.rotational_pn_s_um))
-            point_mobility.append(drag.max_point_mobility_um_per_pn_s)
+        resistance_t[index] = hydro.translational_resistance_pn_s_per_um
+        if not body.kinematic:
+            mobility_t[index] = hydro.translational_mobility_um_per_pn_s
+            mobility_r[index] = hydro.rotational_mobility_per_pn_um_s
+            point_mobility[index] = hydro.max_point_mobility_um_per_pn_s
     n_spheres, n_bodies = len(radii), len(bodies)
-    mobility = np.array(mobility)
-    point_mobility = np.array(point_mobility)
+    noise_scale = math.sqrt(2 * kt * config.dt_s)
+    noise_t = np.stack([np.linalg.cholesky(m) if np.any(m) else m for m in mobility_t]) * noise_scale
     kinematic = np.array([b.kinematic for b in bodies])
 
     pair_a, pair_b, pair_stiffness, pair_body_pair, pair_hamaker = [], [], [], [], []
@@ -289,11 +301,13 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
     return Model(
         sphere_offset_um=arr(offsets).reshape(n_spheres, 2),
         sphere_radius_um=arr(radii),
-        sphere_drag_pn_s_per_um=arr(drag_t),
-        sphere_rotational_drag_pn_s_um=arr(drag_r),
+        sphere_flow_weight=arr(flow_weights).reshape(n_spheres, 3, 3),
         body_of_sphere=arr(body_of_sphere),
-        body_mobility=arr(mobility),
-        body_noise_um=arr(np.sqrt(2 * kt * config.dt_s * mobility)),
+        body_translational_resistance_pn_s_per_um=arr(resistance_t),
+        body_translational_mobility=arr(mobility_t),
+        body_rotational_mobility=arr(mobility_r),
+        body_translational_noise_um=arr(noise_t),
+        body_rotational_noise_rad=arr(noise_scale * np.sqrt(mobility_r)),
         kinematic_mask=arr(np.repeat(kinematic[:, None], 3, axis=1)),
         pair_stiffness_pn_per_um=arr(pair_stiffness),
         pair_incidence=arr(incidence),
@@ -328,6 +342,24 @@ def sphere_positions_um(model: Model, pose):
     ox, oy = model.sphere_offset_um[:, 0], model.sphere_offset_um[:, 1]
     rotated = jnp.stack([cos * ox - sin * oy, sin * ox + cos * oy], axis=-1)
     return per_sphere[..., :2] + rotated
+
+
+def rotate_body_frame(theta, x, y):
+    """Vector components (x, y) in a body frame turned by theta -> lab frame."""
+    cos, sin = jnp.cos(theta), jnp.sin(theta)
+    return cos * x - sin * y, sin * x + cos * y
+
+
+def drag_force_pn(model: Model, pose, velocity_um_s):
+    """Force (..., B, 2) that moves each body's centre at ``velocity_um_s`` (..., B, 2)
+    through still fluid: R(theta) A R(theta)^T v, A the body-frame translational
+    resistance (anisotropic for elongated bodies)."""
+    theta = pose[..., 2]
+    to_body_x, to_body_y = rotate_body_frame(-theta, velocity_um_s[..., 0], velocity_um_s[..., 1])
+    resistance = model.body_translational_resistance_pn_s_per_um
+    force_x = resistance[:, 0, 0] * to_body_x + resistance[:, 0, 1] * to_body_y
+    force_y = resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y
+    return jnp.stack(rotate_body_frame(theta, force_x, force_y), axis=-1)
 
 
 def initial_state(model: Model, pose, trap_xy_um=None) -> PhysicsState:

@@ -6,7 +6,7 @@ and many run batched for experiments).
 
 The scene is the ``transport`` scene with literature physics (``SceneConfig``'s
 defaults: Gaussian traps of 50 pN/um and 0.6 um waist, water at 25 C, the chip's full
-flow) at a 0.4 ms physics step (50 steps a tick; the scene's stability checks accept
+flow) at a 0.25 ms physics step (80 steps a tick; the scene's stability checks accept
 it). The robots start ``approach_gap_um`` farther from the cell than their grip; the
 cell, free until gripped, drifts with the flow.
 
@@ -43,8 +43,9 @@ ROUTE_SEARCH_POINTS = (-40, 400)
 
 
 def interactive_scene(**overrides) -> sc.SceneConfig:
-    """The literature transport scene at 50 Hz ticks and a 0.4 ms physics step."""
-    return sc.SceneConfig(**{"kind": "transport", "dt_s": 4e-4, "control_period_s": 0.02, **overrides})
+    """The literature transport scene at 50 Hz ticks and a 0.25 ms physics step (the
+    stable step of its stiff traps on the robots' interacting-sphere mobility is 0.255 ms)."""
+    return sc.SceneConfig(**{"kind": "transport", "dt_s": 2.5e-4, "control_period_s": 0.02, **overrides})
 
 
 @dataclasses.dataclass(frozen=True)
@@ -172,7 +173,8 @@ class InteractiveTask:
         model = self.scene.model
         self.trap_sphere = np.asarray(model.trap_sphere, int)
         self.trap_robot = np.asarray([model.sphere_body[s] for s in self.trap_sphere], int)  # (T,) robot of each trap
-        drag = 1.0 / np.asarray(model.body_mobility)[:, 0]
+        # largest translational drag of each body (any direction): the escape speed is a lower bound
+        drag = np.linalg.eigvalsh(np.asarray(model.body_translational_resistance_pn_s_per_um))[:, -1]
         payload_drag = float(drag[list(self.scene.robots) + [self.scene.payload]].sum())
         self.escape_speed_um_s = model.n_traps * config.scene.trap_law.max_force_pn / payload_drag
         """Speed at which the traps' largest force no longer drags the assembly (the

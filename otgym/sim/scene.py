@@ -156,7 +156,7 @@ def _assembly_pose(scene_model: ph.Model, config: SceneConfig, centre, heading):
     normal = jnp.array([-jnp.sin(heading), jnp.cos(heading)])
     if config.kind != "transport":
         return jnp.concatenate([centre, heading[None]])[None]
-    gripper = scene_model.sphere_offset_um[GRIPPER[0]]  # (-spacing/2, y) about the drag centre
+    gripper = scene_model.sphere_offset_um[GRIPPER[0]]  # (-spacing/2, y) about the hydrodynamic centre
     contact = config.cell_radius_um + scene_model.sphere_radius_um[GRIPPER[0]]
     reach = gripper[1] + jnp.sqrt(contact**2 - gripper[0] ** 2)  # cell touching both gripper spheres
     robot_a = jnp.concatenate([centre - reach * normal, heading[None]])
@@ -297,8 +297,9 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key, obstacl
             lambda k, xy, u: next_propulsion(k, xy, u, config.obstacle_radius_um, model.walls,
                                              config.obstacle_motion, config.control_period_s)
         )(keys, state.physics.pose[:, obstacles, :2], propulsion)
-        drag = 1.0 / model.body_mobility[obstacles, 0]
-        external = external.at[:, obstacles, :2].set(propulsion * drag[None, :, None])
+        force = ph.drag_force_pn(model, state.physics.pose, jnp.zeros_like(state.physics.pose[..., :2])
+                                 .at[:, obstacles].set(propulsion))
+        external = external.at[:, obstacles, :2].set(force[:, obstacles])
     controls = ph.Controls(trap_velocity_um_s=jnp.asarray(trap_velocity_um_s, dtype),
                            body_velocity=jnp.zeros_like(external), external_force=external)
     physics, report = ph.control_step_batch(model, state.physics, controls, physics_key)

@@ -107,12 +107,14 @@ def test_robots_can_let_go_of_a_cell():
     """After backing 2 um away, each robot is clear of the cell in all 8 runs: the cell
     diffuses (0.55 um rms over the 2.5 s) between robots 4 um apart, and a stuck cell
     sits within 0.01 um of its robot, so "clear" is more than 0.1 um (twice the minimum
-    gap; the least seen over 2 x 8 runs of seeds 1 and 5 was 0.27 um). With the old
-    constants the cell rides along on one robot in every run."""
+    gap; the least seen over 2 x 8 runs of seeds 1 and 5 was 0.25 um). With the old
+    constants the cell rides along on one robot in nearly every run (15 of 2 x 8 runs
+    of seeds 1 and 5; one escaped), so the control asks for at least 6 of 8: the
+    released test above would fail for them."""
     released = _cell_gap_after_release(ph.Adhesion(), seed=1)
     assert released.min() > 0.1, released
     stuck = _cell_gap_after_release(STICKY, seed=1)
-    assert np.all(stuck.min(axis=1) < 0.1), stuck
+    assert np.sum(stuck.min(axis=1) < 0.1) >= 6, stuck
 
 
 @struct.dataclass

@@ -32,7 +32,7 @@ def settled_overlap_bound_um(model):
     vdw_max = float(np.max(vdw_force_pn(np.asarray(model.pair_hamaker_pn_um), reduced, 0.0,
                                         float(model.min_gap_um), float(model.retardation_wavelength_um))))
     stiffness = float(model.pair_stiffness_pn_per_um.min())
-    return 2 * vdw_max / stiffness + 3 * float(np.asarray(model.body_noise_um)[:, :2].max())
+    return 2 * vdw_max / stiffness + 3 * float(np.asarray(model.body_translational_noise_um).max())
 
 
 SETTLED_OVERLAP_UM = settled_overlap_bound_um(DENSE_MODEL)  # 0.08 um here
@@ -54,9 +54,9 @@ def random_dense_pose(rng, box_um):
         placed_xy = np.vstack([placed_xy, xy])
         placed_r = np.concatenate([placed_r, body.radii_um])
         poses.append((x, y, theta))
-    drag_centres = [ph.mobility.body_drag(b.offsets_um, b.radii_um, 8.9e-4).drag_centre_um for b in DENSE_BODIES]
+    centres = [ph.mobility.body_hydrodynamics(b.offsets_um, b.radii_um, 8.9e-4).centre_um for b in DENSE_BODIES]
     poses = np.array(poses)
-    for pose, centre in zip(poses, drag_centres):  # poses are of drag centres
+    for pose, centre in zip(poses, centres):  # poses are of hydrodynamic centres
         c, s_ = np.cos(pose[2]), np.sin(pose[2])
         pose[:2] += [c * centre[0] - s_ * centre[1], s_ * centre[0] + c * centre[1]]
     return poses
@@ -102,11 +102,12 @@ def test_traps_driving_bodies_into_each_other_stay_within_the_contact_compliance
     the robots and the bead into their neighbours with up to the traps' maximum force,
     and the obstacle sweeping through at 50 um/s. The overlap is bounded by the contact
     compliance: the largest force that can press on one contact (all trap forces plus
-    the obstacle shoving every free body, v * sum(gamma_t)) over the softest contact
+    the obstacle shoving every free body, v times the sum of their largest drags) over the softest contact
     stiffness, plus SETTLED_OVERLAP_UM."""
     overlap = run_dense(seed, box_um, trap_speed_um_s=speed, obstacle_speed_um_s=OBSTACLE_SPEED_UM_S)
-    mobility = np.asarray(DENSE_MODEL.body_mobility)[:, 0]
-    shove_pn = OBSTACLE_SPEED_UM_S * np.sum(1 / mobility[mobility > 0])
+    dynamic = ~np.array([body.kinematic for body in DENSE_BODIES])
+    drag = np.linalg.eigvalsh(np.asarray(DENSE_MODEL.body_translational_resistance_pn_s_per_um, float))[:, -1]
+    shove_pn = OBSTACLE_SPEED_UM_S * np.sum(drag[dynamic])
     pressing_pn = DENSE_MODEL.n_traps * DENSE_MODEL.trap_law.max_force_pn + shove_pn
     bound = pressing_pn / float(DENSE_MODEL.pair_stiffness_pn_per_um.min()) + SETTLED_OVERLAP_UM
     assert overlap.max() < bound

@@ -298,18 +298,25 @@ def test_planar_offsets_equal_3d_offsets_in_the_focal_plane():
         hy.resistance_matrix(np.column_stack([offsets, np.zeros(len(radii))]), radii, ETA))
 
 
+def free_draining(offsets, radii):
+    """The free-draining model (``mobility``, interaction off): its centre, its
+    (isotropic) translational and its rotational resistance."""
+    free = mobility.body_hydrodynamics(offsets, radii, ETA, interaction=False)
+    return free.centre_um, free.translational_resistance_pn_s_per_um[0, 0], free.rotational_resistance_pn_s_um
+
+
 def test_far_apart_spheres_are_free_draining():
     """Two spheres 1000 radii apart: RPY equals the free-draining model
-    (``mobility.body_drag``, about its drag centre) up to the Oseen interaction,
+    (``mobility``'s, about its drag centre) up to the Oseen interaction,
     relative O(a/r) = 1e-3 in translation (tolerance 3e-3) and negligible in rotation
     (dominated by the lever arms)."""
     offsets, radii = np.array([[0.0, 0.0], [1000.0, 0.0]]), np.array([1.0, 0.6])
-    free = mobility.body_drag(offsets, radii, ETA)
-    resistance = hy.resistance_matrix(offsets - free.drag_centre_um, radii, ETA)
-    assert resistance[0, 0] == pytest.approx(free.translational_pn_s_per_um, rel=3e-3)
-    assert resistance[1, 1] == pytest.approx(free.translational_pn_s_per_um, rel=3e-3)
-    assert resistance[2, 2] == pytest.approx(free.rotational_pn_s_um, rel=3e-3)
-    assert resistance[0, 0] < free.translational_pn_s_per_um  # the interaction lowers the drag
+    centre, gamma_t, gamma_r = free_draining(offsets, radii)
+    resistance = hy.resistance_matrix(offsets - centre, radii, ETA)
+    assert resistance[0, 0] == pytest.approx(gamma_t, rel=3e-3)
+    assert resistance[1, 1] == pytest.approx(gamma_t, rel=3e-3)
+    assert resistance[2, 2] == pytest.approx(gamma_r, rel=3e-3)
+    assert resistance[0, 0] < gamma_t  # the interaction lowers the drag
 
 
 # ---------------------------------------------------------------- closed forms
@@ -365,19 +372,16 @@ def test_closed_forms_match_the_surface_integral_definition(ai, aj, r):
 # ---------------------------------------------------------------- 6. otgym bodies
 
 def ratios_to_free_draining(offsets, radii):
-    free = mobility.body_drag(offsets, radii, ETA)
-    resistance = hy.resistance_matrix(offsets - free.drag_centre_um, radii, ETA)
-    return resistance, np.array([resistance[0, 0] / free.translational_pn_s_per_um,
-                                 resistance[1, 1] / free.translational_pn_s_per_um,
-                                 resistance[2, 2] / free.rotational_pn_s_um])
+    centre, gamma_t, gamma_r = free_draining(offsets, radii)
+    resistance = hy.resistance_matrix(offsets - centre, radii, ETA)
+    return resistance, np.array([resistance[0, 0] / gamma_t, resistance[1, 1] / gamma_t, resistance[2, 2] / gamma_r])
 
 
 def transport_assembly():
     """Two robots pinching a 4 um cell as in otgym.sim.scene (cell touching both gripper
     spheres of each robot; robot b turned by pi), offsets about the cell centre."""
     robot = two_handle_robot()
-    free = mobility.body_drag(robot.offsets_um, robot.radii_um, ETA)
-    about_centre = robot.offsets_um - free.drag_centre_um
+    about_centre = robot.offsets_um - free_draining(robot.offsets_um, robot.radii_um)[0]
     gripper = about_centre[5]
     reach = gripper[1] + np.sqrt((4.0 + robot.radii_um[5]) ** 2 - gripper[0] ** 2)
     offsets = np.vstack([about_centre - [0.0, reach], -about_centre + [0.0, reach], [[0.0, 0.0]]])
@@ -406,12 +410,10 @@ def test_two_handle_robot_and_cell_ratios():
     # centre of resistance is 0.10 um from the free-draining drag centre (towards the bar)
     assert abs(resistance[0, 1]) < 1e-12 * resistance[0, 0] and abs(resistance[1, 2]) < 1e-12 * resistance[2, 2]
 
-    free = mobility.body_drag(robot.offsets_um, robot.radii_um, ETA)
-    points, blob = calibrated_union_shell(robot.offsets_um - free.drag_centre_um, robot.radii_um, level=2)
+    centre, gamma_t, gamma_r = free_draining(robot.offsets_um, robot.radii_um)
+    points, blob = calibrated_union_shell(robot.offsets_um - centre, robot.radii_um, level=2)
     reference = hy.resistance_matrix(points, blob, ETA, sphere_rotation=False)
-    reference_ratios = np.array([reference[0, 0] / free.translational_pn_s_per_um,
-                                 reference[1, 1] / free.translational_pn_s_per_um,
-                                 reference[2, 2] / free.rotational_pn_s_um])
+    reference_ratios = np.array([reference[0, 0] / gamma_t, reference[1, 1] / gamma_t, reference[2, 2] / gamma_r])
     print(f"robot, refined Stokes reference: {np.round(reference_ratios, 3)}")
     np.testing.assert_allclose(robot_ratios, reference_ratios, rtol=0.05)
     assert np.all(robot_ratios < reference_ratios)

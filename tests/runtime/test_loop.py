@@ -194,24 +194,27 @@ def test_replayed_constant_velocity_moves_the_traps_by_tau_v_dt(task, scenario, 
     loop.close()
 
 
+DRAG_TICKS = 35
+
+
 @pytest.fixture(scope="module")
 def dragged(task, scenario):
-    """Both robots dragged along chip +x at 50 um/s (styluses at 25 mm/s along device x,
-    trap-speed clamps raised to 50 um/s) for 40 ticks in manual mode, down the straight
-    first 70 um of the route's channel, against a relative flow of about 45 um/s (the
+    """Both robots dragged along chip +x at 100 um/s (styluses at 50 mm/s along device x,
+    trap-speed clamps raised to 100 um/s) for 35 ticks in manual mode, down the straight
+    first 70 um of the route's channel, against a relative flow of about 95 um/s (the
     chip's flow there is 5 um/s along +x). Device A drives robot 0 with the default
     feedback scale and a 0.88 N limit; device B drives robot 1 with ten times the
     scale and a 0.3 N limit. One run serves both feedback tests."""
     clock = SimClock()
-    a = ScriptedDevice(clock, velocity_mm_s=(25.0, 0.0, 0.0), force_limit_n=0.88)
-    b = ScriptedDevice(clock, velocity_mm_s=(25.0, 0.0, 0.0), force_limit_n=0.3)
+    a = ScriptedDevice(clock, velocity_mm_s=(50.0, 0.0, 0.0), force_limit_n=0.88)
+    b = ScriptedDevice(clock, velocity_mm_s=(50.0, 0.0, 0.0), force_limit_n=0.3)
     scale = newtons_per_pn_for(task.config.scene.trap_law)
-    fast = RetargetConfig(dead_band_mm_s=0.3, max_trap_speed_um_s=50.0)
+    fast = RetargetConfig(dead_band_mm_s=0.3, max_trap_speed_um_s=100.0)
     loop = make_loop(task, scenario, [DeviceBinding(a, (0,), retarget=fast),
                                       DeviceBinding(b, (1,), retarget=fast,
                                                     feedback=FeedbackConfig(newtons_per_pn=10 * scale))],
-                     "manual", clock, max_trap_speed_um_s=50.0)
-    history = ticks_with_truth(loop, 40)
+                     "manual", clock, max_trap_speed_um_s=100.0)
+    history = ticks_with_truth(loop, DRAG_TICKS)
     loop.close()
     return a, b, scale, history
 
@@ -234,10 +237,13 @@ def lead_and_force(task, history, device_index, robots):
 
 def test_feedback_opposes_the_lead_with_the_trap_laws_force(task, dragged):
     """Device A, default scale s = newtons_per_pn_for(law) (0.066 N/pN): the traps lead
-    their handles along +x by about 0.1 um summed over the two handles (the robot's
-    drag, 0.126 pN s/um, at 45 um/s through the fluid: 5.7 pN). The stylus force
-    points against the lead on every settled tick (cosine below -0.9; a handle's
-    thermal wander, sqrt(kT/k) = 9 nm per axis, is far under the lead), and its mean equals
+    their handles along +x by about 0.07 um summed over the two handles (the robot's
+    drag along its bar, 0.039 pN s/um with its spheres interacting, at 95 um/s through
+    the fluid: 3.7 pN). The stylus force points against the lead on every settled tick
+    (negative dot product) and on average within 8 degrees (cosine of the means below
+    -0.99: the handles' thermal wander, sqrt(kT/k) = 9 nm per axis each, 13 nm summed,
+    puts a single tick's lead up to 30 degrees off the drag, its mean over 20 ticks
+    within 1 degree), and its mean equals
     -s times the mean trap-law force at the true offsets within s x 2 handles x 1 pN:
     the sensor's 20 nm position bound times the law's largest slope, its 50 pN/um
     centre stiffness, per handle (no bend stiffening: the lead stays far below half
@@ -247,13 +253,13 @@ def test_feedback_opposes_the_lead_with_the_trap_laws_force(task, dragged):
     scale off by more than the sensor's error."""
     a, _, scale, history = dragged
     lead, law_force, device_force = lead_and_force(task, history, 0, (0,))
-    assert np.all(lead[:, 0] > 0.05)  # the traps lead along the drag
-    cosine = np.sum(device_force * lead, axis=1) / (np.linalg.norm(device_force, axis=1)
-                                                    * np.linalg.norm(lead, axis=1))
-    assert cosine.max() < -0.9, cosine
+    assert np.all(lead[:, 0] > 0.035)  # the traps lead along the drag (half the expected lead)
+    assert np.all(np.sum(device_force * lead, axis=1) < 0)
+    mean_force, mean_lead = device_force.mean(axis=0), lead.mean(axis=0)
+    assert mean_force @ mean_lead / (np.linalg.norm(mean_force) * np.linalg.norm(mean_lead)) < -0.99
     np.testing.assert_allclose(device_force.mean(axis=0), -scale * law_force.mean(axis=0),
                                atol=scale * 2 * 50.0 * SENSOR_POSITION_BOUND_UM)
-    assert np.abs(np.array(a.forces)[-25:]).max() > 0.02  # not vacuous: a force is felt
+    assert np.abs(np.array(a.forces)[-20:]).max() > 0.02  # not vacuous: a force is felt
     assert max(np.linalg.norm(f) for f in a.forces) <= 0.88 + 1e-12
 
 
@@ -266,8 +272,8 @@ def test_feedback_saturates_at_the_devices_limit(task, dragged):
     lead, law_force, device_force = lead_and_force(task, history, 1, (1,))
     assert np.all(10 * newtons_per_pn_for(task.config.scene.trap_law) * np.linalg.norm(law_force, axis=1) > 1.0)
     np.testing.assert_allclose(np.linalg.norm(device_force, axis=1), 0.3, rtol=1e-9)
-    np.testing.assert_allclose([np.linalg.norm(f) for f in b.forces[15:40]], 0.3, rtol=1e-9)
-    np.testing.assert_array_equal(b.forces[40], 0.0)  # close() zeroed it
+    np.testing.assert_allclose([np.linalg.norm(f) for f in b.forces[15:DRAG_TICKS]], 0.3, rtol=1e-9)
+    np.testing.assert_array_equal(b.forces[DRAG_TICKS], 0.0)  # close() zeroed it
     assert np.all(np.sum(device_force * lead, axis=1) < 0)
 
 
