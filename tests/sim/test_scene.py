@@ -10,6 +10,7 @@ import pytest
 
 from otgym import physics as ph
 from otgym.physics.batching import batch_key
+from otgym.physics.constants import thermal_energy_pn_um
 from otgym.sim import scene as sc
 
 PAPER_LIKE = dict(trap_law=ph.TrapLaw.paper(), dt_s=2e-3, flow_scale=0.1)
@@ -108,6 +109,53 @@ def test_no_body_crosses_a_wall_over_1e5_random_steps(transport_paper):
     final, clearance = random_walk(transport_paper, states, jax.random.PRNGKey(4), 200)
     assert np.all(np.isfinite(np.asarray(final.physics.pose)))
     assert float(np.min(np.asarray(clearance))) > 0.5
+
+
+@functools.partial(jax.jit, static_argnames=("n_steps",))
+def steady_drive(scene, states, velocity_um_s, key, n_steps):
+    """Every trap of an environment moves at its environment's constant velocity (E, 2);
+    returns the smallest wall clearance of any sphere centre, scaled by its radius, per
+    environment and step."""
+    radius = scene.model.sphere_radius_um
+    command = jnp.tile(velocity_um_s[:, None, :], (1, scene.n_traps, 1))
+
+    def body(carry, step_key):
+        new_states, _ = sc.step_batch(scene, carry, command, step_key)
+        xy = ph.sphere_positions_um(scene.model, new_states.physics.pose)
+        distance, _ = scene.model.walls.distance_and_normal(xy)
+        return new_states, jnp.min(distance / radius, axis=-1)
+
+    return jax.lax.scan(body, states, jax.random.split(key, n_steps))
+
+
+def test_stiff_traps_do_not_push_bodies_through_walls(transport):
+    """The literature traps (Gaussian, 50 pN/um, up to 9.1 pN each) drag the assembly at
+    15 um/s in a random direction per environment for 4 s (60 um: every run meets a
+    wall; 32 environments, 1.3e6 physics steps). A wall's penalty gives way by F / k_w
+    with k_w = 1 / (2 dt m) (m the robot's largest point mobility): pressed by both of a
+    robot's traps, 2 x 9.1 pN, that is 0.14 um, plus 3 sigma of one step's thermal
+    motion, 0.02 um; a quarter more for the cell and the obstacles leaning on it. So no
+    sphere centre of a robot (smallest radius 1 um) gets closer to a wall than 0.8 of
+    its radius (measured: 0.87). Fails for a wall 20 times softer (centres cross)."""
+    n_env = 32
+    model, law = transport.model, transport.config.trap_law
+    robot = transport.robots[0]
+    shape = ph.two_handle_robot()  # the transport scene's robots
+    mobility = ph.mobility.body_hydrodynamics(shape.offsets_um, shape.radii_um, transport.config.viscosity_pa_s
+                                              ).max_point_mobility_um_per_pn_s
+    dt = float(model.dt_s)
+    thermal = 3 * np.sqrt(2 * thermal_energy_pn_um(transport.config.temperature_k) * mobility * dt)
+    give_um = 1.25 * (2 * 2 * law.max_force_pn * dt * mobility + thermal)
+    smallest = float(np.asarray(model.sphere_radius_um)[np.asarray(model.sphere_body) == robot].min())
+    states = reset_batch(transport, jax.random.split(jax.random.PRNGKey(11), n_env))
+    angle = jax.random.uniform(jax.random.PRNGKey(12), (n_env,), maxval=2 * np.pi)
+    velocity = 15.0 * jnp.stack([jnp.cos(angle), jnp.sin(angle)], axis=-1)
+    final, clearance = steady_drive(transport, states, velocity, jax.random.PRNGKey(13), 20)
+    clearance = np.asarray(clearance)
+    assert np.all(np.isfinite(np.asarray(final.physics.pose)))
+    assert give_um / smallest < 0.25  # the bound is a small fraction of a radius
+    assert clearance.min() > 1 - give_um / smallest, (clearance.min(), give_um)
+    assert np.mean(clearance.min(axis=0) < 1.2) > 0.5  # most runs pressed a sphere against a wall
 
 
 def test_navigation_and_bead_scenes_run():
