@@ -52,19 +52,39 @@ from the motor model), re-planned at the next correction from what is then seen:
 * CARRY: the places moved along the route at the intended assembly speed:
   ``carry_speed_um_s`` in manual mode (a careful pace, see ``ParticipantTask``).
 * Obstacles: each obstacle's motion is extrapolated from two glimpses ``glimpse_s``
-  apart. The person keeps the first of these assembly velocities under which no
-  obstacle comes within ``clearance_um`` of the cell in the next ``horizon_s``: the
-  intended one, a hurried one (``hurry_factor`` times faster, passing ahead), a slowed
-  one (half), holding still, backing along the route, stepping away from the
-  obstacle, side-stepping it (along the route and away at 45 degrees); if none is
-  safe, the one with the widest miss. An obstacle seen standing still (slower than
-  ``still_speed_um_s``, 1 um/s: half the obstacles' 2 um/s track speed and above the
-  ~0.5 um/s that Brownian jitter of a 3 um sphere in water, D = kT / (6 pi eta r) =
-  0.07 um^2/s, shows between glimpses 0.5 s apart; a modelling choice) will not clear
-  the way: the person side-steps it
-  before trying to wait, and passes it closer, ``still_clearance_um`` (0.5 um to
-  spare: its path need not be guessed). (Without this a person waited forever beside an obstacle
-  held against a wall 9.6 um from the route, inside the assembly's corridor.)
+  apart. The person weighs these assembly velocities, each safe if no obstacle comes
+  within ``clearance_um`` of the cell in the next ``horizon_s``: the intended one, a
+  hurried one (``hurry_factor`` times faster, passing ahead), a slowed one (half),
+  holding still, backing along the route, stepping away from the obstacle, and
+  side-steps to either side of the route (forward and aside at 45 and 70 degrees,
+  and straight aside). A side-step is foreseen to end where the walls stop it: the
+  person sees how far the formation can move to each side before a handle comes
+  ``wall_clearance_um`` from a wall, and expects to go on along the route from there.
+  Of the safe options the person takes the first in a preference that depends on how
+  the threat moves; if none is safe, the one with the widest miss.
+  - A threat crossing the route (its track more than ``along_angle_deg``, 45 degrees,
+    off the route): keep the path, change the speed (intended, hurried, slowed, still,
+    back, away), side-step only if none of these is safe.
+  - A threat moving along the route, toward the assembly or ahead of it, or standing
+    in it: change the path first (intended, the side-steps, then the speeds), the
+    side with the wider miss among equals, which is the side the obstacle comes from
+    when it crosses at a shallow angle (passing behind it). Walkers do this: avoiding
+    a pedestrian who crosses their path, they adjust their speed and their path when
+    the crossing angle is 45 or 90 degrees, and only their path at obtuse angles,
+    where the other comes toward them (Huber, Su, Krueger, Faschian, Glasauer &
+    Hermsdoerfer, PLoS ONE 9, e89589, 2014); 45 degrees as the boundary is a modelling
+    choice. Waiting for an obstacle that moves along the route does not clear the way
+    (it stays in the corridor for as long as it moves along it), and backing cannot
+    outrun one that comes faster than the pace. (Without this, collisions in shared
+    mode clustered on obstacles crossing at 30-42 degrees to the route, which the
+    person met head on, and on side-steps into a wall the person did not foresee.)
+  An obstacle seen standing still (slower than ``still_speed_um_s``, 1 um/s: half the
+  obstacles' 2 um/s track speed and above the ~0.5 um/s that Brownian jitter of a
+  3 um sphere in water, D = kT / (6 pi eta r) = 0.07 um^2/s, shows between glimpses
+  0.5 s apart; a modelling choice) will not clear the way either, and the person
+  passes it closer, ``still_clearance_um`` (0.5 um to spare: its path need not be
+  guessed). (Without this a person waited forever beside an obstacle held against a
+  wall 9.6 um from the route, inside the assembly's corridor.)
 * Shared mode: the person rests and lets the autonomy drive unless the interface's cue
   shows alpha at ``fine_tune_alpha`` or more while a threat is seen; then they
   command what brings the blend to their intention, dP_h = (dP_want - (1 - alpha)
@@ -98,7 +118,10 @@ class ParticipantTask:
     must also keep its robot in the grip (a gripper that strays 1 um from the cell
     loses it), which sets a careful pace. ``clearance_um``: the assembly's radius
     (8.7 um) plus the obstacle's (3 um) plus 1.5 um to spare (the scenarios park an obstacle 14 um from the route, which must count as passable). ``grip_tolerance_um``: the
-    Fitts tolerance of a reach to a grip place."""
+    Fitts tolerance of a reach to a grip place. ``along_angle_deg``: a threat whose
+    track lies within this angle of the route moves along it (module docstring).
+    ``side_step_resolution_um``: the step in which the person judges the room beside
+    the assembly."""
 
     carry_speed_um_s: float = 2.0
     lookahead_um: float = 5.0
@@ -117,6 +140,8 @@ class ParticipantTask:
     wall_clearance_um: float = 2.0
     close_speed_um_s: float = 0.75
     close_guard_um: float = 1.5
+    along_angle_deg: float = 45.0
+    side_step_resolution_um: float = 0.5
     bimanual: bool = True
     """True: one stylus per robot (the paper's set-up). False: one stylus moves all four
     traps as a rigid formation (the grip cannot be squeezed by the hands)."""
@@ -134,13 +159,24 @@ def _unit(vectors):
     return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-9)
 
 
-def _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
-    """(E, K) the closest each obstacle comes to the cell within ``horizon_s``."""
+def _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float,
+                until_s=None, then_um_s=None):
+    """(E, K) the closest each obstacle comes to the cell within ``horizon_s`` if the
+    assembly moves at ``assembly_velocity_um_s`` (E, 2), or at it until ``until_s`` (E,)
+    and at ``then_um_s`` (E, 2) after (a step aside that a wall ends)."""
+    def closest(relative, closing, duration_s):
+        speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
+        t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, duration_s)
+        return np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
+
     relative = obstacle_um - cell_um[:, None]
     closing = obstacle_velocity_um_s - assembly_velocity_um_s[:, None]
-    speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
-    t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, horizon_s)
-    return np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
+    if until_s is None:
+        return closest(relative, closing, horizon_s)
+    until = np.clip(until_s, 0.0, horizon_s)[:, None]
+    later = relative + closing * until[..., None]
+    return np.minimum(closest(relative, closing, until),
+                      closest(later, obstacle_velocity_um_s - then_um_s[:, None], horizon_s - until))
 
 
 def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
@@ -152,41 +188,71 @@ def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s
     return miss.min(axis=1), _unit(cell_um - obstacle_um[np.arange(len(cell_um)), worst])
 
 
-WAITING_ORDER = (0, 1, 2, 3, 4, 5, 6, 7)
-"""Options tried in turn when the threat moves: intended, hurried, slowed, still, back,
-away, side-step, steep side-step."""
-DETOUR_ORDER = (0, 6, 7, 1, 2, 3, 4, 5)
-"""When it stands still: intended, the side-steps, then the others (waiting cannot clear it)."""
+SIDE_STEP_DEG = (45.0, 70.0, 90.0)
+"""Side-steps, to either side of the route: forward and aside at 45 and 70 degrees, and
+straight aside."""
 
 
-def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, route_direction, task: ParticipantTask):
+def _option_ranks():
+    """Preference (lower first) of each option among the safe ones, (2, options): for a
+    threat crossing the route (intended, hurried, slowed, still, back, away, then the
+    side-steps: keep the path, change the speed) and for one moving along the route or
+    standing in it (intended, the side-steps, then the changes of speed: waiting does
+    not clear the way). Both sides of a side-step rank alike."""
+    side = np.repeat(np.arange(len(SIDE_STEP_DEG)), 2)
+    crossing = np.concatenate([np.arange(6), 6 + side])
+    along = np.concatenate([[0], len(SIDE_STEP_DEG) + np.arange(1, 6), 1 + side])
+    return np.stack([crossing, along])
+
+
+def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, route_direction, task: ParticipantTask,
+                    room_um=None):
     """The person's choice of assembly velocity (E, 2) and whether it differs from
-    ``want_um_s``: the first safe option of intended, hurried, slowed, still, backing
-    along the route, stepping away, side-stepping (along the route and sideways away
-    from the threat, at 45 and at 70 degrees); if none is safe, the one with the most
-    room. Safe: no obstacle comes within ``task.clearance_um`` of the cell in
-    ``task.horizon_s``, or within ``task.still_clearance_um`` for an obstacle seen
-    moving slower than ``task.still_speed_um_s``. Such an obstacle will not clear the
-    way by itself: when it is the threat, a person side-steps before waiting
-    (``DETOUR_ORDER``)."""
+    ``want_um_s``. Options: intended, hurried, slowed, still, backing along the route,
+    stepping away, and side-steps to either side of the route (``SIDE_STEP_DEG``). Safe:
+    no obstacle comes within ``task.clearance_um`` of the cell in ``task.horizon_s``, or
+    within ``task.still_clearance_um`` for an obstacle seen moving slower than
+    ``task.still_speed_um_s``. ``room_um`` (E, 2): how far the assembly can move to the
+    left and to the right of ``route_direction`` before a wall stops it (None: no
+    walls); an option's sideways motion is predicted to end there. The safe option
+    ranked first (``_option_ranks``: the threat crossing the route, or moving within
+    ``task.along_angle_deg`` of it or standing still), the one
+    with the most room among equals; if none is safe, the one with the most room."""
     rows = np.arange(len(cell_um))
     _, away = miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, np.zeros_like(want_um_s), task.horizon_s)
-    still_k = np.linalg.norm(obstacle_velocity_um_s, axis=-1) < task.still_speed_um_s  # (E, K)
+    speed_k = np.linalg.norm(obstacle_velocity_um_s, axis=-1)  # (E, K)
+    still_k = speed_k < task.still_speed_um_s
     clearance = np.where(still_k, task.still_clearance_um, task.clearance_um)
     worst = np.argmin(_closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, task.horizon_s)
                       - clearance, axis=1)
-    toward = _unit(cell_um - obstacle_um[rows, worst])
     pace = np.linalg.norm(want_um_s, axis=-1, keepdims=True)
-    sideways = _unit(toward - np.sum(toward * route_direction, axis=-1, keepdims=True) * route_direction)
-    side = [(np.cos(a) * route_direction + np.sin(a) * sideways) * pace for a in np.radians([45.0, 70.0])]
+    left = np.stack([-route_direction[:, 1], route_direction[:, 0]], axis=-1)
+    side = [(np.cos(a) * route_direction + sign * np.sin(a) * left) * pace
+            for a in np.radians(SIDE_STEP_DEG) for sign in (1.0, -1.0)]
     options = [want_um_s, task.hurry_factor * want_um_s, 0.5 * want_um_s, np.zeros_like(want_um_s),
                -route_direction * pace, away * pace, *side]
-    room = np.stack([(_closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, v, task.horizon_s)
-                      - clearance).min(axis=1) for v in options], axis=1)  # (E, options)
-    order = np.where(still_k[rows, worst][:, None], DETOUR_ORDER, WAITING_ORDER)
-    safe = np.take_along_axis(room >= 0.0, order, axis=1)
-    ranked = np.argmax(safe, axis=1)
-    choice = np.where(safe.any(axis=1), order[rows, ranked], np.argmax(room, axis=1))
+    heading_cos = np.abs(np.sum(obstacle_velocity_um_s[rows, worst] * route_direction, axis=-1)) / np.maximum(
+        speed_k[rows, worst], 1e-9)
+    along = still_k[rows, worst] | (heading_cos >= np.cos(np.radians(task.along_angle_deg)))
+    rank = _option_ranks()[along.astype(int)]  # (E, options)
+    room = []
+    for index, velocity in enumerate(options):
+        if room_um is None:
+            miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, velocity, task.horizon_s)
+        else:  # sideways only until a wall: a step into a wall is a step along it
+            sideways_um_s = np.sum(velocity * left, axis=-1)
+            free_um = np.where(sideways_um_s > 0, room_um[:, 0], room_um[:, 1])
+            forward = velocity - sideways_um_s[:, None] * left
+            options[index] = velocity = np.where((free_um < task.side_step_resolution_um)[:, None], forward, velocity)
+            until_s = free_um / np.maximum(np.abs(sideways_um_s), 1e-9)
+            miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, velocity, task.horizon_s, until_s,
+                               forward)
+        room.append((miss - clearance).min(axis=1))
+    room = np.stack(room, axis=1)  # (E, options)
+    safe = room >= 0.0
+    first = np.min(np.where(safe, rank, rank.max() + 1), axis=1, keepdims=True)
+    best = np.argmax(np.where(safe & (rank == first), room, -np.inf), axis=1)
+    choice = np.where(safe.any(axis=1), best, np.argmax(room, axis=1))
     return np.stack(options, axis=1)[rows, choice], choice > 0
 
 
@@ -278,6 +344,24 @@ class SimulatedParticipants:
         common = np.stack([shift[:, trap_robot == r][:, 0] for r in range(N_HANDS)], axis=1).sum(axis=1)
         return places + np.where(carried[:, None, None], common[:, None], shift)
 
+    def _side_room_um(self, traps_um, route_direction, max_um: float):
+        """(E, 2) how far the formation of traps (E, T, 2) can move to the left and to the
+        right of ``route_direction`` (E, 2), in steps of ``side_step_resolution_um``, up to
+        ``max_um``, before a handle comes ``wall_clearance_um`` from a wall (or closer than
+        it is now); None without walls."""
+        if self.wall_distance_um is None:
+            return None
+        task = self.task
+        steps_um = np.arange(0.0, max_um + task.side_step_resolution_um, task.side_step_resolution_um)  # (S,)
+        left = np.stack([-route_direction[:, 1], route_direction[:, 0]], axis=-1)
+        sides = np.stack([left, -left], axis=1)  # (E, 2, 2)
+        probes = traps_um[:, None, None] + steps_um[None, None, :, None, None] * sides[:, :, None, None]
+        distance = np.asarray(self.wall_distance_um(probes.reshape(-1, 2)), float).reshape(probes.shape[:-1])
+        limit = np.minimum(task.wall_clearance_um, distance[:, :, :1])  # (E, 2, 1, T): now or the clearance
+        blocked = np.any(distance < limit - 1e-6, axis=-1)  # (E, 2, S)
+        free_steps = np.where(blocked.any(axis=-1), np.argmax(blocked, axis=-1) - 1, len(steps_um) - 1)
+        return steps_um[np.maximum(free_steps, 0)]
+
     def moved(self, trap_increment_um: np.ndarray, human_weight: np.ndarray, trap_robot) -> None:
         """The traps' commanded increments (E, T, 2) um this tick, plus the planned hand
         motion not yet executed (weighted by ``human_weight`` (E,)): the efference copy."""
@@ -325,7 +409,8 @@ class SimulatedParticipants:
         pace = np.where(shared, np.linalg.norm(autonomy_um_s.mean(axis=1), axis=-1), task.carry_speed_um_s)
         want = np.where(carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH,
                                                                              cell_velocity, 0.0))
-        chosen, threat = choose_velocity(cell_now, obstacles_now, velocity, want, route_direction, task)
+        room = self._side_room_um(traps_now, route_direction, float(pace.max()) * task.horizon_s)
+        chosen, threat = choose_velocity(cell_now, obstacles_now, velocity, want, route_direction, task, room)
         want = np.where(carrying, chosen, want)
         threat &= carrying[:, 0]
         places = self._grip_places(cell_now, traps_now, phase, trap_robot)

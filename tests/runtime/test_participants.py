@@ -263,3 +263,40 @@ def test_shared_mode_rests_until_the_cue_then_overrides_the_autonomy():
         participants.moved(0.5 * step[:, TRAP_ROBOT] + 0.5 * autonomy[1:], np.array([0.5]), TRAP_ROBOT)
         hands += step
     assert np.all(hands[0, :, 0] < -0.5), hands
+
+
+def carry_past_an_oncoming_obstacle(participants, walls_below_um, seconds=25.0):
+    """A gripped cell carried along +x (manual) while an obstacle comes down the route
+    at 3 um/s from 40 um ahead, 2 um to the left (+y), faster than the 2 um/s carry pace
+    can back away from. Returns the closest the obstacle came to the cell (um) and the
+    closest a trap came to the wall below."""
+    cell = np.array([[10.0, 0.0]])
+    obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY, obstacle_xy=((50.0, 2.0),))
+    closest_um, wall_um = np.inf, np.inf
+    for tick in range(int(seconds / TICK_S)):
+        obs.obstacle_xy_um = np.array([[[50.0 - 3.0 * TICK_S * tick, 2.0]]])
+        drive(participants, obs, ["manual"], 1)
+        closest_um = min(closest_um, float(np.linalg.norm(obs.obstacle_xy_um[0, 0] - obs.cell_xy_um[0])))
+        wall_um = min(wall_um, float(obs.trap_xy_um[0, :, 1].min() - walls_below_um))
+    return closest_um, wall_um
+
+
+def test_the_person_steps_aside_from_an_obstacle_coming_down_the_route(monkeypatch):
+    """An obstacle coming head on along the route (3 um/s, 2 um left of it; a wall 10 um
+    below the route, 3.5 um from robot 0's handles): neither waiting nor backing at the
+    2 um/s pace clears it, and stepping away from it (right, -y) runs into the wall. The
+    steady participant steps aside to the left, the open side, past the obstacle's own
+    line: the obstacle passes without touching the assembly (centres more than the
+    assembly's 8.7 um radius plus the obstacle's 3 um apart) and no trap comes within
+    the wall clearance. The same participant without side-steps (``SIDE_STEP_DEG``
+    emptied) is hit."""
+    import otgym.runtime.participants as participants_module
+
+    touch_um = 8.7 + 3.0
+    closest_um, wall_um = carry_past_an_oncoming_obstacle(
+        people([STEADY], wall_distance_um=wall_below(-10.0)), -10.0)
+    assert closest_um > touch_um, closest_um
+    assert wall_um > TASK.wall_clearance_um - 0.3, wall_um
+    monkeypatch.setattr(participants_module, "SIDE_STEP_DEG", ())
+    closest_um, _ = carry_past_an_oncoming_obstacle(people([STEADY], wall_distance_um=wall_below(-10.0)), -10.0)
+    assert closest_um < touch_um, closest_um
