@@ -88,7 +88,11 @@ from the motor model), re-planned at the next correction from what is then seen:
 * Shared mode: the person rests and lets the autonomy drive unless the interface's cue
   shows alpha at ``fine_tune_alpha`` or more while a threat is seen; then they
   command what brings the blend to their intention, dP_h = (dP_want - (1 - alpha)
-  dP_r) / alpha, as far as the trap-speed clamp allows.
+  dP_r) / alpha, as far as the trap-speed clamp allows. Their intended pace is the
+  autonomy's, at most its cruise speed: the autonomy's corrections back to the route
+  (up to the 20 um/s clamp when the assembly has been held back or stepped aside) are
+  not a pace a person would dodge at. (Side-steps at those speeds carried handles into
+  the walls and lost them.)
 Stylus units: chip um -> stylus mm through the retargeting scale (tau) and plane; the
 hands feel the feedback force (``otgym.teleop.feedback.chip_force_n`` on the trap
 forces of their robot's handles) and yield to it.
@@ -406,7 +410,8 @@ class SimulatedParticipants:
         route_direction = _unit(self.navigator.route_point_at(arc + task.lookahead_um) - cell_now)
         autonomy_um_s = robot_increment_um / self.tick_s  # (E, T, 2)
         shared = mode == "shared"
-        pace = np.where(shared, np.linalg.norm(autonomy_um_s.mean(axis=1), axis=-1), task.carry_speed_um_s)
+        pace = np.where(shared, np.minimum(np.linalg.norm(autonomy_um_s.mean(axis=1), axis=-1),
+                                           self.navigator.cruise_speed_um_s), task.carry_speed_um_s)
         want = np.where(carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH,
                                                                              cell_velocity, 0.0))
         room = self._side_room_um(traps_now, route_direction, float(pace.max()) * task.horizon_s)

@@ -300,3 +300,27 @@ def test_the_person_steps_aside_from_an_obstacle_coming_down_the_route(monkeypat
     monkeypatch.setattr(participants_module, "SIDE_STEP_DEG", ())
     closest_um, _ = carry_past_an_oncoming_obstacle(people([STEADY], wall_distance_um=wall_below(-10.0)), -10.0)
     assert closest_um < touch_um, closest_um
+
+
+def test_shared_mode_paces_side_steps_at_most_at_the_cruise_speed(monkeypatch):
+    """Shared mode: the person's intended pace is the autonomy's, but no more than its
+    cruise speed (5 um/s), also when the autonomy pulls the assembly at 15 um/s (back
+    toward its commanded place); at 3 um/s it is 3 um/s. Every option the person weighs
+    (here the pace of what they intend) is then at most that fast: side-steps at the
+    pull's speed carried handles into walls."""
+    import otgym.runtime.participants as participants_module
+
+    seen = []
+
+    def spy(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, *rest):
+        seen.append(np.linalg.norm(want_um_s, axis=-1))
+        return want_um_s, np.zeros(len(want_um_s), bool)
+
+    monkeypatch.setattr(participants_module, "choose_velocity", spy)
+    cell = np.array([[10.0, 0.0], [10.0, 0.0]])
+    obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
+    autonomy = np.stack([np.full((4, 2), [15.0 * TICK_S, 0.0]), np.full((4, 2), [3.0 * TICK_S, 0.0])])
+    participants = people([STEADY, STEADY])
+    assert participants.navigator.cruise_speed_um_s == 5.0
+    participants.intend(obs, np.array(["shared"] * 2), np.array([0.5, 0.5]), autonomy, TRAP_ROBOT)
+    np.testing.assert_allclose(seen[-1], [5.0, 3.0])
