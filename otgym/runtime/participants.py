@@ -61,7 +61,8 @@ from the motor model), re-planned at the next correction from what is then seen:
   person sees how far the formation can move to each side before a handle comes
   ``wall_clearance_um`` from a wall, and expects to go on along the route from there.
   Of the safe options the person takes the first in a preference that depends on how
-  the threat moves; if none is safe, the one with the widest miss.
+  the threat moves; if none is safe, the one with the widest miss (but see standing
+  obstacles below).
   - A threat crossing the route (its track more than ``along_angle_deg``, 45 degrees,
     off the route): keep the path, change the speed (intended, hurried, slowed, still,
     back, away), side-step only if none of these is safe.
@@ -84,7 +85,13 @@ from the motor model), re-planned at the next correction from what is then seen:
   0.5 s apart; a modelling choice) will not clear the way either, and the person
   passes it closer, ``still_clearance_um`` (0.5 um to spare: its path need not be
   guessed). (Without this a person waited forever beside an obstacle held against a
-  wall 9.6 um from the route, inside the assembly's corridor.)
+  wall 9.6 um from the route, inside the assembly's corridor.) Nor can it be waited
+  out: when no forward option keeps that clearance, the person squeezes past with the
+  widest miss a forward option gives, down to ``squeeze_um`` inside it, before
+  holding still, and stops only if even that would touch. (Once the side-steps
+  foresaw the walls, persons otherwise stopped beside an obstacle parked 12 um from
+  the route, a wall on the other side, with 1 um of water between them, until the
+  time ran out.)
 * Shared mode: the person rests and lets the autonomy drive unless the interface's cue
   shows alpha at ``fine_tune_alpha`` or more while a threat is seen; then they
   command what brings the blend to their intention, dP_h = (dP_want - (1 - alpha)
@@ -125,7 +132,11 @@ class ParticipantTask:
     Fitts tolerance of a reach to a grip place. ``along_angle_deg``: a threat whose
     track lies within this angle of the route moves along it (module docstring).
     ``side_step_resolution_um``: the step in which the person judges the room beside
-    the assembly."""
+    the assembly. ``squeeze_um``: how much of ``still_clearance_um`` the person gives
+    up to pass a standing obstacle when no option keeps all of it: beside the assembly
+    its handles reach 7.75 um from the cell's centre (6.5 um offset plus their
+    1.25 um radius), 0.95 um less than the 8.7 um radius that the clearances count, so
+    such a pass still leaves about 0.45 um of water."""
 
     carry_speed_um_s: float = 2.0
     lookahead_um: float = 5.0
@@ -146,6 +157,7 @@ class ParticipantTask:
     close_guard_um: float = 1.5
     along_angle_deg: float = 45.0
     side_step_resolution_um: float = 0.5
+    squeeze_um: float = 1.0
     bimanual: bool = True
     """True: one stylus per robot (the paper's set-up). False: one stylus moves all four
     traps as a rigid formation (the grip cannot be squeezed by the hands)."""
@@ -192,6 +204,10 @@ def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s
     return miss.min(axis=1), _unit(cell_um - obstacle_um[np.arange(len(cell_um)), worst])
 
 
+SPEED_OPTIONS = ("intended", "hurried", "slowed", "still", "back", "away")
+"""The options that change the speed (``away``: straight away from the threat), in the
+order ``choose_velocity`` lists them; the side-steps follow."""
+
 SIDE_STEP_DEG = (45.0, 70.0, 90.0)
 """Side-steps, to either side of the route: forward and aside at 45 and 70 degrees, and
 straight aside."""
@@ -203,9 +219,9 @@ def _option_ranks():
     side-steps: keep the path, change the speed) and for one moving along the route or
     standing in it (intended, the side-steps, then the changes of speed: waiting does
     not clear the way). Both sides of a side-step rank alike."""
-    side = np.repeat(np.arange(len(SIDE_STEP_DEG)), 2)
-    crossing = np.concatenate([np.arange(6), 6 + side])
-    along = np.concatenate([[0], len(SIDE_STEP_DEG) + np.arange(1, 6), 1 + side])
+    speeds, side = len(SPEED_OPTIONS), np.repeat(np.arange(len(SIDE_STEP_DEG)), 2)
+    crossing = np.concatenate([np.arange(speeds), speeds + side])
+    along = np.concatenate([[0], len(SIDE_STEP_DEG) + np.arange(1, speeds), 1 + side])
     return np.stack([crossing, along])
 
 
@@ -221,7 +237,10 @@ def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, rou
     walls); an option's sideways motion is predicted to end there. The safe option
     ranked first (``_option_ranks``: the threat crossing the route, or moving within
     ``task.along_angle_deg`` of it or standing still), the one
-    with the most room among equals; if none is safe, the one with the most room."""
+    with the most room among equals; if none is safe, the one with the most room. Past
+    a standing threat, a forward option (intended, hurried, slowed, the side-steps short
+    of 90 degrees) with room down to ``-task.squeeze_um`` ranks just before holding
+    still: waiting does not clear the way."""
     rows = np.arange(len(cell_um))
     _, away = miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, np.zeros_like(want_um_s), task.horizon_s)
     speed_k = np.linalg.norm(obstacle_velocity_um_s, axis=-1)  # (E, K)
@@ -243,20 +262,25 @@ def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, rou
     for index, velocity in enumerate(options):
         if room_um is None:
             miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, velocity, task.horizon_s)
-        else:  # sideways only until a wall: a step into a wall is a step along it
+        else:  # sideways only until a wall, then along the route; a side-step into a wall is no option
             sideways_um_s = np.sum(velocity * left, axis=-1)
             free_um = np.where(sideways_um_s > 0, room_um[:, 0], room_um[:, 1])
-            forward = velocity - sideways_um_s[:, None] * left
-            options[index] = velocity = np.where((free_um < task.side_step_resolution_um)[:, None], forward, velocity)
             until_s = free_um / np.maximum(np.abs(sideways_um_s), 1e-9)
             miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, velocity, task.horizon_s, until_s,
-                               forward)
+                               velocity - sideways_um_s[:, None] * left)
+            if index >= len(SPEED_OPTIONS):
+                miss = np.where((free_um < task.side_step_resolution_um)[:, None], -np.inf, miss)
         room.append((miss - clearance).min(axis=1))
     room = np.stack(room, axis=1)  # (E, options)
     safe = room >= 0.0
-    first = np.min(np.where(safe, rank, rank.max() + 1), axis=1, keepdims=True)
-    best = np.argmax(np.where(safe & (rank == first), room, -np.inf), axis=1)
-    choice = np.where(safe.any(axis=1), best, np.argmax(room, axis=1))
+    onward = np.array([name in ("intended", "hurried", "slowed") for name in SPEED_OPTIONS]
+                      + [a < 90.0 for a in SIDE_STEP_DEG for _ in range(2)])
+    squeeze = still_k[rows, worst][:, None] & onward & ~safe & (room >= -task.squeeze_um)
+    rank = np.where(squeeze, _option_ranks()[1, SPEED_OPTIONS.index("still")] - 0.5, rank)  # just before waiting
+    chosen = safe | squeeze
+    first = np.min(np.where(chosen, rank, np.inf), axis=1, keepdims=True)
+    best = np.argmax(np.where(chosen & (rank == first), room, -np.inf), axis=1)
+    choice = np.where(chosen.any(axis=1), best, np.argmax(room, axis=1))
     return np.stack(options, axis=1)[rows, choice], choice > 0
 
 
