@@ -265,6 +265,22 @@ def test_shared_mode_rests_until_the_cue_then_overrides_the_autonomy():
     assert np.all(hands[0, :, 0] < -0.5), hands
 
 
+def test_shared_mode_at_the_cue_with_no_threat_keeps_the_autonomy_pace():
+    """Shared mode at alpha 0.5 (the cue shown) with no obstacle near: the steady
+    participant moves along with the autonomy (+x at 5 um/s), so the blend keeps at
+    least 80 % of its pace over the last second of 3 s (a resting hand would halve it:
+    2.5 um/s)."""
+    cell = np.array([[10.0, 0.0]])
+    autonomy = np.full((1, 4, 2), [5.0 * TICK_S, 0.0])
+    obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
+    participants = people([STEADY])
+    drive(participants, obs, ["shared"], 100, alpha=np.array([0.5]), autonomy=autonomy)
+    start = obs.cell_xy_um.copy()
+    drive(participants, obs, ["shared"], 50, alpha=np.array([0.5]), autonomy=autonomy)
+    pace_um_s = (obs.cell_xy_um - start)[0] / (50 * TICK_S)
+    assert pace_um_s[0] >= 0.8 * 5.0, pace_um_s
+
+
 def carry_past_an_oncoming_obstacle(participants, walls_below_um, seconds=25.0):
     """A gripped cell carried along +x (manual) while an obstacle comes down the route
     at 3 um/s from 40 um ahead, 2 um to the left (+y), faster than the 2 um/s carry pace
