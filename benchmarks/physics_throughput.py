@@ -9,6 +9,11 @@ Reference, measured in the same run: the same dynamics written as a plain NumPy 
 spheres and environments). Before timing, both run 50 steps from the same state at
 T = 0 and must agree to float32 precision, so the reference is the same physics.
 
+XLA's own count of the compiled work (flops, transcendentals, bytes per env-substep of
+the standard scene at 64 environments) is printed too: unlike a timing it does not
+depend on what else the machine runs, so two commits can be compared on a busy machine
+(run the script at each).
+
 Run: python benchmarks/physics_throughput.py [--quick]
 Targets: >= 1e5 substeps/s for one environment, >= 1e6 env-substeps/s batched (CPU),
 >= 1e8 on one H100.
@@ -150,6 +155,17 @@ def time_numpy(model, pose, n_env, min_seconds):
     return steps * n_env / (time.perf_counter() - start)
 
 
+def compiled_cost_per_env_substep(model, pose, n_env=64):
+    """XLA's cost analysis of one batched control step, divided by environments x substeps."""
+    state = jax.tree.map(lambda a: jnp.broadcast_to(a, (n_env,) + a.shape), ph.initial_state(model, pose))
+    compiled = jax.jit(ph.control_step_batch).lower(model, state, ph.Controls.zeros(model, n_env),
+                                                    jax.random.PRNGKey(0)).compile()
+    cost = compiled.cost_analysis()
+    cost = cost[0] if isinstance(cost, (list, tuple)) else cost
+    return {name: cost.get(name, float("nan")) / (n_env * SUBSTEPS)
+            for name in ("flops", "transcendentals", "bytes accessed")}
+
+
 def time_scene(n_env, min_seconds):
     from otgym.sim import scene as sc
 
@@ -173,6 +189,9 @@ def main():
     model, pose = standard_model()
     print(f"standard scene: {model.n_bodies} bodies, {len(model.sphere_body)} spheres, "
           f"{len(model.pair_a)} sphere pairs, {model.n_traps} traps, dt = {float(model.dt_s):g} s")
+    cost = compiled_cost_per_env_substep(model, pose)
+    print("compiled work per env-substep (XLA cost analysis, 64 envs): "
+          + ", ".join(f"{value:,.0f} {name}" for name, value in cost.items()))
     print(f"{'envs':>6} {'otgym JAX env-substeps/s':>26} {'NumPy loop env-substeps/s':>27} {'ratio':>8}")
     for n_env in [int(s) for s in args.sizes.split(",")]:
         jax_rate = time_jax(model, pose, n_env, seconds)
