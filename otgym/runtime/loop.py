@@ -275,7 +275,7 @@ class InteractiveLoop:
         return self._sphere_radius_um
 
     def sphere_xy_um(self) -> np.ndarray:
-        """(S,) x-y centres in um of every sphere of the scene now (what a view draws)."""
+        """(S, 2) centres in um of every sphere of the scene now (what a view draws)."""
         return np.asarray(self._sphere_positions(self.state.scene.physics.pose), float)[0]
 
     def _render(self, trap_xy_um: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
