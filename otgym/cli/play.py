@@ -66,7 +66,8 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
     check_out_dir(out)
     import pygame
 
-    pygame.init()
+    pygame.display.init()  # no audio: nothing plays sound
+    pygame.font.init()
     try:
         print(f"building the task on chip {chip_data.name!r} ...", flush=True)
         task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip_data)))

@@ -4,13 +4,17 @@ real-time simulation (``otgym.ui.simulation``).
 
 Frames and ticks. The window draws at ``FPS`` (pygame's ``Clock.tick``); the
 simulation ticks at 50 Hz by the wall clock. By default the simulation runs in a
-thread of its own (``threaded=True``), measured with ``benchmarks/ui_fps.py`` on this
-project's 2-core machine with another job beside it: a tick takes 12-17 ms of its
-20 ms, so a frame loop that also ran the ticks (a fixed-step accumulator: run the
-ticks due, then draw) had a 15 ms tick in five frames of six and fell to about
-45 fps with frame times of 30 ms; in a thread the ticks' XLA and numpy work (which
-release the GIL) overlaps the drawing and the frame rate stays near 60 with simulated
-time still following wall time. See benchmarks/README.md for the figures.
+thread of its own (``threaded=True``). Measured with ``benchmarks/ui_fps.py`` on this
+project's 2-core machine with other jobs beside it (load average 4-5), headless: a
+tick takes 12-17 ms of its 20 ms and a frame's drawing about 2-3 ms (plus a 3.4 ms
+microscope render at 25 Hz). A frame loop that also ran the ticks (a fixed-step
+accumulator: run the ticks due, then draw) gave 16 fps p50 and a real-time factor of
+0.57, since each frame with a tick in it waits for the whole tick; with the ticks in
+their own thread, whose XLA and numpy work releases the interpreter lock, the window
+drew 59 fps p50 at a real-time factor of 0.80 (the simulation alone, nothing drawn:
+0.90 under the same load). Under Xvfb the flip itself costs about 9 ms (a software X
+server on the same two cores), and the threaded window fell to 22 fps: see
+benchmarks/README.md.
 
 Keys (also in the help overlay, H):
 
