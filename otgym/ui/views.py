@@ -286,8 +286,9 @@ class CuePanel:
         gap = float(obs.nearest_obstacle_gap_um[0])
         level = cues.proximity_level(gap)
         pygame.draw.circle(surface, cues.ramp_rgb(level), (x + 8, y + 9), 8)
-        text(f"nearest obstacle {gap:5.1f} um" if math.isfinite(gap) else "no obstacle", (x + 24, y),
-             cues.ramp_rgb(level))
+        label = "no obstacle" if not math.isfinite(gap) else (
+            "obstacle touching" if gap <= 0.05 else f"nearest obstacle {gap:5.1f} um")
+        text(label, (x + 24, y), cues.ramp_rgb(level))
         y += 26
         # contact force
         contact = float(obs.contact_force_pn[0].max())
