@@ -15,13 +15,9 @@ import pandas as pd
 
 from otgym.planning.human import sample_population
 from otgym.runtime.task import InteractiveConfig, InteractiveTask
-from otgym.runtime.trials import TrialSpec, run_trials
+from otgym.runtime.trials import TRIAL_COLUMNS, TrialSpec, run_trials
 from otgym.shared import MODES
 from otgym.study import plot_fig8, write_summary
-
-TRIAL_COLUMNS = ["participant", "mode", "trial", "scenario", "completion_time_s", "obstacles_encountered",
-                 "obstacles_avoided", "success", "reached_goal", "trap_losses", "detached", "peak_contact_force_pn"]
-
 
 def parse_modes(text: str) -> list[str]:
     modes = [m.strip() for m in text.split(",") if m.strip()]

@@ -269,11 +269,20 @@ class InteractiveLoop:
             live[index] = channel.retargeter.silent_ticks == silent_before
         return human, live
 
+    @property
+    def sphere_radius_um(self) -> np.ndarray:
+        """(S,) radius of every sphere of the scene (``task.scene.model``'s order)."""
+        return self._sphere_radius_um
+
+    def sphere_xy_um(self) -> np.ndarray:
+        """(S, 2) centres in um of every sphere of the scene now (what a view draws)."""
+        return np.asarray(self._sphere_positions(self.state.scene.physics.pose), float)[0]
+
     def _render(self, trap_xy_um: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One crop per trap (T, crop_px, crop_px) and the crops' origins (T, 2) in um."""
         pixel = self.microscope.pixel_size_um
         origin = (np.floor(trap_xy_um / pixel) - self.crop_px // 2) * pixel
-        spheres = np.asarray(self._sphere_positions(self.state.scene.physics.pose), float)[0]
+        spheres = self.sphere_xy_um()
         centre = origin + 0.5 * self.crop_px * pixel
         reach = np.sqrt(0.5) * self.crop_px * pixel + CULL_HALO_WIDTHS * self.microscope.halo_width_um
         gap = np.linalg.norm(spheres[None] - centre[:, None], axis=-1) - self._sphere_radius_um[None]

@@ -36,6 +36,12 @@ trap, below the 2 um/s manual pace); trap speeds up to 20 um/s, enough to chase 
 cell drifting in the chip's 8 um/s flow and far below the assembly's escape speed."""
 
 
+TRIAL_COLUMNS = ["participant", "mode", "trial", "scenario", "completion_time_s", "obstacles_encountered",
+                 "obstacles_avoided", "success", "reached_goal", "trap_losses", "detached", "peak_contact_force_pn"]
+"""The columns of trials.csv, first in this order, for simulated participants
+(``otgym experiment shared-control``) and people (``otgym play``) alike."""
+
+
 @dataclasses.dataclass(frozen=True)
 class TrialSpec:
     participant: int

@@ -1,0 +1,67 @@
+"""Which device drives which robot for each ``otgym play --device``.
+
+Every robot gets its own binding (robot 0, robot 1), each a ``MouseDragDevice`` over
+that robot's primary device, so the mouse can drag either robot whatever the device:
+
+============  ==========================================  =========================
+--device      robot 0                                     robot 1
+============  ==========================================  =========================
+keyboard      arrows / W A S D (no clutch: the keys are   the mouse only
+              their own deadman, space pauses)
+gamepad       left stick, left shoulder the clutch        right stick, right shoulder
+touch         Touch ``TOUCH_NAMES[0]``, button 1 clutch   Touch ``TOUCH_NAMES[1]``
+simulated     a simulated haptic stylus (a steady hand    the mouse only
+              holding the clutch: the demo/test path)
+============  ==========================================  =========================
+
+The keyboard device gets only key events (the mouse drags through its own device), and
+its retargeter has no clutch: a rate device stops when its key is released, so holding
+space as a clutch would add nothing, and space pauses the trial.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from otgym.runtime.loop import DeviceBinding
+from otgym.runtime.trials import TASK_RETARGET
+from otgym.teleop.device import Device, open_device
+from otgym.teleop.feedback import FeedbackConfig
+from otgym.ui.mouse_device import MouseDragDevice
+
+PLAY_DEVICES = ("keyboard", "gamepad", "touch", "simulated")
+TOUCH_NAMES = ("Default Device", "Right Device")
+"""The two Touches' names as set in 3D Systems' Touch Setup (robot 0, robot 1)."""
+
+
+def check_device_name(name: str) -> str:
+    if name not in PLAY_DEVICES:
+        raise ValueError(f"unknown device {name!r}; choose one of {', '.join(PLAY_DEVICES)}")
+    return name
+
+
+def primary_devices(name: str) -> tuple[Device | None, Device | None]:
+    """The devices of robot 0 and robot 1 (constructed, not started). The Touch raises
+    the teleop layer's DeviceError at once without pyOpenHaptics and its runtime."""
+    check_device_name(name)
+    if name == "keyboard":
+        return open_device("keyboard", pump_events=False), None
+    if name == "gamepad":
+        return (open_device("gamepad", stick="left", pump_events=False),
+                open_device("gamepad", stick="right", pump_events=False))
+    if name == "touch":
+        return open_device("touch", device_name=TOUCH_NAMES[0]), open_device("touch", device_name=TOUCH_NAMES[1])
+    return open_device("simulated"), None
+
+
+def play_bindings(primaries, keyboard: bool, feedback: FeedbackConfig | None = None) -> list[DeviceBinding]:
+    """One binding per robot, a ``MouseDragDevice`` over each primary (None: mouse
+    only); ``feedback``: the styluses' feedback (``trials.task_feedback``, the scale at
+    which the hand-trap loop is stable)."""
+    retarget = dataclasses.replace(TASK_RETARGET, clutch_bit=None) if keyboard else TASK_RETARGET
+    bindings = []
+    for robot, primary in enumerate(primaries):
+        config = retarget if primary is not None else TASK_RETARGET
+        device = MouseDragDevice(robot, primary, TASK_RETARGET.motion_scale_um_per_mm, plane=config.plane)
+        bindings.append(DeviceBinding(device, (robot,), retarget=config, feedback=feedback))
+    return bindings

@@ -1,0 +1,195 @@
+"""The window of ``otgym play`` (``otgym.ui.app``) headless (SDL's dummy drivers), on
+the interactive task built once per test process (``tests.runtime.shared_task``):
+the mode keys change the loop's alpha, space stops simulated time and zeros the
+devices' force, R starts the next trial, Esc ends the session and the devices are
+sent zero force; the CLI runs a short session with the simulated stylus and writes
+trials.csv and a screenshot with the route drawn; bad arguments are one error line,
+exit 2, nothing written."""
+
+from __future__ import annotations
+
+import csv
+import os
+import time
+
+os.environ["SDL_VIDEODRIVER"] = "dummy"
+os.environ["SDL_AUDIODRIVER"] = "dummy"
+
+import numpy as np  # noqa: E402
+import pygame  # noqa: E402
+import pytest  # noqa: E402
+
+from otgym.runtime.trials import TRIAL_COLUMNS  # noqa: E402
+from otgym.teleop.device import Device, DeviceCaps, Sample  # noqa: E402
+from otgym.ui.app import PlayApp  # noqa: E402
+from otgym.ui.bindings import play_bindings  # noqa: E402
+from otgym.ui.simulation import Simulation  # noqa: E402
+from otgym.ui.views import ROUTE_RGB  # noqa: E402
+from tests.runtime import shared_task  # noqa: E402
+
+
+class SpyStylus(Device):
+    """A haptic device holding still with its clutch pressed; records every force and stop."""
+
+    def __init__(self):
+        self.caps = DeviceCaps("spy stylus", 3, 0.88, (160.0, 120.0, 70.0), 1000.0)
+        self.forces, self.stops, self.sequence = [], 0, 0
+
+    def start(self):
+        pass
+
+    def stop(self):
+        self.stops += 1
+
+    def read(self):
+        self.sequence += 1
+        return Sample(time.monotonic(), self.sequence, np.zeros(3), np.zeros(3), 1)
+
+    def set_force(self, force_n):
+        self.forces.append(np.array(force_n, float))
+
+
+@pytest.fixture(scope="module")
+def task():
+    return shared_task()
+
+
+@pytest.fixture
+def session(task, tmp_path):
+    """A started simulation (shared mode) with a spy stylus on robot 0, under a headless
+    window whose frames also run the ticks (not threaded: the test steps frames)."""
+    pygame.init()
+    spy = SpyStylus()
+    simulation = Simulation(task, play_bindings([spy, None], keyboard=False), "T1", "shared", seed=3)
+    simulation.start()
+    app = PlayApp(simulation, tmp_path, questionnaire=False, threaded=False)
+    yield app, simulation, spy
+    simulation.close()
+    pygame.quit()
+
+
+def press(app, key, frames=1, pause_s=0.06):
+    pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=key, mod=0, unicode="", scancode=0))
+    run_frames(app, frames, pause_s)
+
+
+def run_frames(app, frames, pause_s=0.06):
+    for _ in range(frames):
+        time.sleep(pause_s)
+        app.frame()
+
+
+def test_mode_keys_switch_the_loops_mode_and_alpha(session):
+    app, simulation, _ = session
+    run_frames(app, 3)
+    assert simulation.loop.mode == "shared" and simulation.snapshot.alpha == pytest.approx(0.1)  # far from obstacles
+    press(app, pygame.K_1, frames=3)
+    assert simulation.loop.mode == "manual" and simulation.snapshot.alpha == 1.0
+    press(app, pygame.K_3, frames=3)
+    assert simulation.loop.mode == "autonomous" and simulation.snapshot.alpha == 0.0
+    press(app, pygame.K_2, frames=3)
+    assert simulation.loop.mode == "shared" and simulation.snapshot.alpha == pytest.approx(0.1)
+
+
+def test_space_pauses_simulated_time_and_zeros_the_force(session):
+    app, simulation, spy = session
+    run_frames(app, 3)
+    before = simulation.loop.time_s
+    run_frames(app, 3)
+    assert simulation.loop.time_s > before  # running: time advances
+    press(app, pygame.K_SPACE)
+    paused_at = simulation.loop.time_s
+    assert simulation.paused and np.all(spy.forces[-1] == 0.0)
+    run_frames(app, 6)
+    assert simulation.loop.time_s == paused_at and simulation.snapshot.paused
+    press(app, pygame.K_SPACE, frames=4)
+    assert simulation.loop.time_s > paused_at
+
+
+def test_r_starts_trial_2_from_the_start(session):
+    app, simulation, _ = session
+    run_frames(app, 4)
+    assert simulation.trial == 1 and simulation.loop.time_s > 0
+    press(app, pygame.K_r, frames=1, pause_s=0.0)
+    assert simulation.trial == 2 and simulation.snapshot.trial == 2
+    assert simulation.participant == "T1" and simulation.loop.time_s < 0.2
+    assert simulation.take_finished() is None  # an abandoned trial writes no row
+
+
+def test_escape_ends_the_session_and_the_devices_get_zero_force(session):
+    app, simulation, spy = session
+    run_frames(app, 2)
+    pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_ESCAPE, mod=0, unicode="", scancode=0))
+    app.run()  # returns after the frame that sees Esc
+    assert not app.running
+    simulation.close()
+    assert spy.stops == 1 and np.all(spy.forces[-1] == 0.0)
+
+
+def test_mouse_drag_moves_the_robots_traps_toward_the_pointer(session, task):
+    app, simulation, _ = session
+    press(app, pygame.K_1, frames=2)  # manual: only the person moves the traps
+    view = app.global_view
+    traps = view.trap_centre_um(simulation.snapshot, 1)
+    start_px = view.to_px(traps)
+    target_um = traps + np.array([0.0, 4.0])
+    pygame.event.post(pygame.event.Event(pygame.MOUSEBUTTONDOWN, pos=tuple(start_px), button=1))
+    pygame.event.post(pygame.event.Event(pygame.MOUSEMOTION, pos=tuple(view.to_px(target_um)), rel=(0, 0),
+                                         buttons=(1, 0, 0)))
+    run_frames(app, 15)
+    moved = view.trap_centre_um(simulation.snapshot, 1) - traps
+    assert moved[1] > 1.0 and abs(moved[0]) < 0.5 * moved[1]
+    robot0 = view.trap_centre_um(simulation.snapshot, 0)
+    pygame.event.post(pygame.event.Event(pygame.MOUSEBUTTONUP, pos=tuple(view.to_px(target_um)), button=1))
+    run_frames(app, 5)
+    assert np.linalg.norm(view.trap_centre_um(simulation.snapshot, 0) - robot0) < 0.2  # robot 0 held still
+
+
+def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
+    from otgym.cli.app import main
+
+    out, shot = tmp_path / "out", tmp_path / "play.png"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["play", "--headless", "--device", "simulated", "--duration", "2", "--no-questionnaire",
+              "--participant", "P7", "--seed", "2", "--screenshot", str(shot), "--out", str(out)])
+    assert exit_info.value.code == 0
+    with open(out / "trials.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert list(rows[0])[:len(TRIAL_COLUMNS)] == TRIAL_COLUMNS
+    assert len(rows) == 1 and rows[0]["participant"] == "P7" and rows[0]["trial"] == "1"
+    assert rows[0]["scenario"] == "20001" and rows[0]["ended_by"] == "duration"
+    image = pygame.surfarray.array3d(pygame.image.load(str(shot)))
+    assert image.shape[:2] == (1280, 720)
+    colours = np.unique(image.reshape(-1, 3) // 16, axis=0)
+    assert len(colours) > 50  # views, text and cues, not a blank frame
+    route_pixels = np.all(np.abs(image.astype(int) - ROUTE_RGB) <= 8, axis=-1).sum()
+    assert route_pixels > 1000
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--device", "joystick"], "unknown device 'joystick'"),
+    (["--mode", "telepathic"], "unknown mode 'telepathic'"),
+    (["--device", "touch"], "Geomagic Touch"),
+    (["--chip", "no_such_chip"], "no chip file"),
+])
+def test_cli_refuses_bad_arguments_with_one_line_and_writes_nothing(tmp_path, capsys, arguments, message):
+    from otgym.cli.app import main
+
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["play", "--headless", *arguments, "--out", str(out)])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and error[0].startswith("error: ") and message in error[0]
+    assert not out.exists()
+
+
+def test_cli_refuses_an_out_that_is_a_file(tmp_path, capsys):
+    from otgym.cli.app import main
+
+    out = tmp_path / "file.txt"
+    out.write_text("keep me")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["play", "--headless", "--device", "simulated", "--out", str(out)])
+    assert exit_info.value.code == 2 and "is a file" in capsys.readouterr().err
+    assert out.read_text() == "keep me"
