@@ -1,0 +1,1 @@
+"""The pygame-ce interface of the interactive study (window, views, cues, questionnaires)."""
