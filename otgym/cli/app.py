@@ -27,7 +27,7 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import chip, demo, evaluate, experiment, plan, train
+    from otgym.cli import chip, demo, evaluate, experiment, plan, study, train
 
     demo.register(app)
     plan.register(app)
@@ -35,6 +35,7 @@ def _register_commands() -> None:
     train.register(app)
     evaluate.register(app)
     experiment.register(app)
+    study.register(app)
 
 
 _registered = False

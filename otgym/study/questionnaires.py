@@ -98,7 +98,7 @@ def weights_from_choices(choices: dict) -> dict:
     return weights
 
 
-def _validate(frame: pd.DataFrame) -> pd.DataFrame:
+def validate_answers(frame: pd.DataFrame) -> pd.DataFrame:
     """The answers as a clean table (``trial`` int, ``value`` float); ValueError with one
     line naming the first problem: columns, unknown instrument or item, a value out of
     range or off the TLX 5-step grid, a duplicate answer, an incomplete instrument, or
@@ -161,7 +161,7 @@ def read_answers(path) -> pd.DataFrame:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no questionnaire file {path}")
-    return _validate(pd.read_csv(path, dtype={"participant": str, "mode": str}))
+    return validate_answers(pd.read_csv(path, dtype={"participant": str, "mode": str}))
 
 
 def append_answers(path, rows: list[dict]) -> None:
@@ -177,7 +177,7 @@ def append_answers(path, rows: list[dict]) -> None:
     new = pd.DataFrame(rows, columns=QUESTIONNAIRE_COLUMNS)
     path = Path(path)
     old = pd.read_csv(path, dtype={"participant": str, "mode": str}) if path.is_file() else None
-    _validate(new if old is None else pd.concat([old, new.astype({"participant": str, "mode": str})],
+    validate_answers(new if old is None else pd.concat([old, new.astype({"participant": str, "mode": str})],
                                                 ignore_index=True))
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("a", newline="", encoding="utf-8") as file:

@@ -7,32 +7,9 @@ import math
 import pandas as pd
 import pytest
 
-from otgym.study.questionnaires import (QUESTIONNAIRE_COLUMNS, SCORE_COLUMNS, TLX_PAIRS, TLX_SUBSCALES, UEQ_ITEM_NAMES,
-                                        UEQ_ITEMS, append_answers, read_answers, score, weights_from_choices)
-
-RATINGS = {"mental": 70, "physical": 20, "temporal": 50, "performance": 30, "effort": 60, "frustration": 40}
-RANKING = ("mental", "effort", "temporal", "frustration", "performance", "physical")
-"""Most to least important: choosing the higher-ranked of each pair gives weights 5, 4, 3, 2, 1, 0."""
-UEQ_RAW = (6, 5, 7, 6, 3, 4, 2, 5)
-"""Scored (raw - 4): 2, 1, 3, 2 | -1, 0, -2, 1: pragmatic 8/4 = 2, hedonic -2/4 = -0.5, overall 6/8 = 0.75."""
-
-
-def ranked_choices(ranking=RANKING) -> dict:
-    return {pair: min(pair, key=ranking.index) for pair in TLX_PAIRS}
-
-
-def rows(participant="P1", mode="manual", trial=0, ratings=None, weights=None, ueq=None) -> list[dict]:
-    """One trial's answer rows; pass only the instruments wanted."""
-    out = []
-    key = {"participant": participant, "mode": mode, "trial": trial}
-    for item, value in (ratings or {}).items():
-        out.append({**key, "instrument": "nasa_tlx", "item": item, "value": value})
-    for item, value in (weights or {}).items():
-        out.append({**key, "instrument": "nasa_tlx", "item": item, "value": value})
-    for item, value in zip(UEQ_ITEM_NAMES, ueq or ()):
-        out.append({**key, "instrument": "ueq_s", "item": item, "value": value})
-    return out
-
+from otgym.study.questionnaires import (QUESTIONNAIRE_COLUMNS, SCORE_COLUMNS, TLX_PAIRS, TLX_SUBSCALES, UEQ_ITEMS,
+                                        append_answers, read_answers, score, weights_from_choices)
+from tests.study import RATINGS, UEQ_RAW, ranked_choices, rows
 
 def test_the_fifteen_pairs_cover_every_pair_once():
     assert len(TLX_PAIRS) == 15 and len(set(map(frozenset, TLX_PAIRS))) == 15
