@@ -3,8 +3,10 @@ summaries, repeated-measures statistics (pingouin) and the Fig. 8 figure, from a
 table with one row per trial.
 
 Modules: ``stats`` (participant means, ANOVA + Holm post-hoc, stars, Wilson intervals),
-``summary`` (per-mode table and the summary files), ``figures`` (Fig. 8 (a, b)),
-``paper_fig8`` (the paper's values)."""
+``summary`` (per-mode table and the summary files), ``figures`` (Fig. 8 (a, b), and (c,
+d) from answers), ``paper_fig8`` (the paper's values), ``questionnaires`` (NASA-TLX and
+UEQ-S: items, answer file, scoring), ``questionnaire_stats`` (paired tests per panel),
+``analyze`` (``otgym study analyze``: recorded sessions to Fig. 8 and summaries)."""
 
 from otgym.study.figures import plot_fig8
 from otgym.study.paper_fig8 import PAPER_FIG8

@@ -138,31 +138,45 @@ def _anova_uncorrected(long: pd.DataFrame, notes: list[str]) -> dict:
             "p_unc": p, "p_gg_corr": math.nan, "eps": math.nan, "ng2": math.nan, "p": p}
 
 
-def _posthoc(long: pd.DataFrame, modes: list[str], notes: list[str]) -> list[dict]:
-    """Paired two-sided t-tests between every pair of modes (pingouin ``pairwise_tests``,
-    parametric), Holm-corrected with pingouin's ``multicomp`` over the pairs whose t is
-    defined (a pair whose paired differences have zero variance gets NaN, not p = 0)."""
-    with warnings.catch_warnings():  # degenerate pairs (pingouin then omits T and p): NaN below, with a note
+def paired_tests(long: pd.DataFrame, modes: list[str]) -> list[dict]:
+    """Paired two-sided t-tests between every pair of ``modes`` (pingouin
+    ``pairwise_tests``, parametric, unadjusted) on ``long`` (columns participant, mode,
+    value; every participant with a value in every mode). Rows ``{a, b, T, dof, p_unc}``,
+    T of a minus b; a pair whose paired differences have zero variance gets NaN T and p,
+    not p = 0."""
+    with warnings.catch_warnings():  # degenerate pairs (pingouin then omits T and p): NaN below
         warnings.simplefilter("ignore")
         table = pg.pairwise_tests(data=long, dv="value", within="mode", subject="participant",
                                   parametric=True, padjust="none")
-    rows, undefined = [], []
+    rows = []
     for i, a in enumerate(modes):
         for b in modes[i + 1:]:
             match = table[((table["A"] == a) & (table["B"] == b)) | ((table["A"] == b) & (table["B"] == a))].iloc[0]
             t = _float(match.get("T", np.nan)) * (1.0 if match["A"] == a else -1.0)
-            if math.isnan(t):
-                undefined.append(f"{a} vs {b}")
             rows.append({"a": a, "b": b, "T": t, "dof": _float(match["dof"]),
                          "p_unc": math.nan if math.isnan(t) else _float(match.get("p_unc", np.nan))})
-    if undefined:
-        notes.append(f"t undefined for {', '.join(undefined)}: the paired differences have zero variance "
-                     "(identical for every participant); reported as NaN and left out of the Holm correction.")
-    _, p_holm = pg.multicomp(np.array([row["p_unc"] for row in rows]), method="holm")
+    return rows
+
+
+def holm(rows: list[dict]) -> list[dict]:
+    """Add ``p_holm`` (Holm's step-down correction over the rows' defined ``p_unc``, by
+    pingouin's ``multicomp``; NaN stays NaN) and ``stars`` to each row; return the rows."""
+    _, p_holm = pg.multicomp(np.array([row["p_unc"] for row in rows], dtype=float), method="holm")
     for row, p in zip(rows, p_holm):
         row["p_holm"] = _float(p)
         row["stars"] = stars(row["p_holm"])
     return rows
+
+
+def _posthoc(long: pd.DataFrame, modes: list[str], notes: list[str]) -> list[dict]:
+    """``paired_tests`` between every pair of modes, Holm-corrected over the pairs whose t
+    is defined."""
+    rows = paired_tests(long, modes)
+    undefined = [f"{row['a']} vs {row['b']}" for row in rows if math.isnan(row["T"])]
+    if undefined:
+        notes.append(f"t undefined for {', '.join(undefined)}: the paired differences have zero variance "
+                     "(identical for every participant); reported as NaN and left out of the Holm correction.")
+    return holm(rows)
 
 
 def compare_modes(trials: pd.DataFrame, metric: str) -> dict:

@@ -134,26 +134,27 @@ def summary_markdown(table: pd.DataFrame, stats: dict) -> str:
     return "\n".join(lines)
 
 
-def _json_safe(value):
+def json_safe(value):
     """NaN as JSON's null, so ``stats.json`` is strict JSON."""
     if isinstance(value, dict):
-        return {key: _json_safe(item) for key, item in value.items()}
+        return {key: json_safe(item) for key, item in value.items()}
     if isinstance(value, list):
-        return [_json_safe(item) for item in value]
+        return [json_safe(item) for item in value]
     if isinstance(value, float) and math.isnan(value):
         return None
     return value
 
 
-def write_summary(trials: pd.DataFrame, out_dir) -> dict:
-    """Write ``summary.csv`` (``summarize``), ``summary.md`` and ``stats.json``
-    (``compare_modes`` for success and time; NaN written as null) into ``out_dir``
-    (created if needed); return ``{"success": ..., "time": ...}`` as compare_modes gives."""
+def write_summary(trials: pd.DataFrame, out_dir, more_markdown: str = "") -> dict:
+    """Write ``summary.csv`` (``summarize``), ``summary.md`` (with ``more_markdown``
+    appended) and ``stats.json`` (``compare_modes`` for success and time; NaN written as
+    null) into ``out_dir`` (created if needed); return ``{"success": ..., "time": ...}``
+    as compare_modes gives."""
     table = summarize(trials)
     stats = {metric: compare_modes(trials, metric) for metric in ("success", "time")}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "summary.csv", index=False)
-    (out / "summary.md").write_text(summary_markdown(table, stats), encoding="utf-8")
-    (out / "stats.json").write_text(json.dumps(_json_safe(stats), indent=2) + "\n", encoding="utf-8")
+    (out / "summary.md").write_text(summary_markdown(table, stats) + more_markdown, encoding="utf-8")
+    (out / "stats.json").write_text(json.dumps(json_safe(stats), indent=2) + "\n", encoding="utf-8")
     return stats

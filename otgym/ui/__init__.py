@@ -8,5 +8,5 @@ cue shows), ``mouse_device`` (the mouse dragging a robot, as an input device),
 ``bindings`` (which devices drive which robot for each ``--device``), ``simulation``
 (the loop paced by the wall clock, trials, pause and reset), ``views`` (drawing the
 global view, the local view and the cue panel), ``app`` (the window: events, keys,
-frames, trials.csv).
+frames, trials.csv), ``questionnaire`` (the post-trial NASA-TLX and UEQ-S form).
 """
