@@ -193,3 +193,37 @@ def test_cli_refuses_an_out_that_is_a_file(tmp_path, capsys):
         main(["play", "--headless", "--device", "simulated", "--out", str(out)])
     assert exit_info.value.code == 2 and "is a file" in capsys.readouterr().err
     assert out.read_text() == "keep me"
+
+
+def test_a_finished_trial_asks_the_questionnaires_and_saves_the_answers(task, tmp_path):
+    """The session's duration spent, the trial's row goes to trials.csv and the window
+    shows the questionnaires; answered by keys (every NASA-TLX subscale 50, every UEQ-S
+    item 6), the answers go to questionnaires.csv under the trial's participant, mode
+    and trial."""
+    from otgym.study.questionnaires import read_answers, score
+
+    pygame.init()
+    simulation = Simulation(task, play_bindings([SpyStylus(), None], keyboard=False), "Q1", "manual", seed=3,
+                            duration_s=0.2)
+    simulation.start()
+    try:
+        app = PlayApp(simulation, tmp_path, questionnaire=True, threaded=False)
+        while not simulation.over:
+            time.sleep(0.03)
+            simulation.advance()
+        pygame.event.clear()
+        keys = [pygame.K_RIGHT, pygame.K_DOWN] * 6 + [pygame.K_RETURN] + [pygame.K_6] * 8 + [pygame.K_RETURN]
+        for key in keys:
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=key, mod=0, unicode="", scancode=0))
+        app._finish_trials()
+    finally:
+        simulation.close()
+        pygame.quit()
+    with open(tmp_path / "trials.csv") as handle:
+        trial = next(csv.DictReader(handle))
+    answers = read_answers(tmp_path / "questionnaires.csv")
+    assert len(answers) == 14
+    assert set(zip(answers.participant.astype(str), answers["mode"], answers.trial.astype(str))) == {
+        (trial["participant"], trial["mode"], trial["trial"])}
+    scores = score(answers).iloc[0]
+    assert scores["raw_tlx"] == 50 and scores["ueq_overall"] == 2
