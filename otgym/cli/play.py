@@ -63,6 +63,7 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         raise ValueError(str(error)) from None
     if screenshot is not None and screenshot.parent and not screenshot.parent.is_dir():
         raise ValueError(f"--screenshot {screenshot}: folder {screenshot.parent} does not exist")
+    created_out = not out.exists()
     check_out_dir(out)
     import pygame
 
@@ -79,7 +80,9 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         simulation = Simulation(task, bindings, participant, mode, seed, duration_s)
         try:
             simulation.start()
-        except DeviceError as error:
+        except DeviceError as error:  # e.g. no gamepad plugged in: leave no empty --out behind
+            if created_out and not any(out.iterdir()):
+                out.rmdir()
             raise ValueError(str(error)) from None
         try:
             app = PlayApp(simulation, out, keyboard=primaries[0] if device == "keyboard" else None,
