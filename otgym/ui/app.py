@@ -26,7 +26,7 @@ H              show or hide the help
 Esc            quit (every device is sent zero force and stopped)
 mouse drag     press on or near a robot in the global view and drag: its traps
                follow the pointer (a rate command through the retargeting)
-arrows / WASD  keyboard device: move robot 0 while held
+arrows / WASD  keyboard device: move both robots (the formation) while held
 =============  ===============================================================
 
 After each trial its row is appended to ``out_dir/trials.csv`` (``otgym.ui.records``),
@@ -62,7 +62,7 @@ HELP_LINES = (
     ("H", "show / hide this help"),
     ("Esc", "quit"),
     ("mouse", "press on a robot in the global view and drag it"),
-    ("arrows, W A S D", "keyboard device: move robot 0 while held"),
+    ("arrows, W A S D", "keyboard: move both robots while held"),
     ("sticks + shoulders", "gamepad: left robot 0, right robot 1; hold the shoulder"),
     ("Touch button 1", "Touch: hold to move (the clutch)"),
 )

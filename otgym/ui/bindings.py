@@ -6,15 +6,19 @@ that robot's primary device, so the mouse can drag either robot whatever the dev
 ============  ==========================================  =========================
 --device      robot 0                                     robot 1
 ============  ==========================================  =========================
-keyboard      arrows / W A S D (no clutch: the keys are   the mouse only
-              their own deadman, space pauses)
+keyboard      arrows / W A S D move both robots as a      the same keys (one
+              formation (no clutch: the keys are their    formation)
+              own deadman, space pauses)
 gamepad       left stick, left shoulder the clutch        right stick, right shoulder
 touch         Touch ``TOUCH_NAMES[0]``, button 1 clutch   Touch ``TOUCH_NAMES[1]``
 simulated     a simulated haptic stylus (a steady hand    the mouse only
               holding the clutch: the demo/test path)
 ============  ==========================================  =========================
 
-The keyboard device gets only key events (the mouse drags through its own device), and
+The keyboard drives both robots through one device shared by both bindings (its
+velocity is read once per robot each tick), so a person with only a keyboard can carry
+the cell; the mouse drags either robot on its own (to grip). The keyboard device gets
+only key events (the mouse drags through its own device), and
 its retargeter has no clutch: a rate device stops when its key is released, so holding
 space as a clutch would add nothing, and space pauses the trial.
 """
@@ -45,7 +49,8 @@ def primary_devices(name: str) -> tuple[Device | None, Device | None]:
     the teleop layer's DeviceError at once without pyOpenHaptics and its runtime."""
     check_device_name(name)
     if name == "keyboard":
-        return open_device("keyboard", pump_events=False), None
+        keyboard = open_device("keyboard", pump_events=False)
+        return keyboard, keyboard
     if name == "gamepad":
         return (open_device("gamepad", stick="left", pump_events=False),
                 open_device("gamepad", stick="right", pump_events=False))

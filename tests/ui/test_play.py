@@ -228,3 +228,31 @@ def test_a_finished_trial_asks_the_questionnaires_and_saves_the_answers(task, tm
         (trial["participant"], trial["mode"], trial["trial"])}
     scores = score(answers).iloc[0]
     assert scores["raw_tlx"] == 50 and scores["ueq_overall"] == 2
+
+
+def test_the_keyboard_moves_both_robots_as_a_formation(task):
+    """--device keyboard: holding the right arrow for about half a second moves both
+    robots' traps along +x by the same amount (one keyboard shared by both bindings);
+    with the keyboard on robot 0 alone, robot 1's traps would not move."""
+    from otgym.ui.bindings import primary_devices
+
+    pygame.init()
+    primaries = primary_devices("keyboard")
+    simulation = Simulation(task, play_bindings(primaries, keyboard=True), "K1", "manual", seed=3)
+    simulation.start()
+    try:
+        simulation.advance()
+        before = np.array(simulation.loop.observation.trap_xy_um[0])
+        primaries[0].handle_event(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RIGHT, mod=0, unicode="",
+                                                     scancode=0))
+        for _ in range(12):
+            time.sleep(0.05)
+            simulation.advance()
+        moved = np.array(simulation.loop.observation.trap_xy_um[0]) - before
+    finally:
+        simulation.close()
+        pygame.quit()
+    robot = task.trap_robot
+    first, second = moved[robot == robot[0]].mean(axis=0), moved[robot != robot[0]].mean(axis=0)
+    assert first[0] > 0.5 and second[0] > 0.5, moved
+    assert abs(first[0] - second[0]) < 0.1 * first[0] and abs(first[1]) < 0.1 * first[0], moved
