@@ -68,7 +68,7 @@ from otgym.runtime.trials import TASK_RETARGET
 from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.sensor import VisionForceSensor
-from otgym.teleop.device import Device, DeviceError, Sample
+from otgym.teleop.device import Device, DeviceError, Sample, start_devices
 from otgym.teleop.feedback import FeedbackConfig, FeedbackLaw, newtons_per_pn_for
 from otgym.teleop.retarget import RetargetConfig, Retargeter
 
@@ -224,16 +224,7 @@ class InteractiveLoop:
 
     def start(self) -> None:
         """Start every device; if one fails, stop those already started and re-raise."""
-        started = []
-        try:
-            for channel in self._channels:
-                channel.device.start()
-                started.append(channel.device)
-        except BaseException:
-            for device in started:
-                device.set_force(np.zeros(3))
-                device.stop()
-            raise
+        start_devices([channel.device for channel in self._channels])
 
     def close(self) -> None:
         """Zero every device's force, then stop it."""

@@ -321,7 +321,6 @@ class SimulatedParticipants:
         self._pending_keep = float(np.exp(-tick_s / task.pending_memory_s))
         self.feedback_n = np.zeros((self.n_env, N_HANDS, 2))
         self.closing = np.zeros(self.n_env, bool)
-        offsets = np.asarray(navigator.offsets_um, float)
 
     def _grip_places(self, cell_now, traps_now, phase, trap_robot):
         """Each trap's place (E, T, 2): around the cell at the robots' present orientation,

@@ -121,6 +121,21 @@ class Device(abc.ABC):
 DEVICE_NAMES = ("keyboard", "gamepad", "touch", "simulated", "replay")
 
 
+def start_devices(devices) -> None:
+    """Start every device in order; if one fails, zero the force of and stop those
+    already started, then re-raise (nothing is left running half-started)."""
+    started = []
+    try:
+        for device in devices:
+            device.start()
+            started.append(device)
+    except BaseException:
+        for device in started:
+            device.set_force(np.zeros(3))
+            device.stop()
+        raise
+
+
 def open_device(name: str, **options) -> Device:
     """A device by name, constructed (not started) with ``options`` passed to its class:
     keyboard -> KeyboardMouseDevice, gamepad -> GamepadDevice, touch -> TouchDevice,

@@ -36,6 +36,7 @@ import numpy as np
 from otgym.runtime.loop import DeviceBinding, InteractiveLoop, TickRecord
 from otgym.runtime.task import InteractiveTask, Observation
 from otgym.shared import MODES
+from otgym.teleop.device import start_devices
 
 MAX_CATCH_UP_TICKS = 3
 OBSTACLE_VELOCITY_SMOOTHING_S = 0.3
@@ -99,17 +100,8 @@ class Simulation:
 
     # --- lifetime -----------------------------------------------------------------
     def start(self) -> None:
-        """Start every device, then trial 1."""
-        started = []
-        try:
-            for binding in self.bindings:
-                binding.device.start()
-                started.append(binding.device)
-        except BaseException:
-            for device in started:
-                device.set_force(np.zeros(3))
-                device.stop()
-            raise
+        """Start every device (none left running if one fails), then trial 1."""
+        start_devices([binding.device for binding in self.bindings])
         self._warm_up()
         self._new_trial()
 
