@@ -99,19 +99,18 @@ def schema_text(type_name: str) -> str:
 
 
 def device_twist_topic(device: str) -> str:
-    return f"/otgym/device/{check_device_name(device)}/twist"
+    return f"/otgym/device/{_check_name(device)}/twist"
 
 
 def device_buttons_topic(device: str) -> str:
-    return f"/otgym/device/{check_device_name(device)}/buttons"
+    return f"/otgym/device/{_check_name(device)}/buttons"
 
 
 def feedback_topic(device: str) -> str:
-    return f"/otgym/feedback/{check_device_name(device)}"
+    return f"/otgym/feedback/{_check_name(device)}"
 
 
-def check_device_name(name: str) -> str:
-    """A device name usable in a topic (a ROS name: letters, digits and _)."""
+def _check_name(name: str) -> str:
     if not name or not all(c.isalnum() or c == "_" for c in name) or name[0].isdigit():
         raise ValueError(f"device name {name!r} must be letters, digits and _ (a ROS name), not starting with a digit")
     return name

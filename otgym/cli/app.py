@@ -27,7 +27,7 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import chip, demo, evaluate, experiment, plan, play, replay, study, train
+    from otgym.cli import chip, demo, evaluate, experiment, plan, play, study, train
 
     demo.register(app)
     plan.register(app)
@@ -37,7 +37,6 @@ def _register_commands() -> None:
     experiment.register(app)
     play.register(app)
     study.register(app)
-    replay.register(app)
 
 
 _registered = False

@@ -5,7 +5,6 @@ checked before the window opens; a bad one is one ``error:`` line and exit 2."""
 from __future__ import annotations
 
 import os
-import time
 from pathlib import Path
 
 import numpy as np
@@ -78,16 +77,10 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         from otgym.ui.app import PlayApp
         from otgym.ui.simulation import Simulation
 
-        from otgym.bus.recording import SessionRecorder
-
-        recording = out / f"session_{participant}_{time.strftime('%Y%m%d-%H%M%S')}.mcap"
-        recorder = SessionRecorder(recording, [f"robot{index}" for index in range(len(bindings))])
-        simulation = Simulation(task, bindings, participant, mode, seed, duration_s, recorder=recorder)
+        simulation = Simulation(task, bindings, participant, mode, seed, duration_s)
         try:
             simulation.start()
-        except DeviceError as error:  # e.g. no gamepad plugged in: leave no recording or empty --out behind
-            recorder.close()
-            recording.unlink()
+        except DeviceError as error:  # e.g. no gamepad plugged in: leave no empty --out behind
             if created_out and not any(out.iterdir()):
                 out.rmdir()
             raise ValueError(str(error)) from None
@@ -103,7 +96,6 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         if frames is not None:
             print(f"{len(frames)} frames, median {1 / np.median(frames):.0f} fps; "
                   f"{simulation.ticks} ticks, {simulation.late_ticks} schedule restarts")
-        print(f"recorded the session to {recording}")
         print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}"
               + (f"; screenshot {screenshot}" if screenshot is not None else ""))
     finally:

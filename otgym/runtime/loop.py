@@ -68,7 +68,7 @@ from otgym.runtime.trials import TASK_RETARGET
 from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.sensor import VisionForceSensor
-from otgym.teleop.device import Device, DeviceError, Sample, start_devices
+from otgym.teleop.device import Device, DeviceError, start_devices
 from otgym.teleop.feedback import FeedbackConfig, FeedbackLaw, newtons_per_pn_for
 from otgym.teleop.retarget import RetargetConfig, Retargeter
 
@@ -206,8 +206,6 @@ class InteractiveLoop:
         self._keys = np.zeros((0, 2), np.uint32)
         self.state = task.reset([scenario], reset_key)
         self.late_ticks = 0
-        self.last_samples: list[Sample | None] = [None] * len(self._channels)
-        """Each device's latest sample as read this tick (None: none came), for recorders."""
 
     @property
     def observation(self) -> Observation:
@@ -257,7 +255,6 @@ class InteractiveLoop:
                     sample = channel.device.read()
                 except DeviceError:
                     channel.lost = True
-            self.last_samples[index] = sample
             silent_before = channel.retargeter.silent_ticks
             human[channel.trap_mask] = channel.retargeter(sample, now_s)
             live[index] = channel.retargeter.silent_ticks == silent_before

@@ -69,8 +69,7 @@ class Simulation:
     stopped here); ``duration_s`` None: until closed."""
 
     def __init__(self, task: InteractiveTask, bindings: list[DeviceBinding], participant: str, mode: str,
-                 seed: int, duration_s: float | None = None, clock: Callable[[], float] = time.monotonic,
-                 recorder=None):
+                 seed: int, duration_s: float | None = None, clock: Callable[[], float] = time.monotonic):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         self.task = task
@@ -80,8 +79,6 @@ class Simulation:
         self.seed = seed
         self.duration_s = duration_s
         self.clock = clock
-        self.recorder = recorder
-        """A ``otgym.bus.recording.SessionRecorder`` that gets every tick, mode change and trial, or None."""
         self.trial = 0
         self.paused = False
         self.over = False
@@ -121,8 +118,6 @@ class Simulation:
         for binding in self.bindings:
             binding.device.set_force(np.zeros(3))
             binding.device.stop()
-        if self.recorder is not None:
-            self.recorder.close()
 
     def start_thread(self) -> None:
         """Tick in a thread of its own (``advance`` at each tick deadline)."""
@@ -189,8 +184,6 @@ class Simulation:
         before = loop.observation
         record = loop.tick()
         self.ticks += 1
-        if self.recorder is not None:
-            self.recorder.record_tick(record, loop.last_samples, np.asarray(loop.state.scene.physics.pose)[0])
         self._publish(record, before)
         spent = self._spent_s + loop.time_s
         if loop.done or (self.duration_s is not None and spent >= self.duration_s - 0.5 * loop.tick_s):
@@ -228,8 +221,6 @@ class Simulation:
         self.over = self.duration_s is not None and self._spent_s >= self.duration_s - 0.5 * loop.tick_s
         self._waiting = True
         self._finished.append(row)
-        if self.recorder is not None:
-            self.recorder.end_trial(row, loop.time_s)
 
     def _scenario_seed(self, trial: int) -> int:
         return self.seed * 10_000 + trial
@@ -242,8 +233,6 @@ class Simulation:
         self.loop = InteractiveLoop(self.task, self.bindings, self.task.scenario(scenario_seed), self.mode,
                                     seed=scenario_seed)
         self._modes_used = [self.mode]
-        if self.recorder is not None:
-            self.recorder.start_trial(self.trial, self.participant, scenario_seed, self.mode)
         self._waiting = False
         self._next_tick_wall_s = self.clock()
         self._publish(None, None)
@@ -254,8 +243,6 @@ class Simulation:
             self.loop.mode = mode
         if mode not in self._modes_used:
             self._modes_used.append(mode)
-        if self.recorder is not None and self.loop is not None:
-            self.recorder.mode(mode, self.loop.time_s)
         if self.snapshot is not None:
             self.snapshot = dataclasses.replace(self.snapshot, mode=mode)
 

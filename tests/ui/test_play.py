@@ -145,7 +145,7 @@ def test_mouse_drag_moves_the_robots_traps_toward_the_pointer(session, task):
     assert np.linalg.norm(view.trap_centre_um(simulation.snapshot, 0) - robot0) < 0.2  # robot 0 held still
 
 
-def test_cli_session_writes_trials_a_recording_and_a_screenshot(tmp_path, capsys):
+def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     from otgym.cli.app import main
 
     out, shot = tmp_path / "out", tmp_path / "play.png"
@@ -158,11 +158,6 @@ def test_cli_session_writes_trials_a_recording_and_a_screenshot(tmp_path, capsys
     assert list(rows[0])[:len(TRIAL_COLUMNS)] == TRIAL_COLUMNS
     assert len(rows) == 1 and rows[0]["participant"] == "P7" and rows[0]["trial"] == "1"
     assert rows[0]["scenario"] == "20001" and rows[0]["ended_by"] == "duration"
-    from otgym.bus.recording import summarize
-
-    (recording,) = out.glob("session_P7_*.mcap")  # the session is recorded: 2 s of 50 Hz ticks
-    summary = summarize(recording)
-    assert summary["messages"]["/otgym/traps"] == 100 and summary["trials"][0]["ended_by"] == "duration"
     image = pygame.surfarray.array3d(pygame.image.load(str(shot)))
     assert image.shape[:2] == (1280, 720)
     colours = np.unique(image.reshape(-1, 3) // 16, axis=0)
