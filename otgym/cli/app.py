@@ -27,7 +27,7 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import chip, demo, evaluate, experiment, plan, play, train
+    from otgym.cli import chip, demo, evaluate, experiment, plan, play, replay, train
 
     demo.register(app)
     plan.register(app)
@@ -36,6 +36,7 @@ def _register_commands() -> None:
     evaluate.register(app)
     experiment.register(app)
     play.register(app)
+    replay.register(app)
 
 
 _registered = False
