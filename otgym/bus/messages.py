@@ -41,13 +41,16 @@ import json
 import math
 import re
 import struct
+from typing import TYPE_CHECKING
 
 import numpy as np
 from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
 
-from otgym.runtime.loop import TickRecord
 from otgym.shared import MODES
 from otgym.teleop.device import Sample
+
+if TYPE_CHECKING:  # the loop imports JAX; a device node need not
+    from otgym.runtime.loop import TickRecord
 
 _RULE = "=" * 80
 _HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"

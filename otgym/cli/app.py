@@ -27,7 +27,7 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import chip, demo, evaluate, experiment, plan, play, replay, train
+    from otgym.cli import chip, demo, evaluate, experiment, node, plan, play, replay, train
 
     demo.register(app)
     plan.register(app)
@@ -37,6 +37,7 @@ def _register_commands() -> None:
     experiment.register(app)
     play.register(app)
     replay.register(app)
+    node.register(app)
 
 
 _registered = False

@@ -74,7 +74,8 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip_data)))
         feedback = task_feedback(task.config.scene.trap_law, TASK_RETARGET, int((task.trap_robot == task.trap_robot[0]).sum()))
         from otgym.ui.app import PlayApp
-        from otgym.ui.recording import SessionRecording, session_path
+        from otgym.record.mcap_file import session_path
+        from otgym.ui.recording import SessionRecording
         from otgym.ui.simulation import Simulation
 
         recording = SessionRecording(session_path(out))

@@ -35,6 +35,16 @@ FLUSH_PERIOD_S = 1.0
 CHUNK_BYTES = 1 << 20
 
 
+def session_path(out_dir: Path) -> Path:
+    """``out_dir/session.mcap``, or ``session-<n>.mcap`` with the first free n >= 2
+    (a later session in the same folder never overwrites an earlier one)."""
+    path, n = Path(out_dir) / "session.mcap", 1
+    while path.exists():
+        n += 1
+        path = Path(out_dir) / f"session-{n}.mcap"
+    return path
+
+
 class McapRecorder:
     """Writes messages into the MCAP file ``path`` (created; its folder must exist).
     ``clock_ns`` gives log times (``time.time_ns``). Thread-safe; a context manager."""

@@ -21,15 +21,6 @@ from otgym.runtime.loop import DeviceBinding, TickRecord
 from otgym.teleop.device import Device, Sample
 
 
-def session_path(out_dir: Path) -> Path:
-    """``out_dir/session.mcap``, or ``session-<n>.mcap`` with the first free n >= 2."""
-    path, n = Path(out_dir) / "session.mcap", 1
-    while path.exists():
-        n += 1
-        path = Path(out_dir) / f"session-{n}.mcap"
-    return path
-
-
 class SessionRecording:
     """Records a session into ``path``; ``wrap`` the bindings before the simulation
     starts, then ``tick`` after every tick and ``event`` for trial events."""
