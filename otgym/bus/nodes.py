@@ -97,10 +97,11 @@ def run_device_node(node: Node, device: Device, name: str, stop: threading.Event
     when none is; until ``stop`` is set. Returns the samples published."""
     sims: set[str] = set()
     lock = threading.Lock()
+    running = [True]
 
     def on_feedback(topic, message, data) -> None:
         with lock:
-            if sims:
+            if sims and running[0]:
                 device.set_force(msg.force_n(message))
 
     def on_sim(sim: str, alive: bool) -> None:
@@ -125,7 +126,9 @@ def run_device_node(node: Node, device: Device, name: str, stop: threading.Event
             published += 1
         return published
     finally:
-        device.set_force(np.zeros(3))
+        with lock:  # no feedback that arrives from now on reaches the device
+            running[0] = False
+            device.set_force(np.zeros(3))
         device.stop()
 
 
