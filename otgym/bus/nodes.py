@@ -143,7 +143,7 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
     bindings = [DeviceBinding(remote, robots=(i,)) for i, remote in enumerate(remotes)]
     ticks, spent_s, trial = 0, 0.0, 0
     node.publish(msg.MODE, msg.string(mode))
-    while not stop.is_set() and (duration_s is None or spent_s < duration_s):
+    while not stop.is_set() and (duration_s is None or spent_s < duration_s - 0.5 * task.config.tick_s):
         trial += 1
         scenario = seed * 10_000 + trial
         loop = InteractiveLoop(task, bindings, task.scenario(scenario), mode, seed=scenario)
@@ -154,7 +154,8 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
             while not (stop.is_set() or loop.done or (duration_s is not None and spent_s + loop.time_s >= duration_s)):
                 record = loop.tick()
                 ticks += 1
-                for topic, data in msg.tick_messages(record, devices, loop.sphere_xy_um(), loop.mode, time.time()):
+                # no devices: each RemoteDevice publishes its own feedback in set_force
+                for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), loop.mode, time.time()):
                     node.publish(topic, data)
                 if on_tick is not None:
                     on_tick(loop)
@@ -164,7 +165,9 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
                     deadline_s = time.monotonic()
         spent_s += loop.time_s
         row = loop.state.metrics.rows()[0]
-        node.publish(msg.EVENTS, msg.event("trial_end", trial=trial, reached_goal=row["reached_goal"],
+        ended_by = ("goal" if row["reached_goal"] else "trap_lost" if row["trap_losses"] else
+                    "time_limit" if loop.done else "stopped" if stop.is_set() else "duration")
+        node.publish(msg.EVENTS, msg.event("trial_end", trial=trial, ended_by=ended_by,
                                            completion_time_s=row["completion_time_s"]))
     return ticks
 
