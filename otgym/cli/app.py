@@ -27,7 +27,7 @@ USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryEr
 
 
 def _register_commands() -> None:
-    from otgym.cli import chip, demo, evaluate, experiment, plan, play, study, train
+    from otgym.cli import chip, demo, evaluate, experiment, node, plan, play, replay, study, train
 
     demo.register(app)
     plan.register(app)
@@ -37,6 +37,8 @@ def _register_commands() -> None:
     experiment.register(app)
     play.register(app)
     study.register(app)
+    replay.register(app)
+    node.register(app)
 
 
 _registered = False

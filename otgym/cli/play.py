@@ -23,10 +23,11 @@ def register(app: typer.Typer) -> None:
         no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="No questionnaires after trials."),
         screenshot: Path = typer.Option(None, "--screenshot", help="Save the last frame as this PNG."),
         headless: bool = typer.Option(False, "--headless", help="No window (SDL dummy drivers); for tests and CI."),
-        out: Path = typer.Option(..., "--out", help="Folder for trials.csv (and questionnaires.csv)."),
+        out: Path = typer.Option(..., "--out", help="Folder for trials.csv, session.mcap (and questionnaires.csv)."),
     ) -> None:
         """The interactive task in a window: global and microscope views, cues, keys 1/2/3
-        for the mode, space to pause, R to reset, H for help, Esc to quit; trials.csv."""
+        for the mode, space to pause, R to reset, H for help, Esc to quit; trials.csv and
+        the session's MCAP recording (session.mcap)."""
         from otgym.shared import MODES
         from otgym.ui.bindings import check_device_name
 
@@ -73,14 +74,19 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         print(f"building the task on chip {chip_data.name!r} ...", flush=True)
         task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip_data)))
         feedback = task_feedback(task.config.scene.trap_law, TASK_RETARGET, int((task.trap_robot == task.trap_robot[0]).sum()))
-        bindings = play_bindings(primaries, keyboard=device == "keyboard", feedback=feedback)
         from otgym.ui.app import PlayApp
+        from otgym.record.mcap_file import session_path
+        from otgym.ui.recording import SessionRecording
         from otgym.ui.simulation import Simulation
 
-        simulation = Simulation(task, bindings, participant, mode, seed, duration_s)
+        recording = SessionRecording(session_path(out))
+        bindings = recording.wrap(play_bindings(primaries, keyboard=device == "keyboard", feedback=feedback))
+        simulation = Simulation(task, bindings, participant, mode, seed, duration_s, recording=recording)
         try:
             simulation.start()
-        except DeviceError as error:  # e.g. no gamepad plugged in: leave no empty --out behind
+        except DeviceError as error:  # e.g. no gamepad plugged in: leave no recording or empty --out behind
+            recording.close()
+            recording.path.unlink(missing_ok=True)
             if created_out and not any(out.iterdir()):
                 out.rmdir()
             raise ValueError(str(error)) from None
@@ -96,7 +102,7 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         if frames is not None:
             print(f"{len(frames)} frames, median {1 / np.median(frames):.0f} fps; "
                   f"{simulation.ticks} ticks, {simulation.late_ticks} schedule restarts")
-        print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}"
+        print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {recording.path}"
               + (f"; screenshot {screenshot}" if screenshot is not None else ""))
     finally:
         pygame.quit()

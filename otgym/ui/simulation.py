@@ -15,6 +15,10 @@ ticks, so the loop is only ever touched by the thread that ticks it. The views r
 ``snapshot``, replaced whole after each tick (one reference assignment, safe to read
 from another thread).
 
+Recording: with a ``SessionRecording`` every tick's messages go into its MCAP file,
+with the events ``trial_start`` (trial, scenario, mode, the spheres' radii in um),
+``mode`` (a switch), ``trial_end`` (the trial's row) and ``session_end``.
+
 Trials: trial t (from 1) meets scenario ``seed * 10000 + t`` (the experiment's
 numbering). A trial ends when the task is DONE (goal reached, a trap lost, the task's
 time limit) or when the session's ``duration_s`` of simulated time is spent; its row
@@ -27,6 +31,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import math
 import threading
 import time
 from typing import Callable
@@ -37,6 +42,7 @@ from otgym.runtime.loop import DeviceBinding, InteractiveLoop, TickRecord
 from otgym.runtime.task import InteractiveTask, Observation
 from otgym.shared import MODES
 from otgym.teleop.device import start_devices
+from otgym.ui.recording import SessionRecording
 
 MAX_CATCH_UP_TICKS = 3
 OBSTACLE_VELOCITY_SMOOTHING_S = 0.3
@@ -69,7 +75,8 @@ class Simulation:
     stopped here); ``duration_s`` None: until closed."""
 
     def __init__(self, task: InteractiveTask, bindings: list[DeviceBinding], participant: str, mode: str,
-                 seed: int, duration_s: float | None = None, clock: Callable[[], float] = time.monotonic):
+                 seed: int, duration_s: float | None = None, clock: Callable[[], float] = time.monotonic,
+                 recording: SessionRecording | None = None):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         self.task = task
@@ -79,6 +86,7 @@ class Simulation:
         self.seed = seed
         self.duration_s = duration_s
         self.clock = clock
+        self.recording = recording
         self.trial = 0
         self.paused = False
         self.over = False
@@ -118,6 +126,9 @@ class Simulation:
         for binding in self.bindings:
             binding.device.set_force(np.zeros(3))
             binding.device.stop()
+        if self.recording is not None:
+            self.recording.event("session_end", trials=self.trial, ticks=self.ticks)
+            self.recording.close()
 
     def start_thread(self) -> None:
         """Tick in a thread of its own (``advance`` at each tick deadline)."""
@@ -185,6 +196,8 @@ class Simulation:
         record = loop.tick()
         self.ticks += 1
         self._publish(record, before)
+        if self.recording is not None:
+            self.recording.tick(record, self.snapshot.sphere_xy_um, self.mode)
         spent = self._spent_s + loop.time_s
         if loop.done or (self.duration_s is not None and spent >= self.duration_s - 0.5 * loop.tick_s):
             self._end_trial()
@@ -221,6 +234,9 @@ class Simulation:
         self.over = self.duration_s is not None and self._spent_s >= self.duration_s - 0.5 * loop.tick_s
         self._waiting = True
         self._finished.append(row)
+        if self.recording is not None:
+            self.recording.event("trial_end", **{key: None if isinstance(value, float) and not math.isfinite(value)
+                                                 else value for key, value in row.items()})
 
     def _scenario_seed(self, trial: int) -> int:
         return self.seed * 10_000 + trial
@@ -236,6 +252,9 @@ class Simulation:
         self._waiting = False
         self._next_tick_wall_s = self.clock()
         self._publish(None, None)
+        if self.recording is not None:
+            self.recording.event("trial_start", trial=self.trial, scenario=scenario_seed, mode=self.mode,
+                                 sphere_radius_um=self.loop.sphere_radius_um.tolist())
 
     def _set_mode(self, mode: str) -> None:
         self.mode = mode
@@ -243,6 +262,8 @@ class Simulation:
             self.loop.mode = mode
         if mode not in self._modes_used:
             self._modes_used.append(mode)
+        if self.recording is not None:
+            self.recording.event("mode", trial=self.trial, mode=mode)
         if self.snapshot is not None:
             self.snapshot = dataclasses.replace(self.snapshot, mode=mode)
 

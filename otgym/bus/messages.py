@@ -1,0 +1,359 @@
+"""otgym's messages: standard ROS 2 types, their topics, CDR bytes, conversions from
+and to otgym's objects, and the checks every received message passes.
+
+Types (ROS 2 common_interfaces, Humble; the ``.msg`` definitions are copied into
+``SCHEMAS`` in MCAP's ``ros2msg`` schema encoding: the type's own definition, then each
+dependency after a line of 80 ``=`` and ``MSG: pkg/Type``, per the MCAP well-known
+schema encodings)::
+
+    /otgym/traps                    geometry_msgs/msg/PoseArray   trap centres, um, chip frame
+    /otgym/bodies                   geometry_msgs/msg/PoseArray   sphere centres, um, chip frame
+    /otgym/device/<name>/twist      geometry_msgs/msg/TwistStamped  tip velocity, m/s, device frame
+    /otgym/device/<name>/buttons    sensor_msgs/msg/Joy           raw button bits, one 0/1 each
+    /otgym/feedback/<name>          geometry_msgs/msg/WrenchStamped force for the device, N
+    /otgym/shared/alpha             std_msgs/msg/Float64          the arbitration weight
+    /otgym/mode                     std_msgs/msg/String           manual, shared or autonomous
+    /otgym/trial/events             std_msgs/msg/String           one JSON object per event
+
+Units. Lengths in the chip frame are micrometres (x right, y down, z = 0), as the issue
+asks, not REP 103's metres: a trap moves by fractions of a micrometre. Velocities and
+forces are SI (m/s, N), so a ROS 2 tool reads a device's twist and feedback as it would
+any robot's. The trial events have no standard type: a ``std_msgs/String`` whose data
+is a JSON object with at least ``"event"`` (e.g. ``{"event": "trial_start", "trial": 1,
+...}``), which every ROS 2 tool can display. Header stamps are UNIX wall time (a
+``builtin_interfaces/Time``: seconds and nanoseconds); ``frame_id`` names the frame
+(``"chip"`` or the device's name).
+
+Bytes. CDR (XCDR1, little endian: the four-byte encapsulation header 00 01 00 00) as
+ROS 2's rmw implementations write it, encoded and decoded by mcap-ros2-support's
+dynamic serialiser from the ``SCHEMAS`` text.
+
+Checks on receipt (``decode``): the bytes must decode under the topic's schema, every
+float must be finite and within ``LIMITS``, strings short, buttons 0/1, a mode one of
+``otgym.shared.MODES``, an event a JSON object with an ``"event"`` string. A message
+that fails raises ``MessageError`` with the reason; a subscriber drops and counts it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import re
+import struct
+from typing import TYPE_CHECKING
+
+import numpy as np
+from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
+
+from otgym.shared import MODES
+from otgym.teleop.device import Sample
+
+if TYPE_CHECKING:  # the loop imports JAX; a device node need not
+    from otgym.runtime.loop import TickRecord
+
+_RULE = "=" * 80
+_HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
+_VECTOR3 = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+_POSE = ("MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientation\n" + _RULE
+         + "\nMSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n" + _RULE
+         + "\nMSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n")
+
+
+def _schema(body: str, *dependencies: str) -> str:
+    return "\n".join([body, *(f"{_RULE}\n{d}" for d in dependencies)])
+
+
+POSE_ARRAY = "geometry_msgs/msg/PoseArray"
+TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
+WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
+JOY = "sensor_msgs/msg/Joy"
+FLOAT64 = "std_msgs/msg/Float64"
+STRING = "std_msgs/msg/String"
+
+SCHEMAS: dict[str, str] = {
+    POSE_ARRAY: _schema("std_msgs/Header header\ngeometry_msgs/Pose[] poses\n", _HEADER, _POSE),
+    TWIST_STAMPED: _schema("std_msgs/Header header\nTwist twist\n", _HEADER,
+                           "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n", _VECTOR3),
+    WRENCH_STAMPED: _schema("std_msgs/Header header\nWrench wrench\n", _HEADER,
+                            "MSG: geometry_msgs/Wrench\nVector3 force\nVector3 torque\n", _VECTOR3),
+    JOY: _schema("std_msgs/Header header\nfloat32[] axes\nint32[] buttons\n", _HEADER),
+    FLOAT64: "float64 data\n",
+    STRING: "string data\n",
+}
+"""ros2msg schema text per type (definitions of ROS 2 Humble's common_interfaces)."""
+
+_ENCODERS = {name: serialize_dynamic(name, text)[name] for name, text in SCHEMAS.items()}
+_DECODERS = {name: generate_dynamic(name, text)[name] for name, text in SCHEMAS.items()}
+
+TRAPS = "/otgym/traps"
+BODIES = "/otgym/bodies"
+ALPHA = "/otgym/shared/alpha"
+MODE = "/otgym/mode"
+EVENTS = "/otgym/trial/events"
+_FIXED_TOPICS = {TRAPS: POSE_ARRAY, BODIES: POSE_ARRAY, ALPHA: FLOAT64, MODE: STRING, EVENTS: STRING}
+_NAME = r"[A-Za-z][A-Za-z0-9_]{0,63}"
+_DEVICE_TOPIC = re.compile(rf"/otgym/device/({_NAME})/(twist|buttons)")
+_FEEDBACK_TOPIC = re.compile(rf"/otgym/feedback/({_NAME})")
+
+
+def twist_topic(device: str) -> str:
+    return f"/otgym/device/{check_name(device)}/twist"
+
+
+def buttons_topic(device: str) -> str:
+    return f"/otgym/device/{check_name(device)}/buttons"
+
+
+def feedback_topic(device: str) -> str:
+    return f"/otgym/feedback/{check_name(device)}"
+
+
+def check_name(device: str) -> str:
+    """A device name usable in a topic (a ROS 2 name token: a letter, then letters,
+    digits or underscores, at most 64); ValueError otherwise."""
+    if not isinstance(device, str) or not re.fullmatch(_NAME, device):
+        raise ValueError(f"device name must be a letter then letters, digits or '_' (at most 64), got {device!r}")
+    return device
+
+
+def topic_type(topic: str) -> str:
+    """The ROS 2 type of an otgym topic; MessageError for a topic otgym does not use."""
+    if topic in _FIXED_TOPICS:
+        return _FIXED_TOPICS[topic]
+    match = _DEVICE_TOPIC.fullmatch(topic)
+    if match:
+        return TWIST_STAMPED if match.group(2) == "twist" else JOY
+    if _FEEDBACK_TOPIC.fullmatch(topic):
+        return WRENCH_STAMPED
+    raise MessageError(f"unknown topic {topic!r}")
+
+
+class MessageError(ValueError):
+    """A message that fails its checks; ``str()`` is the reason."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Limits:
+    """Ranges a received value must lie in (generous: they catch corruption and units
+    mistakes, not the task's own bounds)."""
+
+    position_um: float = 1e6
+    """Chip-frame coordinates (1 m)."""
+    speed_m_s: float = 10.0
+    force_n: float = 100.0
+    torque_n_m: float = 10.0
+    poses: int = 4096
+    buttons: int = 64
+    axes: int = 64
+    string_chars: int = 65536
+    frame_chars: int = 256
+
+
+LIMITS = Limits()
+
+
+# --- encoding -----------------------------------------------------------------------
+def _stamp(stamp_s: float) -> dict:
+    if not (math.isfinite(stamp_s) and 0 <= stamp_s < 2**32):
+        raise ValueError(f"stamp must be finite UNIX seconds, got {stamp_s!r}")
+    sec = math.floor(stamp_s)
+    return {"sec": sec, "nanosec": min(int(round((stamp_s - sec) * 1e9)), 999_999_999)}
+
+
+def _header(stamp_s: float, frame_id: str) -> dict:
+    return {"stamp": _stamp(stamp_s), "frame_id": frame_id}
+
+
+def _vector(values) -> dict:
+    x, y, z = (float(v) for v in values)
+    return {"x": x, "y": y, "z": z}
+
+
+def encode(type_name: str, message) -> bytes:
+    """CDR bytes of ``message`` (a dict or object with the type's fields)."""
+    return bytes(_ENCODERS[type_name](message))
+
+
+def pose_array(xy_um, stamp_s: float, frame_id: str = "chip") -> bytes:
+    """PoseArray of points (N, 2) in um (z = 0, identity orientation)."""
+    xy = np.asarray(xy_um, float).reshape(-1, 2)
+    poses = [{"position": {"x": float(x), "y": float(y), "z": 0.0},
+              "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}} for x, y in xy]
+    return encode(POSE_ARRAY, {"header": _header(stamp_s, frame_id), "poses": poses})
+
+
+def twist(sample: Sample, stamp_s: float, device: str) -> bytes:
+    """TwistStamped of a device sample's tip velocity (mm/s -> m/s; no angular part)."""
+    return encode(TWIST_STAMPED, {"header": _header(stamp_s, device),
+                                  "twist": {"linear": _vector(np.asarray(sample.velocity_mm_s) * 1e-3),
+                                            "angular": _vector((0.0, 0.0, 0.0))}})
+
+
+def joy(buttons: int, stamp_s: float, device: str, n_buttons: int = 8) -> bytes:
+    """Joy with a sample's raw button bits as ``n_buttons`` 0/1 entries (bit 0 first)."""
+    if buttons >> n_buttons:
+        n_buttons = buttons.bit_length()
+    return encode(JOY, {"header": _header(stamp_s, device), "axes": [],
+                        "buttons": [(buttons >> bit) & 1 for bit in range(n_buttons)]})
+
+
+def wrench(force_n, stamp_s: float, device: str) -> bytes:
+    """WrenchStamped of a (3,) force in N for a device (no torque)."""
+    return encode(WRENCH_STAMPED, {"header": _header(stamp_s, device),
+                                   "wrench": {"force": _vector(force_n), "torque": _vector((0.0, 0.0, 0.0))}})
+
+
+def float64(value: float) -> bytes:
+    return encode(FLOAT64, {"data": float(value)})
+
+
+def string(text: str) -> bytes:
+    return encode(STRING, {"data": text})
+
+
+def event(name: str, **fields) -> bytes:
+    """A trial event: String with the JSON object ``{"event": name, **fields}``."""
+    return string(json.dumps({"event": name, **fields}, sort_keys=True))
+
+
+# --- decoding and checks ----------------------------------------------------------------
+def decode(topic: str, data: bytes):
+    """The checked message on ``topic`` (an object with the type's fields, as
+    mcap-ros2-support decodes it); MessageError with the reason otherwise."""
+    type_name = topic_type(topic)
+    if len(data) < 4 or data[:2] != b"\x00\x01":
+        raise MessageError(f"{topic}: not little-endian CDR (encapsulation {bytes(data[:4]).hex() or 'missing'})")
+    try:
+        message = _DECODERS[type_name](bytes(data))
+    except (struct.error, UnicodeDecodeError, ValueError, IndexError, OverflowError, MemoryError) as error:
+        raise MessageError(f"{topic}: does not decode as {type_name} ({type(error).__name__})") from None
+    _CHECKS[type_name](message, topic)
+    return message
+
+
+def _fail(topic: str, reason: str):
+    raise MessageError(f"{topic}: {reason}")
+
+
+def _check_finite_within(topic: str, what: str, values, bound: float) -> None:
+    array = np.asarray(values, float)
+    if not np.isfinite(array).all():
+        _fail(topic, f"{what} is not finite")
+    if np.abs(array).max(initial=0.0) > bound:
+        _fail(topic, f"{what} exceeds {bound:g} in magnitude")
+
+
+def _check_header(message, topic: str) -> None:
+    if message.header.stamp.nanosec >= 1_000_000_000:
+        _fail(topic, "stamp nanoseconds out of range")
+    if len(message.header.frame_id) > LIMITS.frame_chars:
+        _fail(topic, "frame_id too long")
+
+
+def _xyz(v) -> tuple[float, float, float]:
+    return (v.x, v.y, v.z)
+
+
+def _check_pose_array(message, topic: str) -> None:
+    _check_header(message, topic)
+    if len(message.poses) > LIMITS.poses:
+        _fail(topic, f"more than {LIMITS.poses} poses")
+    _check_finite_within(topic, "position_um", [_xyz(p.position) for p in message.poses], LIMITS.position_um)
+    quaternions = np.array([(*_xyz(p.orientation), p.orientation.w) for p in message.poses], float).reshape(-1, 4)
+    if not np.isfinite(quaternions).all() or np.any(np.abs(np.linalg.norm(quaternions, axis=1) - 1) > 1e-6):
+        _fail(topic, "orientation is not a unit quaternion")
+
+
+def _check_twist(message, topic: str) -> None:
+    _check_header(message, topic)
+    _check_finite_within(topic, "linear velocity (m/s)", _xyz(message.twist.linear), LIMITS.speed_m_s)
+    _check_finite_within(topic, "angular velocity (rad/s)", _xyz(message.twist.angular), 1e3)
+
+
+def _check_wrench(message, topic: str) -> None:
+    _check_header(message, topic)
+    _check_finite_within(topic, "force (N)", _xyz(message.wrench.force), LIMITS.force_n)
+    _check_finite_within(topic, "torque (N m)", _xyz(message.wrench.torque), LIMITS.torque_n_m)
+
+
+def _check_joy(message, topic: str) -> None:
+    _check_header(message, topic)
+    if len(message.buttons) > LIMITS.buttons or len(message.axes) > LIMITS.axes:
+        _fail(topic, "too many buttons or axes")
+    if any(b not in (0, 1) for b in message.buttons):
+        _fail(topic, "buttons must be 0 or 1")
+    _check_finite_within(topic, "axes", list(message.axes), 1.0)
+
+
+def _check_float64(message, topic: str) -> None:
+    if topic == ALPHA and not (math.isfinite(message.data) and 0.0 <= message.data <= 1.0):
+        _fail(topic, f"alpha must lie in [0, 1], got {message.data!r}")
+
+
+def _check_string(message, topic: str) -> None:
+    if len(message.data) > LIMITS.string_chars:
+        _fail(topic, "string too long")
+    if topic == MODE and message.data not in MODES:
+        _fail(topic, f"unknown mode {message.data[:40]!r}")
+    if topic == EVENTS:
+        try:
+            payload = json.loads(message.data)
+        except ValueError:
+            _fail(topic, "event is not JSON")
+        if not isinstance(payload, dict) or not isinstance(payload.get("event"), str):
+            _fail(topic, "event must be a JSON object with an \"event\" string")
+
+
+_CHECKS = {POSE_ARRAY: _check_pose_array, TWIST_STAMPED: _check_twist, WRENCH_STAMPED: _check_wrench,
+           JOY: _check_joy, FLOAT64: _check_float64, STRING: _check_string}
+
+
+# --- back to otgym's objects -----------------------------------------------------------
+def stamp_s(message) -> float:
+    """A stamped message's header time in UNIX seconds."""
+    return message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
+
+
+def xy_um(message) -> np.ndarray:
+    """(N, 2) points in um of a PoseArray."""
+    return np.array([(p.position.x, p.position.y) for p in message.poses], float).reshape(-1, 2)
+
+
+def velocity_mm_s(message) -> np.ndarray:
+    """(3,) tip velocity in mm/s of a TwistStamped."""
+    return np.array(_xyz(message.twist.linear), float) * 1e3
+
+
+def button_bits(message) -> int:
+    """A Joy's buttons as raw bits (entry i -> bit i)."""
+    return sum(int(b) << i for i, b in enumerate(message.buttons))
+
+
+def force_n(message) -> np.ndarray:
+    """(3,) force in N of a WrenchStamped."""
+    return np.array(_xyz(message.wrench.force), float)
+
+
+def event_fields(message) -> dict:
+    """The JSON object of a trial event."""
+    return json.loads(message.data)
+
+
+def sample_from(twist_message, buttons: int, time_s: float, sequence: int) -> Sample:
+    """The device Sample a receiver rebuilds from a twist (and the latest buttons),
+    stamped with the receiver's own clock ``time_s`` (the sender's clock may be another
+    machine's). The position is not sent (retargeting uses only velocity and buttons):
+    it reads as zeros."""
+    return Sample(time_s, sequence, np.zeros(3), velocity_mm_s(twist_message), buttons)
+
+
+def tick_messages(record: TickRecord, devices: list[str], sphere_xy_um, mode: str,
+                  stamp_s: float) -> list[tuple[str, bytes]]:
+    """(topic, CDR) of what the simulator publishes after one tick: traps, bodies (every
+    sphere's centre), alpha, mode and the feedback force for each device (``devices``
+    in the order of the record's ``feedback_n`` rows)."""
+    messages = [(TRAPS, pose_array(record.trap_xy_um, stamp_s)), (BODIES, pose_array(sphere_xy_um, stamp_s)),
+                (ALPHA, float64(record.alpha)), (MODE, string(mode))]
+    messages += [(feedback_topic(name), wrench(force, stamp_s, name)) for name, force in zip(devices, record.feedback_n)]
+    return messages

@@ -1,0 +1,177 @@
+"""The runtime's parts as bus nodes (DESIGN.md, "The human half"): a device node
+publishes its device's samples and applies the feedback it receives; the simulator
+node runs ``InteractiveLoop`` on ``RemoteDevice`` s and publishes every tick; a
+recorder node passes every checked message to a sink (``otgym.cli.node`` gives it an
+MCAP file).
+
+Faults (DESIGN.md, "safety first"):
+- a device node dies: its liveliness token goes; the simulator's ``RemoteDevice``
+  then reads as one sample at rest with every button released (the retargeter's
+  clutch zeroes dP_h at once) that then ages into silence, so the traps hold; the
+  device is sent no more feedback;
+- the simulator dies: each device node zeros its device's force at once (the
+  simulator's token went) and keeps reconnecting (``transport``); when the simulator is
+  back, samples flow again and feedback resumes;
+- a recorder dies: its MCAP file keeps every chunk flushed before (at most the last
+  second is lost; ``otgym.record.mcap_file``).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Callable
+
+import numpy as np
+
+from otgym.bus import messages as msg
+from otgym.bus.transport import Node
+from otgym.runtime.loop import DeviceBinding, InteractiveLoop
+from otgym.runtime.task import InteractiveTask
+from otgym.teleop.device import Device, DeviceCaps, Sample
+
+REMOTE_FORCE_LIMIT_N = 3.3
+"""The simulator's cap on a remote device's feedback (a Geomagic Touch's peak force);
+each device node saturates again at its own device's limit."""
+
+
+class RemoteDevice(Device):
+    """A device node's device, seen from the simulator through ``node``: ``read`` gives
+    the latest twist and buttons of device ``name`` stamped with this process's
+    ``clock`` on arrival; ``set_force`` publishes the feedback."""
+
+    def __init__(self, node: Node, name: str, clock: Callable[[], float] = time.monotonic,
+                 force_limit_n: float = REMOTE_FORCE_LIMIT_N):
+        self.node, self.name, self.clock = node, msg.check_name(name), clock
+        self.caps = DeviceCaps(f"remote {name}", 3, force_limit_n, (160.0, 120.0, 70.0), 1000.0)
+        self.alive = False
+        self.losses = 0
+        """Times the device node's liveliness token went away."""
+        self._buttons = 0
+        self._sequence = 0
+        self._sample: Sample | None = None
+        self._lock = threading.Lock()
+        self._subscribed = False
+
+    def start(self) -> None:
+        if self._subscribed:
+            return
+        self._subscribed = True
+        self.node.subscribe(msg.buttons_topic(self.name), self._on_buttons)
+        self.node.subscribe(msg.twist_topic(self.name), self._on_twist)
+        self.node.watch("device", self._on_liveliness)
+
+    def _on_buttons(self, topic, message, data) -> None:
+        self._buttons = msg.button_bits(message)
+
+    def _on_twist(self, topic, message, data) -> None:
+        with self._lock:
+            self._sequence += 1
+            self._sample = msg.sample_from(message, self._buttons, self.clock(), self._sequence)
+
+    def _on_liveliness(self, name: str, alive: bool) -> None:
+        if name != self.name:
+            return
+        with self._lock:
+            if self.alive and not alive:
+                self.losses += 1
+                self._sequence += 1
+                self._buttons = 0
+                self._sample = Sample(self.clock(), self._sequence, np.zeros(3), np.zeros(3), 0)
+            self.alive = alive
+
+    def stop(self) -> None:
+        self.set_force(np.zeros(3))
+
+    def read(self) -> Sample | None:
+        return self._sample
+
+    def set_force(self, force_n) -> None:
+        if self.alive:
+            self.node.publish(msg.feedback_topic(self.name), msg.wrench(force_n, time.time(), self.name))
+
+
+def run_device_node(node: Node, device: Device, name: str, stop: threading.Event, rate_hz: float = 500.0) -> int:
+    """Publish each new sample of ``device`` as ``name``'s twist and buttons (polled at
+    ``rate_hz``), apply the simulator's feedback while a simulator is alive, zero it
+    when none is; until ``stop`` is set. Returns the samples published."""
+    sims: set[str] = set()
+    lock = threading.Lock()
+    running = [True]
+
+    def on_feedback(topic, message, data) -> None:
+        with lock:
+            if sims and running[0]:
+                device.set_force(msg.force_n(message))
+
+    def on_sim(sim: str, alive: bool) -> None:
+        with lock:
+            (sims.add if alive else sims.discard)(sim)
+            if not sims:
+                device.set_force(np.zeros(3))
+
+    device.start()
+    try:
+        node.subscribe(msg.feedback_topic(name), on_feedback)
+        node.watch("sim", on_sim)
+        published, last_sequence = 0, None
+        while not stop.wait(1.0 / rate_hz):
+            sample = device.read()
+            if sample is None or sample.sequence == last_sequence or not sample.finite:
+                continue
+            last_sequence = sample.sequence
+            stamp_s = time.time()
+            node.publish(msg.buttons_topic(name), msg.joy(sample.buttons, stamp_s, name))
+            node.publish(msg.twist_topic(name), msg.twist(sample, stamp_s, name))
+            published += 1
+        return published
+    finally:
+        with lock:  # no feedback that arrives from now on reaches the device
+            running[0] = False
+            device.set_force(np.zeros(3))
+        device.stop()
+
+
+def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: str, seed: int,
+                 stop: threading.Event, duration_s: float | None = None,
+                 on_tick: Callable[[InteractiveLoop], None] | None = None) -> int:
+    """Trials one after another (trial t meets scenario ``seed * 10000 + t``), each an
+    ``InteractiveLoop`` paced by the wall clock on ``RemoteDevice`` s named ``devices``
+    (device i drives robot i), publishing every tick's messages and the trial events;
+    until ``stop`` is set or ``duration_s`` of simulated time is spent. Returns the ticks run."""
+    remotes = [RemoteDevice(node, name) for name in devices]
+    bindings = [DeviceBinding(remote, robots=(i,)) for i, remote in enumerate(remotes)]
+    ticks, spent_s, trial = 0, 0.0, 0
+    node.publish(msg.MODE, msg.string(mode))
+    while not stop.is_set() and (duration_s is None or spent_s < duration_s - 0.5 * task.config.tick_s):
+        trial += 1
+        scenario = seed * 10_000 + trial
+        loop = InteractiveLoop(task, bindings, task.scenario(scenario), mode, seed=scenario)
+        node.publish(msg.EVENTS, msg.event("trial_start", trial=trial, scenario=scenario, mode=mode,
+                                           sphere_radius_um=loop.sphere_radius_um.tolist()))
+        with loop:
+            deadline_s = time.monotonic()
+            while not (stop.is_set() or loop.done or (duration_s is not None and spent_s + loop.time_s >= duration_s)):
+                record = loop.tick()
+                ticks += 1
+                # no devices: each RemoteDevice publishes its own feedback in set_force
+                for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), loop.mode, time.time()):
+                    node.publish(topic, data)
+                if on_tick is not None:
+                    on_tick(loop)
+                deadline_s += loop.tick_s
+                stop.wait(max(0.0, deadline_s - time.monotonic()))
+                if time.monotonic() - deadline_s > loop.tick_s:
+                    deadline_s = time.monotonic()
+        spent_s += loop.time_s
+        row = loop.state.metrics.rows()[0]
+        ended_by = ("goal" if row["reached_goal"] else "trap_lost" if row["trap_losses"] else
+                    "time_limit" if loop.done else "stopped" if stop.is_set() else "duration")
+        node.publish(msg.EVENTS, msg.event("trial_end", trial=trial, ended_by=ended_by,
+                                           completion_time_s=row["completion_time_s"]))
+    return ticks
+
+
+def record_all(node: Node, sink: Callable[[str, bytes], None]) -> None:
+    """``sink(topic, cdr)`` for every checked message on every otgym topic."""
+    node.subscribe("/otgym/**", lambda topic, message, data: sink(topic, data))

@@ -1,0 +1,116 @@
+"""``otgym node ROLE``: one part of the runtime as a process on the bus
+(``otgym.bus``): ``sim`` (the simulator, listening on tcp/127.0.0.1:7447), ``device``
+(a local device published as ``--name``), ``recorder`` (every message into
+``--out``/session.mcap). Loopback only unless ``--listen``/``--connect`` name other
+endpoints. Prints one ``ready`` line once on the bus; SIGTERM or Ctrl-C ends it
+cleanly (devices at zero force, the recording closed)."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+from pathlib import Path
+
+import typer
+
+BUILT = ("sim", "device", "recorder")
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("node")
+    def node(
+        role: str = typer.Argument(..., help="sim, device or recorder."),
+        name: str = typer.Option("device0", "--name", help="device node: its name on the bus; sim node: the device "
+                                                           "names it drives (robot i by the i-th), comma-separated."),
+        device: str = typer.Option("simulated", "--device",
+                                   help="device node: its driver (keyboard, gamepad, touch, simulated, replay)."),
+        replay: Path = typer.Option(None, "--replay", help="device node with --device replay: the CSV to play (looped)."),
+        mode: str = typer.Option("shared", "--mode", help="sim node: manual, shared or autonomous."),
+        seed: int = typer.Option(0, "--seed", help="sim node: trial t meets scenario seed * 10000 + t."),
+        duration: float = typer.Option(None, "--duration", help="sim node: seconds of simulated time (default: until stopped)."),
+        listen: list[str] = typer.Option(None, "--listen", help="zenoh endpoint to listen on (repeatable)."),
+        connect: list[str] = typer.Option(None, "--connect", help="zenoh endpoint to connect to (repeatable)."),
+        zenoh_config: Path = typer.Option(None, "--zenoh-config", help="zenoh config file (TLS, user/password)."),
+        out: Path = typer.Option(None, "--out", help="recorder node: folder for session.mcap."),
+    ) -> None:
+        """Run one node of the distributed runtime until stopped."""
+        from otgym.bus import messages as msg
+        from otgym.shared import MODES
+
+        if role not in BUILT:
+            raise ValueError(f"unknown or unbuilt node {role!r}; choose one of {', '.join(BUILT)}")
+        names = [n.strip() for n in name.split(",")] if role == "sim" else [name]
+        for each in names:
+            msg.check_name(each)
+        if mode not in MODES:
+            raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+        if role == "recorder" and out is None:
+            raise ValueError("the recorder node needs --out")
+        if zenoh_config is not None and not zenoh_config.is_file():
+            raise FileNotFoundError(f"no zenoh config file {zenoh_config}")
+        stop = threading.Event()
+        for signum in (signal.SIGTERM, signal.SIGINT):
+            signal.signal(signum, lambda *_: stop.set())
+        endpoints = dict(listen=list(listen or []), connect=list(connect or []),
+                         config_file=str(zenoh_config) if zenoh_config else None)
+        {"sim": _sim, "device": _device, "recorder": _recorder}[role](
+            stop, endpoints, name=name, names=names, device=device, replay=replay, mode=mode, seed=seed, duration=duration, out=out)
+
+
+def _ready(text: str) -> None:
+    print(f"ready: {text}", flush=True)
+
+
+def _device(stop, endpoints, *, name, device, replay, **_):
+    from otgym.bus.nodes import run_device_node
+    from otgym.bus.transport import Node
+    from otgym.teleop.device import DeviceError, open_device
+
+    options = {"path": replay, "loop": True} if device == "replay" else {}
+    if device == "replay" and replay is None:
+        raise ValueError("--device replay needs --replay FILE")
+    try:
+        driver = open_device(device, **options)
+    except DeviceError as error:
+        raise ValueError(str(error)) from None
+    with Node("device", name, **endpoints) as node:
+        _ready(f"device {name} ({driver.caps.name})")
+        published = run_device_node(node, driver, name, stop)
+    print(f"device {name}: {published} samples published", flush=True)
+
+
+def _recorder(stop, endpoints, *, out, **_):
+    from otgym.bus import messages as msg
+    from otgym.bus.nodes import record_all
+    from otgym.bus.transport import Node
+    from otgym.experiments.output_folder import check_out_dir
+    from otgym.record.mcap_file import McapRecorder, session_path
+
+    path = session_path(check_out_dir(out))
+    with McapRecorder(path) as recorder, Node("recorder", "recorder", **endpoints) as node:
+
+        def sink(topic: str, data: bytes) -> None:
+            type_name = msg.topic_type(topic)
+            recorder.write(topic, type_name, msg.SCHEMAS[type_name], data)
+
+        record_all(node, sink)
+        _ready(f"recorder into {path}")
+        while not stop.wait(0.25):
+            recorder.flush()
+    print(f"recorder: {sum(recorder.counts.values())} messages, {sum(node.dropped.values())} dropped, into {path}",
+          flush=True)
+
+
+def _sim(stop, endpoints, *, names, mode, seed, duration, **_):
+    from otgym.bus.nodes import run_sim_node
+    from otgym.bus.transport import Node
+    from otgym.runtime.task import InteractiveTask
+
+    print("building the task ...", flush=True)
+    task = InteractiveTask()
+    with Node("sim", "sim", **endpoints) as node:
+        _ready(f"sim for devices {', '.join(names)}")
+        ticks = run_sim_node(node, task, names, mode, seed, stop, duration)
+        print(f"sim: {ticks} ticks; dropped {sum(node.dropped.values())} malformed messages", flush=True)
+    sys.stdout.flush()

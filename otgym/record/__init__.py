@@ -1,0 +1,1 @@
+"""Recording sessions as MCAP files and reading them back (``mcap_file``)."""

@@ -1,0 +1,226 @@
+"""Nodes over zenoh on loopback, each fault tested by killing a real process this test
+started (by its pid): a device node killed -> the simulator's input from it is zero
+at once and the traps hold; the simulator killed -> a device node zeros its force,
+and finds the restarted simulator by itself; a recorder killed with SIGKILL -> its
+file keeps all but the last moments; a malformed message is dropped and counted.
+
+Timing goals (loss seen within 100 ms) are measured by ``benchmarks/bus.py``; here
+the bounds are generous (1 s) so a loaded machine does not fail them. The task is
+built once (``tests.runtime.shared_task``) for the one test that ticks a loop."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from otgym.bus import messages as msg
+from otgym.bus.nodes import RemoteDevice, run_device_node
+from otgym.bus.transport import Node
+from otgym.record.mcap_file import read_recording
+from otgym.runtime.loop import DeviceBinding, InteractiveLoop
+from otgym.teleop.device import Device, DeviceCaps, Sample
+from otgym.teleop.replay import record_samples
+
+ROOT = Path(__file__).resolve().parents[2]
+STARTUP_S = 90.0
+DETECTION_BOUND_S = 1.0
+
+
+def free_endpoint() -> str:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return f"tcp/127.0.0.1:{probe.getsockname()[1]}"
+
+
+def spawn(*arguments: str) -> subprocess.Popen:
+    """A child python process with this checkout on its path; stdout piped."""
+    return subprocess.Popen([sys.executable, *arguments], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def wait_for_line(child: subprocess.Popen, prefix: str, timeout_s: float = STARTUP_S) -> str:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        line = child.stdout.readline()
+        if line.startswith(prefix):
+            return line
+        if not line and child.poll() is not None:
+            raise AssertionError(f"child exited ({child.returncode}) before {prefix!r}")
+    raise AssertionError(f"no {prefix!r} within {timeout_s} s")
+
+
+def wait_until(condition, timeout_s: float) -> float:
+    """Seconds until ``condition()`` held; AssertionError after ``timeout_s``."""
+    start = time.monotonic()
+    while not condition():
+        if time.monotonic() - start > timeout_s:
+            raise AssertionError(f"not within {timeout_s} s")
+        time.sleep(0.001)
+    return time.monotonic() - start
+
+
+def kill(child: subprocess.Popen) -> float:
+    """SIGKILL ``child`` by its pid; the monotonic time of the kill."""
+    os.kill(child.pid, signal.SIGKILL)
+    killed_at = time.monotonic()
+    child.wait()
+    return killed_at
+
+
+@pytest.fixture
+def children():
+    started: list[subprocess.Popen] = []
+    yield started
+    for child in started:
+        if child.poll() is None:
+            os.kill(child.pid, signal.SIGKILL)
+            child.wait()
+
+
+def device_node(endpoint: str, csv: Path) -> subprocess.Popen:
+    """``otgym node device`` replaying a stylus moving at 10 mm/s along x, clutch held."""
+    record_samples([Sample(0.01 * i, i, (0.1 * i, 0.0, 0.0), (10.0, 0.0, 0.0), 1) for i in range(100)], csv)
+    return spawn("-m", "otgym", "node", "device", "--device", "replay", "--replay", str(csv), "--name", "device0",
+                 "--connect", endpoint)
+
+
+def test_device_node_killed_its_input_is_zero_at_once_and_the_traps_hold(tmp_path, children):
+    from tests.runtime import fast_scenario, shared_task
+
+    task = shared_task()
+    endpoint = free_endpoint()
+    with Node("sim", "sim", listen=[endpoint]) as node:
+        remote = RemoteDevice(node, "device0")
+        loop = InteractiveLoop(task, [DeviceBinding(remote, robots=(0,))], fast_scenario(7), "manual")
+        loop.start()
+        children.append(device_node(endpoint, tmp_path / "steady.csv"))
+        wait_for_line(children[0], "ready")
+        wait_until(lambda: remote.alive and remote.read() is not None, 30.0)
+        driven = [loop.tick() for _ in range(30)]
+        assert max(np.abs(r.human_um).max() for r in driven) > 0.01  # the device node drives robot 0
+        killed_at = kill(children[0])
+        wait_until(lambda: remote.losses == 1, DETECTION_BOUND_S)
+        detected_s = time.monotonic() - killed_at
+        assert not remote.alive and remote.read().buttons == 0
+        np.testing.assert_array_equal(remote.read().velocity_mm_s, 0.0)
+        after = [loop.tick() for _ in range(20)]
+        for record in after:
+            np.testing.assert_array_equal(record.human_um, 0.0)
+            np.testing.assert_array_equal(record.shared_um, 0.0)
+            np.testing.assert_array_equal(record.trap_xy_um, after[0].trap_xy_um)
+        assert not after[-1].device_live[0] and detected_s < DETECTION_BOUND_S
+
+
+SIM_STAND_IN = """
+import sys, time
+from otgym.bus import messages as m
+from otgym.bus.transport import Node
+seen = []
+with Node("sim", "sim", listen=[sys.argv[1]]) as node:
+    node.subscribe(m.twist_topic("device0"), lambda topic, message, data: seen.append(1))
+    print("ready", flush=True)
+    reported = 0
+    while True:
+        node.publish(m.feedback_topic("device0"), m.wrench((0.5, 0.0, 0.0), time.time(), "device0"))
+        if len(seen) >= reported + 10:
+            reported = len(seen)
+            print("twists", reported, flush=True)
+        time.sleep(0.02)
+"""
+
+
+class SpyStylus(Device):
+    """Fresh samples at 1 mm/s with the clutch held; records every force it is sent."""
+
+    def __init__(self):
+        self.caps = DeviceCaps("spy", 3, 0.88, (160.0, 120.0, 70.0), 1000.0)
+        self.forces: list[np.ndarray] = []
+        self.sequence = 0
+
+    def start(self):
+        pass
+
+    def stop(self):
+        pass
+
+    def read(self):
+        self.sequence += 1
+        return Sample(time.monotonic(), self.sequence, np.zeros(3), (1.0, 0.0, 0.0), 1)
+
+    def set_force(self, force_n):
+        self.forces.append(np.array(force_n, float))
+
+
+def test_sim_killed_the_device_force_is_zeroed_and_the_restarted_sim_is_found(children):
+    endpoint = free_endpoint()
+    spy, stop = SpyStylus(), threading.Event()
+    children.append(spawn("-c", SIM_STAND_IN, endpoint))
+    wait_for_line(children[-1], "ready")
+    with Node("device", "device0", connect=[endpoint]) as node:
+        worker = threading.Thread(target=run_device_node, args=(node, spy, "device0", stop), daemon=True)
+        worker.start()
+        try:
+            wait_for_line(children[-1], "twists")
+            wait_until(lambda: spy.forces and spy.forces[-1][0] == 0.5, 10.0)
+            kill(children[-1])
+            assert wait_until(lambda: spy.forces[-1][0] == 0.0, DETECTION_BOUND_S) < DETECTION_BOUND_S
+            children.append(spawn("-c", SIM_STAND_IN, endpoint))  # the same endpoint, a new process
+            wait_for_line(children[-1], "ready")
+            wait_for_line(children[-1], "twists", 30.0)  # the device node reconnected by itself
+            wait_until(lambda: spy.forces[-1][0] == 0.5, 10.0)  # and takes feedback again
+        finally:
+            stop.set()
+            worker.join(5.0)
+    assert np.all(spy.forces[-1] == 0.0)  # zero force when the node stops
+
+
+def test_recorder_node_killed_with_sigkill_keeps_all_but_its_last_moments(tmp_path, children):
+    endpoint = free_endpoint()
+    children.append(spawn("-m", "otgym", "node", "recorder", "--out", str(tmp_path), "--listen", endpoint))
+    wait_for_line(children[0], "ready")
+    sent_ns = []
+    with Node("device", "device0", connect=[endpoint]) as node:
+        time.sleep(1.0)  # the link comes up
+        for i in range(150):  # 3 s at 50 Hz
+            node.publish(msg.ALPHA, msg.float64(i / 1000))
+            sent_ns.append(time.time_ns())
+            time.sleep(0.02)
+        kill(children[0])
+    recording = read_recording(tmp_path / "session.mcap")
+    values = [msg.decode(msg.ALPHA, m.data).data for m in recording.messages]
+    assert not recording.complete and len(values) >= 50
+    assert values == [i / 1000 for i in range(len(values))]  # in order, none missing
+    lost_s = (sent_ns[-1] - recording.messages[-1].log_time_ns) * 1e-9
+    assert lost_s <= 1.5
+
+
+def test_malformed_messages_are_dropped_and_counted_never_applied():
+    endpoint = free_endpoint()
+    with Node("sim", "sim", listen=[endpoint]) as sim, Node("device", "device0", connect=[endpoint]) as device:
+        remote = RemoteDevice(sim, "device0")
+        remote.start()
+        wait_until(lambda: remote.alive, 10.0)
+        good = msg.twist(Sample(0, 0, np.zeros(3), (1.0, 0.0, 0.0), 1), time.time(), "device0")
+        bad = [msg.twist(Sample(0, 0, np.zeros(3), (np.nan, 0.0, 0.0), 1), time.time(), "device0"),
+               b"\x00\x01\x00\x00garbage", msg.float64(0.5)]
+
+        def count(table):
+            return table.get(msg.twist_topic("device0"), 0)
+
+        wait_until(lambda: (device.publish(msg.twist_topic("device0"), good), count(sim.received))[1] > 0, 10.0)
+        time.sleep(0.5)  # good ones still in flight arrive
+        received = count(sim.received)
+        for data in bad:
+            device.publish(msg.twist_topic("device0"), data)
+        wait_until(lambda: count(sim.dropped) == 3, 5.0)
+        assert count(sim.received) == received
+        np.testing.assert_allclose(remote.read().velocity_mm_s, [1.0, 0.0, 0.0])

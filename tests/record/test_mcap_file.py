@@ -1,0 +1,152 @@
+"""MCAP recordings (``otgym.record``): what was written reads back with the mcap
+library's own (indexed) reader, per topic and byte for byte; chunks reach the file by
+time, so a writer killed with SIGKILL leaves a file readable up to its last second;
+``otgym replay`` summarises a recording and draws its frames."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from otgym.bus import messages as m
+from otgym.record.mcap_file import McapRecorder, read_recording
+from otgym.record.replay import render_frames, summary
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def write(recorder: McapRecorder, topic: str, data: bytes, **times) -> None:
+    type_name = m.topic_type(topic)
+    recorder.write(topic, type_name, m.SCHEMAS[type_name], data, **times)
+
+
+def session(recorder: McapRecorder, ticks: int) -> dict[str, list[bytes]]:
+    """A small session: a trial start, ``ticks`` ticks of traps, bodies, alpha and feedback."""
+    sent: dict[str, list[bytes]] = {}
+
+    def send(topic, data, t_ns):
+        write(recorder, topic, data, log_time_ns=t_ns)
+        sent.setdefault(topic, []).append(data)
+
+    send(m.EVENTS, m.event("trial_start", trial=1, scenario=10001, mode="shared", sphere_radius_um=[2.0, 2.0, 5.0]),
+         10**9)
+    for i in range(ticks):
+        t_ns = 10**9 + (i + 1) * 20_000_000
+        send(m.TRAPS, m.pose_array([[10.0 + i, 20.0], [30.0, 40.0]], t_ns * 1e-9), t_ns)
+        send(m.BODIES, m.pose_array([[10.0 + i, 20.0], [30.0, 40.0], [50.0, 60.0]], t_ns * 1e-9), t_ns)
+        send(m.ALPHA, m.float64(i / ticks), t_ns)
+        send(m.feedback_topic("device0"), m.wrench((0.01 * i, 0.0, 0.0), t_ns * 1e-9, "device0"), t_ns)
+    send(m.EVENTS, m.event("trial_end", trial=1, ended_by="goal"), 10**9 + (ticks + 1) * 20_000_000)
+    return sent
+
+
+def test_recording_reads_back_with_the_mcap_reader_per_topic_and_byte_for_byte(tmp_path):
+    path = tmp_path / "s.mcap"
+    with McapRecorder(path) as recorder:
+        sent = session(recorder, 120)
+    with open(path, "rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        statistics = reader.get_summary().statistics
+        assert {reader.get_summary().channels[c].topic: n for c, n in statistics.channel_message_counts.items()} == \
+            {topic: len(data) for topic, data in sent.items()}
+        got: dict[str, list[bytes]] = {}
+        alphas = []
+        for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False):
+            assert schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
+            got.setdefault(channel.topic, []).append(bytes(message.data))
+            if channel.topic == m.ALPHA:
+                alphas.append(decoded.data)
+    assert got == sent
+    assert alphas == [i / 120 for i in range(120)]
+    assert read_recording(path).complete
+
+
+def test_chunks_reach_the_file_once_a_second_has_passed(tmp_path):
+    """Messages within the flush period stay in the open chunk; the first message a
+    period after the last flush writes them all out (a fake monotonic clock)."""
+    now = [0.0]
+    path = tmp_path / "s.mcap"
+    recorder = McapRecorder(path, flush_period_s=1.0, monotonic=lambda: now[0])
+    for i in range(49):
+        now[0] = 0.02 * i
+        write(recorder, m.ALPHA, m.float64(0.5))
+    assert read_recording(path).messages == [] and recorder.flushes == 0
+    now[0] = 1.0
+    write(recorder, m.ALPHA, m.float64(0.5))
+    recording = read_recording(path)
+    assert len(recording.messages) == 50 and not recording.complete and recorder.flushes == 1
+    recorder.close()
+
+
+WRITER = """
+import sys, time
+from otgym.bus import messages as m
+from otgym.record.mcap_file import McapRecorder
+recorder = McapRecorder(sys.argv[1])
+start = time.monotonic()
+for i in range(10**6):
+    now_ns = time.time_ns()
+    recorder.write(m.ALPHA, m.FLOAT64, m.SCHEMAS[m.FLOAT64], m.float64(i / 10**6), log_time_ns=now_ns)
+    print(i, now_ns, flush=True)
+    time.sleep(max(0.0, start + 0.02 * (i + 1) - time.monotonic()))
+"""
+
+
+def test_a_writer_killed_with_sigkill_loses_at_most_about_the_last_second(tmp_path):
+    path = tmp_path / "killed.mcap"
+    child = subprocess.Popen([sys.executable, "-c", WRITER, str(path)], stdout=subprocess.PIPE, text=True,
+                             env={**os.environ, "PYTHONPATH": str(ROOT)})
+    try:
+        lines = []
+        while not lines or int(lines[-1].split()[0]) < 150:  # 3 s at 50 Hz
+            lines.append(child.stdout.readline())
+        os.kill(child.pid, signal.SIGKILL)
+    finally:
+        child.kill()
+        child.wait()
+    last_sent_ns = int(lines[-1].split()[1])
+    recording = read_recording(path)
+    assert not recording.complete and len(recording.messages) >= 50
+    assert [msg.log_time_ns for msg in recording.messages] == [int(line.split()[1]) for line in
+                                                              lines[:len(recording.messages)]]
+    lost_s = (last_sent_ns - recording.messages[-1].log_time_ns) * 1e-9
+    assert lost_s <= 1.5  # the flush period (1 s) and a message interval, with room for a loaded machine
+
+
+def test_replay_summary_frames_and_command(tmp_path, capsys):
+    from otgym.cli.app import main
+
+    path = tmp_path / "s.mcap"
+    with McapRecorder(path) as recorder:
+        session(recorder, 60)
+    info = summary(read_recording(path))
+    assert info["duration_s"] == pytest.approx(61 * 0.02)
+    assert info["counts"][m.TRAPS] == 60 and info["trials"] == 1 and info["ended_by"] == ["goal"]
+    (tmp_path / "frames").mkdir()
+    frames = render_frames(read_recording(path), tmp_path / "frames", every=25)
+    assert [f.name for f in frames] == ["frame_00000.png", "frame_00001.png", "frame_00002.png"]
+    from PIL import Image
+
+    first = np.asarray(Image.open(frames[0]).convert("RGB")).astype(int)
+    red = (first[..., 0] > 200) & (first[..., 1] < 60)
+    grey = np.all(np.abs(first - 170) < 3, axis=-1)
+    assert red.sum() > 10 and grey.sum() > 100  # traps and spheres drawn
+    with pytest.raises(SystemExit) as exit_info:
+        main(["replay", str(path), "--out", str(tmp_path / "cli"), "--every", "30"])
+    assert exit_info.value.code in (0, None)
+    printed = capsys.readouterr().out
+    assert "242 messages over 1.22 s, complete" in printed and "/otgym/traps" in printed
+    assert "1 started, 1 finished (goal)" in printed and "wrote 2 frame(s)" in printed
+    with pytest.raises(SystemExit) as exit_info:
+        main(["replay", str(tmp_path / "missing.mcap")])
+    assert exit_info.value.code == 2 and "no recording" in capsys.readouterr().err
