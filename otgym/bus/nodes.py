@@ -143,7 +143,8 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
     bindings = [DeviceBinding(remote, robots=(i,)) for i, remote in enumerate(remotes)]
     ticks, spent_s, trial = 0, 0.0, 0
     node.publish(msg.MODE, msg.string(mode))
-    while not stop.is_set() and (duration_s is None or spent_s < duration_s - 0.5 * task.config.tick_s):
+    half_tick_s = 0.5 * task.config.tick_s  # simulated time is a float sum of ticks
+    while not stop.is_set() and (duration_s is None or spent_s < duration_s - half_tick_s):
         trial += 1
         scenario = seed * 10_000 + trial
         loop = InteractiveLoop(task, bindings, task.scenario(scenario), mode, seed=scenario)
@@ -151,7 +152,8 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
                                            sphere_radius_um=loop.sphere_radius_um.tolist()))
         with loop:
             deadline_s = time.monotonic()
-            while not (stop.is_set() or loop.done or (duration_s is not None and spent_s + loop.time_s >= duration_s)):
+            while not (stop.is_set() or loop.done
+                       or (duration_s is not None and spent_s + loop.time_s >= duration_s - half_tick_s)):
                 record = loop.tick()
                 ticks += 1
                 # no devices: each RemoteDevice publishes its own feedback in set_force

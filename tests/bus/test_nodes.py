@@ -224,3 +224,22 @@ def test_malformed_messages_are_dropped_and_counted_never_applied():
         wait_until(lambda: count(sim.dropped) == 3, 5.0)
         assert count(sim.received) == received
         np.testing.assert_allclose(remote.read().velocity_mm_s, [1.0, 0.0, 0.0])
+
+
+def test_sim_node_publishes_every_tick_and_the_trial_events():
+    from otgym.bus.nodes import run_sim_node
+    from tests.runtime import shared_task
+
+    endpoint = free_endpoint()
+    seen: dict[str, list] = {}
+    with Node("sim", "sim", listen=[endpoint]) as sim, Node("recorder", "recorder", connect=[endpoint]) as listener:
+        listener.subscribe("/otgym/**", lambda topic, message, data: seen.setdefault(topic, []).append(message))
+        time.sleep(1.0)  # the link comes up
+        ticks = run_sim_node(sim, shared_task(), ["device0"], "manual", 0, threading.Event(), duration_s=1.0)
+        time.sleep(0.5)
+    assert ticks == 50
+    for topic in (msg.TRAPS, msg.BODIES, msg.ALPHA, msg.MODE):
+        assert len(seen[topic]) == ticks + (topic == msg.MODE), topic
+    events = [msg.event_fields(e) for e in seen[msg.EVENTS]]
+    assert [e["event"] for e in events] == ["trial_start", "trial_end"] and events[1]["ended_by"] == "duration"
+    assert len(msg.xy_um(seen[msg.TRAPS][-1])) == shared_task().n_traps

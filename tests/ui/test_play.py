@@ -158,6 +158,14 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     assert list(rows[0])[:len(TRIAL_COLUMNS)] == TRIAL_COLUMNS
     assert len(rows) == 1 and rows[0]["participant"] == "P7" and rows[0]["trial"] == "1"
     assert rows[0]["scenario"] == "20001" and rows[0]["ended_by"] == "duration"
+    from otgym.record.mcap_file import read_recording
+    from otgym.record.replay import summary
+
+    recorded = summary(read_recording(out / "session.mcap"))  # every tick of the session, its events
+    assert recorded["complete"] and recorded["trials"] == 1 and recorded["ended_by"] == ["duration"]
+    counts = recorded["counts"]
+    assert counts["/otgym/traps"] == counts["/otgym/bodies"] == counts["/otgym/shared/alpha"] == 100
+    assert counts["/otgym/device/device0/twist"] >= 90 and counts["/otgym/feedback/device0"] == 100
     image = pygame.surfarray.array3d(pygame.image.load(str(shot)))
     assert image.shape[:2] == (1280, 720)
     colours = np.unique(image.reshape(-1, 3) // 16, axis=0)
