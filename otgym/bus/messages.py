@@ -14,6 +14,8 @@ schema encodings)::
     /otgym/shared/alpha             std_msgs/msg/Float64          the arbitration weight
     /otgym/mode                     std_msgs/msg/String           manual, shared or autonomous
     /otgym/trial/events             std_msgs/msg/String           one JSON object per event
+    /otgym/phase                    std_msgs/msg/String           approach, carry or done (every tick)
+    /otgym/autonomy/increments      geometry_msgs/msg/PoseArray   the autonomy's dP_r per trap, um
 
 Units. Lengths in the chip frame are micrometres (x right, y down, z = 0), as the issue
 asks, not REP 103's metres: a trap moves by fractions of a micrometre. Velocities and
@@ -91,7 +93,14 @@ BODIES = "/otgym/bodies"
 ALPHA = "/otgym/shared/alpha"
 MODE = "/otgym/mode"
 EVENTS = "/otgym/trial/events"
-_FIXED_TOPICS = {TRAPS: POSE_ARRAY, BODIES: POSE_ARRAY, ALPHA: FLOAT64, MODE: STRING, EVENTS: STRING}
+PHASE = "/otgym/phase"
+AUTONOMY = "/otgym/autonomy/increments"
+_FIXED_TOPICS = {TRAPS: POSE_ARRAY, BODIES: POSE_ARRAY, ALPHA: FLOAT64, MODE: STRING, EVENTS: STRING,
+                 PHASE: STRING, AUTONOMY: POSE_ARRAY}
+PHASES = ("approach", "carry", "done")
+"""The task's phases by their number (``otgym.runtime.task``'s APPROACH, CARRY, DONE)."""
+MAX_INCREMENT_UM = 100.0
+"""The largest trap increment an autonomy message may carry (a tick at 20 um/s moves 0.4 um)."""
 _NAME = r"[A-Za-z][A-Za-z0-9_]{0,63}"
 _DEVICE_TOPIC = re.compile(rf"/otgym/device/({_NAME})/(twist|buttons)")
 _FEEDBACK_TOPIC = re.compile(rf"/otgym/feedback/({_NAME})")
@@ -259,7 +268,8 @@ def _check_pose_array(message, topic: str) -> None:
     _check_header(message, topic)
     if len(message.poses) > LIMITS.poses:
         _fail(topic, f"more than {LIMITS.poses} poses")
-    _check_finite_within(topic, "position_um", [_xyz(p.position) for p in message.poses], LIMITS.position_um)
+    bound = MAX_INCREMENT_UM if topic == AUTONOMY else LIMITS.position_um
+    _check_finite_within(topic, "position_um", [_xyz(p.position) for p in message.poses], bound)
     quaternions = np.array([(*_xyz(p.orientation), p.orientation.w) for p in message.poses], float).reshape(-1, 4)
     if not np.isfinite(quaternions).all() or np.any(np.abs(np.linalg.norm(quaternions, axis=1) - 1) > 1e-6):
         _fail(topic, "orientation is not a unit quaternion")
@@ -296,6 +306,8 @@ def _check_string(message, topic: str) -> None:
         _fail(topic, "string too long")
     if topic == MODE and message.data not in MODES:
         _fail(topic, f"unknown mode {message.data[:40]!r}")
+    if topic == PHASE and message.data not in PHASES:
+        _fail(topic, f"unknown phase {message.data[:40]!r}")
     if topic == EVENTS:
         try:
             payload = json.loads(message.data)
@@ -350,10 +362,12 @@ def sample_from(twist_message, buttons: int, time_s: float, sequence: int) -> Sa
 
 def tick_messages(record: TickRecord, devices: list[str], sphere_xy_um, mode: str,
                   stamp_s: float) -> list[tuple[str, bytes]]:
-    """(topic, CDR) of what the simulator publishes after one tick: traps, bodies (every
-    sphere's centre), alpha, mode and the feedback force for each device (``devices``
-    in the order of the record's ``feedback_n`` rows)."""
-    messages = [(TRAPS, pose_array(record.trap_xy_um, stamp_s)), (BODIES, pose_array(sphere_xy_um, stamp_s)),
-                (ALPHA, float64(record.alpha)), (MODE, string(mode))]
+    """(topic, CDR) of what the simulator publishes after one tick: traps, phase, alpha,
+    mode, bodies (every sphere's centre; after the others, so that a subscriber that acts
+    on it has seen the tick's traps and phase, or at worst the previous tick's) and the
+    feedback force for each device (``devices`` in the order of the record's
+    ``feedback_n`` rows)."""
+    messages = [(TRAPS, pose_array(record.trap_xy_um, stamp_s)), (PHASE, string(PHASES[record.phase])),
+                (ALPHA, float64(record.alpha)), (MODE, string(mode)), (BODIES, pose_array(sphere_xy_um, stamp_s))]
     messages += [(feedback_topic(name), wrench(force, stamp_s, name)) for name, force in zip(devices, record.feedback_n)]
     return messages

@@ -13,13 +13,23 @@ Faults (DESIGN.md, "safety first"):
   simulator's token went) and keeps reconnecting (``transport``); when the simulator is
   back, samples flow again and feedback resumes;
 - a recorder dies: its MCAP file keeps every chunk flushed before (at most the last
-  second is lost; ``otgym.record.mcap_file``).
+  second is lost; ``otgym.record.mcap_file``);
+- the autonomy node dies (or its dP_r is older than ``AUTONOMY_TIMEOUT_S``): shared
+  control falls back to manual (alpha 1) and autonomous control holds the traps; the
+  simulator publishes the mode it runs in (``manual``) and an ``autonomy_lost`` event,
+  the cue a window shows, and ``autonomy_back`` when dP_r flows again.
+
+The autonomy node runs the route navigator on what the simulator publishes (traps,
+phase, every sphere's centre) and answers each tick's ``/otgym/bodies`` with dP_r on
+``/otgym/autonomy/increments``; the simulator applies the latest answer at its next
+tick (one tick, 20 ms, later than the in-process navigator).
 """
 
 from __future__ import annotations
 
 import threading
 import time
+import types
 from typing import Callable
 
 import numpy as np
@@ -27,8 +37,12 @@ import numpy as np
 from otgym.bus import messages as msg
 from otgym.bus.transport import Node
 from otgym.runtime.loop import DeviceBinding, InteractiveLoop
+from otgym.runtime.navigator import RouteNavigator
 from otgym.runtime.task import InteractiveTask
 from otgym.teleop.device import Device, DeviceCaps, Sample
+
+AUTONOMY_TIMEOUT_S = 0.1
+"""dP_r older than this (five ticks) counts as none, as a silent device does."""
 
 REMOTE_FORCE_LIMIT_N = 3.3
 """The simulator's cap on a remote device's feedback (a Geomagic Touch's peak force);
@@ -91,6 +105,104 @@ class RemoteDevice(Device):
             self.node.publish(msg.feedback_topic(self.name), msg.wrench(force_n, time.time(), self.name))
 
 
+class RemoteAutonomy:
+    """The autonomy node's dP_r, seen from the simulator through ``node``: called with an
+    observation, the latest received increments (1, T, 2) um if the node is alive and
+    they arrived within ``timeout_s`` (by ``clock``), else None (``InteractiveLoop``'s
+    ``autonomy``)."""
+
+    def __init__(self, node: Node, n_traps: int, clock: Callable[[], float] = time.monotonic,
+                 timeout_s: float = AUTONOMY_TIMEOUT_S):
+        self.node, self.n_traps, self.clock, self.timeout_s = node, n_traps, clock, timeout_s
+        self.alive = False
+        self.losses = 0
+        """Times the autonomy node's liveliness token went away."""
+        self.rejected = 0
+        """Messages with the wrong number of traps (checked, decoded, but not for this task)."""
+        self._latest: tuple[float, np.ndarray] | None = None
+        self._lock = threading.Lock()
+        node.subscribe(msg.AUTONOMY, self._on_increments)
+        node.watch("autonomy", self._on_liveliness)
+
+    def _on_increments(self, topic, message, data) -> None:
+        increments = msg.xy_um(message)
+        if len(increments) != self.n_traps:
+            self.rejected += 1
+            return
+        with self._lock:
+            self._latest = (self.clock(), increments[None])
+
+    def _on_liveliness(self, name: str, alive: bool) -> None:
+        with self._lock:
+            if self.alive and not alive:
+                self.losses += 1
+                self._latest = None
+            self.alive = alive
+
+    def __call__(self, observation) -> np.ndarray | None:
+        with self._lock:
+            if not self.alive or self._latest is None or self.clock() - self._latest[0] > self.timeout_s:
+                return None
+            return self._latest[1]
+
+
+def run_autonomy_node(node: Node, task: InteractiveTask, stop: threading.Event, cruise_speed_um_s: float = 5.0,
+                      max_speed_um_s: float = 20.0) -> int:
+    """The route navigator (``otgym.runtime.navigator``) as a node: on each
+    ``/otgym/bodies`` from the simulator, dP_r from the latest traps, phase and cell,
+    published on ``/otgym/autonomy/increments`` with the bodies' stamp; reset at each
+    ``trial_start``. Until ``stop`` is set; returns the answers published."""
+    navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, task.config.tick_s,
+                               cruise_speed_um_s, max_speed_um_s=max_speed_um_s)
+    cell_sphere = int(np.flatnonzero(np.asarray(task.scene.model.sphere_body) == task.scene.payload)[0])
+    latest: dict[str, object] = {}
+    fresh = threading.Condition()
+    route_index = np.zeros(1, int)
+
+    def keep(name):
+        def on_message(topic, message, data) -> None:
+            with fresh:
+                latest[name] = message
+                if name == "bodies":
+                    fresh.notify()
+        return on_message
+
+    def on_event(topic, message, data) -> None:
+        if msg.event_fields(message)["event"] == "trial_start":
+            with fresh:
+                latest["restart"] = True
+
+    node.subscribe(msg.TRAPS, keep("traps"))
+    node.subscribe(msg.PHASE, keep("phase"))
+    node.subscribe(msg.BODIES, keep("bodies"))
+    node.subscribe(msg.EVENTS, on_event)
+    navigator.reset(1)
+    answered = 0
+    while not stop.is_set():
+        with fresh:
+            if not fresh.wait_for(lambda: "bodies" in latest or stop.is_set(), timeout=0.1) or stop.is_set():
+                continue
+            bodies, traps, phase = latest.pop("bodies"), latest.get("traps"), latest.get("phase")
+            restart = latest.pop("restart", False)
+        if traps is None or phase is None:
+            continue
+        if restart:
+            navigator.reset(1)
+            route_index[:] = 0
+        spheres = msg.xy_um(bodies)
+        trap_xy = msg.xy_um(traps)
+        if cell_sphere >= len(spheres) or len(trap_xy) != task.n_traps:
+            continue  # not this task's simulator
+        cell = spheres[cell_sphere][None]
+        route_index[:] = task.route_index(cell, route_index)
+        seen = types.SimpleNamespace(phase=np.array([msg.PHASES.index(phase.data)]), cell_xy_um=cell,
+                                     cell_arc_um=task.route_arc_um[route_index], trap_xy_um=trap_xy[None])
+        increments = navigator.increments(seen)[0]
+        node.publish(msg.AUTONOMY, msg.pose_array(increments, msg.stamp_s(bodies), "chip"))
+        answered += 1
+    return answered
+
+
 def run_device_node(node: Node, device: Device, name: str, stop: threading.Event, rate_hz: float = 500.0) -> int:
     """Publish each new sample of ``device`` as ``name``'s twist and buttons (polled at
     ``rate_hz``), apply the simulator's feedback while a simulator is alive, zero it
@@ -134,12 +246,16 @@ def run_device_node(node: Node, device: Device, name: str, stop: threading.Event
 
 def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: str, seed: int,
                  stop: threading.Event, duration_s: float | None = None,
-                 on_tick: Callable[[InteractiveLoop], None] | None = None) -> int:
+                 on_tick: Callable[[InteractiveLoop], None] | None = None, remote_autonomy: bool = False) -> int:
     """Trials one after another (trial t meets scenario ``seed * 10000 + t``), each an
     ``InteractiveLoop`` paced by the wall clock on ``RemoteDevice`` s named ``devices``
     (device i drives robot i), publishing every tick's messages and the trial events;
-    until ``stop`` is set or ``duration_s`` of simulated time is spent. Returns the ticks run."""
+    until ``stop`` is set or ``duration_s`` of simulated time is spent. With
+    ``remote_autonomy`` dP_r comes from an autonomy node (``RemoteAutonomy``), else from
+    the loop's own navigator. Returns the ticks run."""
     remotes = [RemoteDevice(node, name) for name in devices]
+    autonomy = RemoteAutonomy(node, task.n_traps) if remote_autonomy else None
+    autonomy_live = True
     bindings = [DeviceBinding(remote, robots=(i,)) for i, remote in enumerate(remotes)]
     ticks, spent_s, trial = 0, 0.0, 0
     node.publish(msg.MODE, msg.string(mode))
@@ -147,7 +263,7 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
     while not stop.is_set() and (duration_s is None or spent_s < duration_s - half_tick_s):
         trial += 1
         scenario = seed * 10_000 + trial
-        loop = InteractiveLoop(task, bindings, task.scenario(scenario), mode, seed=scenario)
+        loop = InteractiveLoop(task, bindings, task.scenario(scenario), mode, seed=scenario, autonomy=autonomy)
         node.publish(msg.EVENTS, msg.event("trial_start", trial=trial, scenario=scenario, mode=mode,
                                            sphere_radius_um=loop.sphere_radius_um.tolist()))
         with loop:
@@ -157,7 +273,11 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
                 record = loop.tick()
                 ticks += 1
                 # no devices: each RemoteDevice publishes its own feedback in set_force
-                for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), loop.mode, time.time()):
+                if record.autonomy_live != autonomy_live:
+                    autonomy_live = record.autonomy_live
+                    node.publish(msg.EVENTS, msg.event("autonomy_back" if autonomy_live else "autonomy_lost",
+                                                       trial=trial, time_s=record.time_s, mode=record.mode))
+                for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), record.mode, time.time()):
                     node.publish(topic, data)
                 if on_tick is not None:
                     on_tick(loop)

@@ -1,7 +1,8 @@
 """``otgym node ROLE``: one part of the runtime as a process on the bus
 (``otgym.bus``): ``sim`` (the simulator, listening on tcp/127.0.0.1:7447), ``device``
 (a local device published as ``--name``), ``recorder`` (every message into
-``--out``/session.mcap). Loopback only unless ``--listen``/``--connect`` name other
+``--out``/session.mcap), ``autonomy`` (the route navigator's dP_r for a simulator
+started with ``--autonomy remote``; without it, shared control runs as manual). Loopback only unless ``--listen``/``--connect`` name other
 endpoints. Prints one ``ready`` line once on the bus; SIGTERM or Ctrl-C ends it
 cleanly (devices at zero force, the recording closed)."""
 
@@ -14,19 +15,21 @@ from pathlib import Path
 
 import typer
 
-BUILT = ("sim", "device", "recorder")
+BUILT = ("sim", "device", "recorder", "autonomy")
 
 
 def register(app: typer.Typer) -> None:
     @app.command("node")
     def node(
-        role: str = typer.Argument(..., help="sim, device or recorder."),
+        role: str = typer.Argument(..., help="sim, device, recorder or autonomy."),
         name: str = typer.Option("device0", "--name", help="device node: its name on the bus; sim node: the device "
                                                            "names it drives (robot i by the i-th), comma-separated."),
         device: str = typer.Option("simulated", "--device",
                                    help="device node: its driver (keyboard, gamepad, touch, simulated, replay)."),
         replay: Path = typer.Option(None, "--replay", help="device node with --device replay: the CSV to play (looped)."),
         mode: str = typer.Option("shared", "--mode", help="sim node: manual, shared or autonomous."),
+        autonomy: str = typer.Option("local", "--autonomy", help="sim node: dP_r from its own navigator (local) "
+                                                                 "or from an autonomy node (remote)."),
         seed: int = typer.Option(0, "--seed", help="sim node: trial t meets scenario seed * 10000 + t."),
         duration: float = typer.Option(None, "--duration", help="sim node: seconds of simulated time (default: until stopped)."),
         listen: list[str] = typer.Option(None, "--listen", help="zenoh endpoint to listen on (repeatable)."),
@@ -45,6 +48,8 @@ def register(app: typer.Typer) -> None:
             msg.check_name(each)
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+        if autonomy not in ("local", "remote"):
+            raise ValueError(f"--autonomy must be local or remote, got {autonomy!r}")
         if role == "recorder" and out is None:
             raise ValueError("the recorder node needs --out")
         if zenoh_config is not None and not zenoh_config.is_file():
@@ -54,8 +59,9 @@ def register(app: typer.Typer) -> None:
             signal.signal(signum, lambda *_: stop.set())
         endpoints = dict(listen=list(listen or []), connect=list(connect or []),
                          config_file=str(zenoh_config) if zenoh_config else None)
-        {"sim": _sim, "device": _device, "recorder": _recorder}[role](
-            stop, endpoints, name=name, names=names, device=device, replay=replay, mode=mode, seed=seed, duration=duration, out=out)
+        {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy}[role](
+            stop, endpoints, name=name, names=names, device=device, replay=replay, mode=mode, seed=seed,
+            duration=duration, out=out, remote_autonomy=autonomy == "remote")
 
 
 def _ready(text: str) -> None:
@@ -102,7 +108,21 @@ def _recorder(stop, endpoints, *, out, **_):
           flush=True)
 
 
-def _sim(stop, endpoints, *, names, mode, seed, duration, **_):
+def _autonomy(stop, endpoints, **_):
+    from otgym.bus.nodes import run_autonomy_node
+    from otgym.bus.transport import Node
+    from otgym.runtime.task import InteractiveTask
+
+    print("building the task ...", flush=True)
+    task = InteractiveTask()
+    with Node("autonomy", "autonomy", **endpoints) as node:
+        _ready("autonomy (route navigator)")
+        answered = run_autonomy_node(node, task, stop)
+        print(f"autonomy: {answered} ticks answered; dropped {sum(node.dropped.values())} malformed messages",
+              flush=True)
+
+
+def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, **_):
     from otgym.bus.nodes import run_sim_node
     from otgym.bus.transport import Node
     from otgym.runtime.task import InteractiveTask
@@ -110,7 +130,7 @@ def _sim(stop, endpoints, *, names, mode, seed, duration, **_):
     print("building the task ...", flush=True)
     task = InteractiveTask()
     with Node("sim", "sim", **endpoints) as node:
-        _ready(f"sim for devices {', '.join(names)}")
-        ticks = run_sim_node(node, task, names, mode, seed, stop, duration)
+        _ready(f"sim for devices {', '.join(names)}" + (" with a remote autonomy" if remote_autonomy else ""))
+        ticks = run_sim_node(node, task, names, mode, seed, stop, duration, remote_autonomy=remote_autonomy)
         print(f"sim: {ticks} ticks; dropped {sum(node.dropped.values())} malformed messages", flush=True)
     sys.stdout.flush()

@@ -124,6 +124,10 @@ class TickRecord:
     render_s: float
     sense_s: float
     rest_s: float
+    mode: str = "shared"
+    """The mode the tick ran in: the loop's, or manual where shared control lost its autonomy."""
+    autonomy_live: bool = True
+    """The autonomy gave dP_r this tick."""
 
     @property
     def wall_s(self) -> float:
@@ -150,13 +154,17 @@ class InteractiveLoop:
     bindings: the devices; scenario: the obstacles' tracks (``task.scenario(seed)``);
     mode: "manual", "shared" or "autonomous"; clock: the devices' time base
     (``time.monotonic``, as ``Sample.time_s``; a test may drive devices by simulated
-    time). Use as a context manager, or call ``start`` and ``close``."""
+    time); autonomy: dP_r (1, T, 2) um from an observation, or None while it has none
+    (default: the loop's own ``RouteNavigator``; ``otgym.bus.nodes.RemoteAutonomy`` for
+    an autonomy node). Without dP_r, shared control falls back to manual (alpha 1) and
+    autonomous control holds the traps; the tick's record says so. Use as a context manager, or call ``start`` and ``close``."""
 
     def __init__(self, task: InteractiveTask, bindings: list[DeviceBinding], scenario: Scenario,
                  mode: str = "shared", *, seed: int = 0, arbitration: ArbitrationConfig = ArbitrationConfig(),
                  cruise_speed_um_s: float = 5.0, max_trap_speed_um_s: float = TASK_RETARGET.max_trap_speed_um_s,
                  microscope: MicroscopeParams = MicroscopeParams(), crop_px: int = 48,
-                 clock: Callable[[], float] = time.monotonic):
+                 clock: Callable[[], float] = time.monotonic,
+                 autonomy: Callable[[Observation], np.ndarray | None] | None = None):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         if not (isinstance(max_trap_speed_um_s, (int, float)) and math.isfinite(max_trap_speed_um_s)
@@ -200,6 +208,7 @@ class InteractiveLoop:
         self.navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, self.tick_s,
                                         cruise_speed_um_s, max_speed_um_s=max_trap_speed_um_s)
         self.navigator.reset(1)
+        self.autonomy = autonomy or self.navigator.increments
         self._rng = np.random.default_rng(seed)
         key, reset_key = jax.random.split(jax.random.PRNGKey(seed))
         self._key = key
@@ -289,8 +298,11 @@ class InteractiveLoop:
         begin = time.perf_counter()
         obs = self.state.observation
         human, live = self._human_increments(self.clock())
-        robot = self.navigator.increments(obs)[0]
-        alpha = float(alpha_for_mode(self.mode, obs.nearest_obstacle_gap_um[0], self.arbitration))
+        robot = self.autonomy(obs)
+        autonomy_live = robot is not None
+        robot = np.zeros((self.task.n_traps, 2)) if robot is None else np.asarray(robot, float)[0]
+        mode = "manual" if self.mode == "shared" and not autonomy_live else self.mode
+        alpha = float(alpha_for_mode(mode, obs.nearest_obstacle_gap_um[0], self.arbitration))
         shared = cap_speed(blend(human, robot, alpha, self.arbitration.tau), self.max_step_um)
         physics_begin = time.perf_counter()
         obs = self.task.step(self.state, shared[None], self._next_key(), np.array([alpha]))
@@ -317,7 +329,7 @@ class InteractiveLoop:
             shared_um=shared, trap_xy_um=traps, sensed_handle_xy_um=sensed_xy, sensed_force_pn=sensed_force,
             sensed_valid=valid, feedback_n=feedback, device_live=live, physics_s=render_begin - physics_begin,
             render_s=sense_begin - render_begin, sense_s=sense_end - sense_begin,
-            rest_s=(physics_begin - begin) + (end - sense_end))
+            rest_s=(physics_begin - begin) + (end - sense_end), mode=mode, autonomy_live=autonomy_live)
 
     def run(self, duration_s: float, realtime: bool = True) -> list[TickRecord]:
         """Tick for ``duration_s`` of simulated time (rounded to whole ticks), or until

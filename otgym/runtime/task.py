@@ -246,7 +246,7 @@ class InteractiveTask:
     def _observe(self, state: TaskState, scene_state, measured) -> Observation:
         measured = jax.tree.map(np.asarray, measured)
         cell = measured["cell_xy_um"].astype(float)
-        state.route_index = self._route_index(cell, state.route_index)
+        state.route_index = self.route_index(cell, state.route_index)
         return Observation(
             time_s=np.asarray(scene_state.time_s, float), phase=state.phase.copy(), cell_xy_um=cell,
             cell_arc_um=self.route_arc_um[state.route_index], trap_xy_um=measured["trap_xy_um"].astype(float),
@@ -258,8 +258,8 @@ class InteractiveTask:
             trap_distance_um=measured["trap_distance_um"].astype(float),
             obstacle_touched=measured["obstacle_touched"].astype(bool))
 
-    def _route_index(self, cell_xy, previous):
-        """Nearest route point to each cell, searched in a window ahead of the last one."""
+    def route_index(self, cell_xy, previous):
+        """Nearest route point (E,) to each cell (E, 2), searched in a window ahead of the last one (E,)."""
         window = previous[:, None] + np.arange(*ROUTE_SEARCH_POINTS)[None]
         window = np.clip(window, 0, len(self.route_um) - 1)
         distance = np.linalg.norm(self.route_um[window] - cell_xy[:, None], axis=-1)

@@ -112,7 +112,7 @@ def test_device_node_killed_its_input_is_zero_at_once_and_the_traps_hold(tmp_pat
         detected_s = time.monotonic() - killed_at
         assert not remote.alive and remote.read().buttons == 0
         np.testing.assert_array_equal(remote.read().velocity_mm_s, 0.0)
-        after = [loop.tick() for _ in range(20)]
+        after = loop.run(0.4, realtime=True)  # 20 ticks over 0.4 s of wall time: the rest sample ages into silence
         for record in after:
             np.testing.assert_array_equal(record.human_um, 0.0)
             np.testing.assert_array_equal(record.shared_um, 0.0)
@@ -243,3 +243,84 @@ def test_sim_node_publishes_every_tick_and_the_trial_events():
     events = [msg.event_fields(e) for e in seen[msg.EVENTS]]
     assert [e["event"] for e in events] == ["trial_start", "trial_end"] and events[1]["ended_by"] == "duration"
     assert len(msg.xy_um(seen[msg.TRAPS][-1])) == shared_task().n_traps
+
+
+def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_with_a_cue(children):
+    """The sim (in this process, shared mode, no device) takes dP_r from an autonomy node
+    process: the traps move as the in-process navigator would move them. Killed by its
+    pid, the sim runs as manual (mode message and an ``autonomy_lost`` event) within the
+    detection bound, and with no device the traps then hold."""
+    from otgym.bus.nodes import run_sim_node
+    from tests.runtime import shared_task
+
+    endpoint = free_endpoint()
+    seen: dict[str, list] = {}
+    lock = threading.Lock()
+
+    def remember(topic, message, data):
+        with lock:
+            seen.setdefault(topic, []).append((time.monotonic(), message))
+
+    stop = threading.Event()
+    with Node("sim", "sim", listen=[endpoint]) as sim, Node("recorder", "recorder", connect=[endpoint]) as listener:
+        listener.subscribe("/otgym/**", remember)
+        children.append(spawn("-m", "otgym", "node", "autonomy", "--connect", endpoint))
+        wait_for_line(children[0], "ready")
+        worker = threading.Thread(target=run_sim_node, args=(sim, shared_task(), ["device0"], "shared", 3, stop),
+                                  kwargs={"remote_autonomy": True}, daemon=True)
+        worker.start()
+        try:
+            wait_until(lambda: sum(m.data == "shared" for _, m in seen.get(msg.MODE, [])) >= 100, 30.0)
+            with lock:
+                traps = [msg.xy_um(m) for _, m in seen[msg.TRAPS]]
+            moved_um = np.linalg.norm(traps[-1] - traps[0], axis=-1)
+            assert moved_um.min() > 0.5  # the autonomy alone (no device) moved every trap
+            killed_at = kill(children[0])
+            wait_until(lambda: any(t > killed_at and m.data == "manual" for t, m in seen[msg.MODE]), DETECTION_BOUND_S)
+            wait_until(lambda: sum(t > killed_at for t, _ in seen[msg.TRAPS]) >= 30, 5.0)
+        finally:
+            stop.set()
+            worker.join(10.0)
+    with lock:
+        fallback_s = min(t for t, m in seen[msg.MODE] if t > killed_at and m.data == "manual") - killed_at
+        events = [msg.event_fields(m) for _, m in seen[msg.EVENTS]]
+        late_traps = [msg.xy_um(m) for t, m in seen[msg.TRAPS] if t > killed_at + fallback_s + 0.1]
+    assert fallback_s < DETECTION_BOUND_S
+    lost = [e for e in events if e["event"] == "autonomy_lost"]
+    assert lost and lost[-1]["mode"] == "manual"
+    np.testing.assert_array_equal(late_traps[-1], late_traps[0])  # manual with no hand: the traps hold
+
+
+def test_remote_autonomy_gives_only_fresh_increments_from_a_live_node():
+    from otgym.bus.nodes import AUTONOMY_TIMEOUT_S, RemoteAutonomy
+
+    class Wiring:  # stands in for a Node: keeps the callbacks
+        def __init__(self):
+            self.callbacks = {}
+
+        def subscribe(self, topic, callback):
+            self.callbacks[topic] = callback
+
+        def watch(self, role, callback):
+            self.callbacks[role] = callback
+
+    now = [100.0]
+    wiring = Wiring()
+    autonomy = RemoteAutonomy(wiring, n_traps=4, clock=lambda: now[0])
+    increments = np.arange(8.0).reshape(4, 2) * 0.01
+
+    def send(points):
+        wiring.callbacks[msg.AUTONOMY](msg.AUTONOMY, msg.decode(msg.AUTONOMY, msg.pose_array(points, 1.0)), b"")
+
+    send(increments)
+    assert autonomy(None) is None  # no liveliness token seen yet
+    wiring.callbacks["autonomy"]("autonomy", True)
+    np.testing.assert_allclose(autonomy(None), increments[None])
+    now[0] += AUTONOMY_TIMEOUT_S * 1.01
+    assert autonomy(None) is None  # stale
+    send(increments[:3])
+    assert autonomy.rejected == 1 and autonomy(None) is None  # another task's traps
+    send(increments)
+    np.testing.assert_allclose(autonomy(None), increments[None])
+    wiring.callbacks["autonomy"]("autonomy", False)
+    assert autonomy(None) is None and autonomy.losses == 1
