@@ -356,3 +356,22 @@ def test_the_person_squeezes_past_a_standing_obstacle_rather_than_wait_beside_it
                                 np.zeros((2, 2)))
     assert chosen[0, 0] > 0.5, chosen[0]
     np.testing.assert_allclose(chosen[1], 0.0, atol=1e-9)
+
+
+def test_grip_heading_is_the_robots_own_turn_not_the_tilt_of_a_shear_between_them():
+    """Each robot's turn comes from its own two traps: a formation turned by 0.4 rad reads
+    0.4 rad, and shifting robot B 1.5 um along the route (a shear, which tilts the line
+    between the robots by about 0.11 rad) does not change it."""
+    from otgym.runtime.navigator import rotate
+    from otgym.runtime.participants import robots_heading
+    from tests.runtime import shared_task
+
+    task = shared_task()
+    offsets, trap_robot = np.asarray(task.offsets_um), task.trap_robot
+    turned = rotate(offsets[None], np.array([0.4]))
+    np.testing.assert_allclose(robots_heading(turned, offsets, trap_robot), [0.4], atol=1e-9)
+    sheared = turned.copy()
+    sheared[0, trap_robot == 1] += 1.5 * np.array([np.cos(0.4), np.sin(0.4)])
+    np.testing.assert_allclose(robots_heading(sheared, offsets, trap_robot), [0.4], atol=1e-9)
+    across = sheared[0, trap_robot == 1].mean(axis=0) - sheared[0, trap_robot == 0].mean(axis=0)
+    assert abs(np.arctan2(-across[0], across[1]) - 0.4) > 0.1  # what the line between the robots would say
