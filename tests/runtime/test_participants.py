@@ -369,9 +369,9 @@ def test_grip_heading_is_the_robots_own_turn_not_the_tilt_of_a_shear_between_the
     task = shared_task()
     offsets, trap_robot = np.asarray(task.offsets_um), task.trap_robot
     turned = rotate(offsets[None], np.array([0.4]))
-    np.testing.assert_allclose(robots_heading(turned, offsets, trap_robot), [0.4], atol=1e-9)
+    np.testing.assert_allclose(robots_heading(turned, offsets, trap_robot), [0.4], atol=1e-6)  # offsets are float32
     sheared = turned.copy()
     sheared[0, trap_robot == 1] += 1.5 * np.array([np.cos(0.4), np.sin(0.4)])
-    np.testing.assert_allclose(robots_heading(sheared, offsets, trap_robot), [0.4], atol=1e-9)
+    np.testing.assert_allclose(robots_heading(sheared, offsets, trap_robot), [0.4], atol=1e-6)  # offsets are float32
     across = sheared[0, trap_robot == 1].mean(axis=0) - sheared[0, trap_robot == 0].mean(axis=0)
     assert abs(np.arctan2(-across[0], across[1]) - 0.4) > 0.1  # what the line between the robots would say
