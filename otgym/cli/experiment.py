@@ -15,26 +15,45 @@ def register(app: typer.Typer) -> None:
     def shared_control(
         participants: int = typer.Option(8, "--participants", help="Simulated participants (at least 2)."),
         trials: int = typer.Option(8, "--trials", help="Trials per participant and mode."),
-        modes: str = typer.Option("manual,autonomous,shared", "--modes", help="Comma-separated modes."),
+        modes: str = typer.Option("manual,autonomous,shared", "--modes",
+                                  help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive)."),
         seed: int = typer.Option(0, "--seed", help="Seed of the participants and scenarios."),
         chip: str = typer.Option("default", "--chip", help="Chip name or PNG."),
         time_limit_s: float = typer.Option(300.0, "--time-limit-s", help="A trial not done by then ends unfinished."),
+        shared_autonomy: str = typer.Option("route", "--shared-autonomy",
+                                            help="Shared control's dP_r: route (the route navigator) or mpc."),
+        mpc_rollouts: int = typer.Option(32, "--mpc-rollouts", help="The MPC's rollouts per replan."),
+        mpc_plan_steps: int = typer.Option(24, "--mpc-plan-steps",
+                                           help="The MPC's plan length in 0.1 s steps (horizon: one more)."),
         out: Path = typer.Option(..., "--out", help="Folder for trials.csv, summary.*, stats.json, fig8.png."),
     ) -> None:
-        """Manual, autonomous and shared control on the same seeded scenarios: success
-        (obstacles avoided / encountered) and completion time per mode (Fig. 8 a, b)."""
+        """Manual, autonomous, shared and model-predictive control on the same seeded
+        scenarios: success (obstacles avoided / encountered) and completion time per
+        mode (Fig. 8 a, b)."""
         from otgym.experiments.output_folder import check_out_dir
-        from otgym.experiments.shared_control import check_arguments, parse_modes, run_experiment, write_experiment
+        from otgym.experiments.shared_control import (check_arguments, mpc_summary, parse_modes, run_experiment,
+                                                       write_experiment)
+        from otgym.runtime.mpc import MPCConfig
+        from otgym.runtime.task import InteractiveConfig
 
         chosen = parse_modes(modes)
         check_arguments(participants, trials, seed)
         if not 0 < time_limit_s <= 3600:
             raise ValueError(f"--time-limit-s must lie in (0, 3600], got {time_limit_s}")
+        if shared_autonomy not in ("route", "mpc"):
+            raise ValueError(f"--shared-autonomy must be route or mpc, got {shared_autonomy!r}")
+        try:
+            mpc_config = MPCConfig(n_rollouts=mpc_rollouts, plan_steps=mpc_plan_steps)
+        except ValueError as error:
+            raise ValueError(f"--mpc-rollouts/--mpc-plan-steps: {error}") from None
         check_out_dir(out)
+        stats = {}
         frame = run_experiment(participants, trials, chosen, seed, chip, report=lambda line: print(line, flush=True),
-                               time_limit_s=time_limit_s)
-        checks = write_experiment(frame, out)
+                               time_limit_s=time_limit_s, shared_autonomy=shared_autonomy, mpc_config=mpc_config,
+                               mpc_stats=stats)
+        checks = write_experiment(frame, out, mpc_summary(stats, mpc_config, InteractiveConfig().tick_s) if stats else None)
         print((out / "summary.md").read_text())
         for name, passed in checks.items():
             print(f"{'PASS' if passed else 'FAIL'}  {name}")
-        print(f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json")
+        print(f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
+              + (", mpc.json" if stats else ""))

@@ -1,9 +1,13 @@
 """The paper's manual / autonomous / shared experiment (section III-C, Fig. 8 a-b) with
 simulated participants: every mode for every participant on the same seeded
 scenarios (trial t of every participant and mode meets scenario ``seed * 10000 + t``).
+A fourth mode, ``mpc``, runs the model-predictive navigator alone (no participant acts;
+``otgym.runtime.mpc``); ``shared_autonomy="mpc"`` makes it shared control's dP_r too.
 Writes trials.csv (one row per trial), summary.csv, summary.md and stats.json (per
 mode, beside the paper's values; repeated-measures ANOVA and Holm-corrected paired
-tests, ``otgym.study``), fig8.png and acceptance.json (the paper's ordering, checked)."""
+tests, ``otgym.study``), fig8.png, acceptance.json (the paper's ordering, and the MPC's
+acceptance where it ran, checked) and, where the MPC ran, mpc.json (its size and the
+wall time of its replans)."""
 
 from __future__ import annotations
 
@@ -14,16 +18,22 @@ from typing import Callable
 import pandas as pd
 
 from otgym.planning.human import sample_population
+import numpy as np
+
+from otgym.runtime.mpc import MPCConfig
 from otgym.runtime.task import InteractiveConfig, InteractiveTask
-from otgym.runtime.trials import TRIAL_COLUMNS, TrialSpec, run_trials
-from otgym.shared import MODES
+from otgym.runtime.trials import AUTONOMIES, TRIAL_COLUMNS, TRIAL_MODES, TrialSpec, run_trials
 from otgym.study import plot_fig8, write_summary
+
+MPC_ACCEPTANCE_RATE = 0.99
+"""Issue 13: the MPC avoids at least this share of the obstacles it meets and reaches
+the goal in at least this share of its trials."""
 
 def parse_modes(text: str) -> list[str]:
     modes = [m.strip() for m in text.split(",") if m.strip()]
-    unknown = [m for m in modes if m not in MODES]
+    unknown = [m for m in modes if m not in TRIAL_MODES]
     if unknown or not modes:
-        raise ValueError(f"unknown mode(s) {', '.join(unknown) or '(none)'}; choose from {', '.join(MODES)}")
+        raise ValueError(f"unknown mode(s) {', '.join(unknown) or '(none)'}; choose from {', '.join(TRIAL_MODES)}")
     if len(set(modes)) != len(modes):
         raise ValueError(f"--modes lists a mode twice: {text}")
     return modes
@@ -40,9 +50,13 @@ def check_arguments(participants: int, trials: int, seed: int) -> None:
 
 
 def run_experiment(participants: int, trials: int, modes: list[str], seed: int, chip: str = "default",
-                   report: Callable[[str], None] = print, time_limit_s: float = 300.0) -> pd.DataFrame:
-    """All trials, one batch per mode (a batch runs until its slowest trial is done)."""
+                   report: Callable[[str], None] = print, time_limit_s: float = 300.0, shared_autonomy: str = "route",
+                   mpc_config: MPCConfig = MPCConfig(), mpc_stats: dict | None = None) -> pd.DataFrame:
+    """All trials, one batch per mode (a batch runs until its slowest trial is done).
+    ``mpc_stats`` (a dict) receives, per mode that used the MPC, its replan statistics."""
     check_arguments(participants, trials, seed)
+    if shared_autonomy not in AUTONOMIES:
+        raise ValueError(f"--shared-autonomy must be one of {', '.join(AUTONOMIES)}, got {shared_autonomy!r}")
     from otgym.runtime.task import interactive_scene
 
     task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip), time_limit_s=time_limit_s))
@@ -59,15 +73,30 @@ def run_experiment(participants: int, trials: int, modes: list[str], seed: int, 
                 last[0] = tenth
                 report(f"      {mode}: {fraction:.0%} of trials done")
 
-        rows += run_trials(task, specs, people, seed=seed + index, progress=progress)
+        stats = {}
+        rows += run_trials(task, specs, people, seed=seed + index, progress=progress, shared_autonomy=shared_autonomy,
+                           mpc_config=mpc_config, mpc_stats=stats)
+        if stats and mpc_stats is not None:
+            mpc_stats[mode] = stats
     frame = pd.DataFrame(rows)
     return frame[TRIAL_COLUMNS + [c for c in frame.columns if c not in TRIAL_COLUMNS]]
 
 
 def acceptance(summary: pd.DataFrame) -> dict:
-    """The issue's criteria on the paper's ordering, where the modes are present."""
+    """The issue's criteria on the paper's ordering, where the modes are present, and
+    issue 13's on the MPC: obstacles avoided and goals reached (pooled over trials)
+    at least ``MPC_ACCEPTANCE_RATE``, no trap loss, and its mean completion time no
+    longer than shared control's (where shared control ran)."""
     by_mode = summary.set_index("mode")
     checks = {}
+    if "mpc" in by_mode.index:
+        mpc = by_mode.loc["mpc"]
+        checks[f"mpc obstacles avoided >= {MPC_ACCEPTANCE_RATE}"] = bool(mpc.avoided_rate >= MPC_ACCEPTANCE_RATE)
+        checks[f"mpc goal reached >= {MPC_ACCEPTANCE_RATE}"] = bool(mpc.goal_rate >= MPC_ACCEPTANCE_RATE)
+        checks["mpc no trap loss"] = bool(mpc.trap_losses == 0)
+        if "shared" in by_mode.index:
+            checks["mpc time <= shared time"] = bool(mpc.completion_time_mean_s
+                                                     <= by_mode.loc["shared"].completion_time_mean_s)
     if "shared" in by_mode.index:
         shared = by_mode.loc["shared"]
         checks["shared success >= 0.99"] = bool(shared.success_mean >= 0.99)
@@ -84,9 +113,28 @@ def acceptance(summary: pd.DataFrame) -> dict:
     return checks
 
 
-def write_experiment(trials: pd.DataFrame, out: Path) -> dict:
+def mpc_summary(stats: dict, config: MPCConfig, tick_s: float) -> dict:
+    """mpc.json: the controller's size and its replans' wall time (per mode that used it)."""
+    summary = {"rollouts": config.n_rollouts, "horizon_s": config.horizon_s, "replan_period_s": config.step_s,
+               "model_dt_s": config.model_dt_s, "tick_s": tick_s,
+               "physics_steps_per_environment_replan": config.substeps_per_replan, "modes": {}}
+    for mode, mode_stats in stats.items():
+        seconds = np.asarray(mode_stats["replan_seconds"], float)
+        sizes = np.asarray(mode_stats["environments_planned"], float)
+        per_env = seconds / np.maximum(sizes, 1)
+        summary["modes"][mode] = {
+            "replans": int(mode_stats["replans"]), "environments_planned_mean": float(sizes.mean()) if sizes.size else 0,
+            "replan_wall_s_mean": float(seconds.mean()) if seconds.size else None,
+            "replan_wall_s_per_environment_mean": float(per_env.mean()) if per_env.size else None,
+            "note": "batched trials replan many environments per call; benchmarks/mpc.py times one environment"}
+    return summary
+
+
+def write_experiment(trials: pd.DataFrame, out: Path, mpc: dict | None = None) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     trials.to_csv(out / "trials.csv", index=False)
+    if mpc:
+        (out / "mpc.json").write_text(json.dumps(mpc, indent=2))
     stats = write_summary(trials, out)
     plot_fig8(trials, out / "fig8.png", stats)
     checks = acceptance(pd.read_csv(out / "summary.csv"))

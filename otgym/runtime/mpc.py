@@ -92,27 +92,35 @@ class MPCConfig:
     max_speed_um_s: float = 10.0
     max_lateral_um: float = 40.0
     max_rotation_rad: float = 0.5
+    max_lateral_speed_um_s: float = 4.0
+    max_rotation_speed_rad_s: float = 0.2
     noise_speed_um_s: float = 2.5
     noise_lateral_um: float = 2.0
     noise_rotation_rad: float = 0.15
     max_trap_speed_um_s: float = 20.0
     room_margin_um: float = 0.5
     """The lateral offset keeps the assembly's bounding circle this far from the walls."""
+    far_gap_um: float = 30.0
+    far_replan_steps: int = 5
+    """With every obstacle farther than ``far_gap_um`` from the assembly, an environment
+    samples new plans only every this many steps and otherwise goes on with its last
+    plan, shifted (it still replans at once when an obstacle comes within the gap)."""
 
     def __post_init__(self):
         if not (isinstance(self.n_rollouts, int) and self.n_rollouts > N_FIXED_MANOEUVRES):
             raise ValueError(f"n_rollouts must be an integer above {N_FIXED_MANOEUVRES}, got {self.n_rollouts!r}")
-        for name in ("plan_steps", "knot_steps"):
+        for name in ("plan_steps", "knot_steps", "far_replan_steps"):
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         for name in ("step_s", "model_dt_s", "model_trap_stiffness_pn_per_um", "model_trap_waist_um",
                      "cruise_speed_um_s", "max_speed_um_s", "max_lateral_um", "max_rotation_rad",
+                     "max_lateral_speed_um_s", "max_rotation_speed_rad_s",
                      "max_trap_speed_um_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value!r}")
-        for name in ("noise_speed_um_s", "noise_lateral_um", "noise_rotation_rad", "room_margin_um"):
+        for name in ("noise_speed_um_s", "noise_lateral_um", "noise_rotation_rad", "room_margin_um", "far_gap_um"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a non-negative number, got {value!r}")
@@ -152,6 +160,11 @@ class MPCCosts:
     seen standing may start, one seen moving may turn."""
     obstacle_per_um2: float = 5.0
     obstacle_contact: float = 500.0
+    lookahead_s: float = 8.0
+    """Terminal cost: each obstacle's closest approach to the assembly, standing where
+    the rollout ends, over this long beyond the horizon at its predicted velocity."""
+    lookahead_margin_um: float = 4.0
+    lookahead_per_um2: float = 5.0
     wall_margin_um: float = 0.5
     wall_per_um2: float = 5.0
     wall_contact: float = 5.0
@@ -169,7 +182,7 @@ class MPCCosts:
     smooth_rotation_per_rad2: float = 2.0
 
 
-COST_TERMS = ("progress", "obstacle", "wall", "trap", "contact_force", "detached", "offset", "smoothness")
+COST_TERMS = ("progress", "obstacle", "lookahead", "wall", "trap", "contact_force", "detached", "offset", "smoothness")
 
 
 def model_scene_config(scene_config: sc.SceneConfig, config: MPCConfig) -> sc.SceneConfig:
@@ -179,9 +192,27 @@ def model_scene_config(scene_config: sc.SceneConfig, config: MPCConfig) -> sc.Sc
                                temperature_k=0.0, trap_law=config.model_trap_law)
 
 
-def _cap(vectors, limit):
-    norm = jnp.sqrt(jnp.sum(vectors**2, axis=-1, keepdims=True))
-    return vectors * jnp.minimum(1.0, limit / jnp.maximum(norm, 1e-12))
+def cap_rigid(vectors, limit):
+    """Scale all of a formation's vectors (..., T, 2) by one factor so that the longest
+    is at most ``limit``: capping each trap alone would shear the formation and pinch the cell."""
+    longest = jnp.max(jnp.sqrt(jnp.sum(vectors**2, axis=-1)), axis=-1)[..., None, None]
+    return vectors * jnp.minimum(1.0, limit / jnp.maximum(longest, 1e-12))
+
+
+def rate_limited(plans, previous, config: MPCConfig):
+    """Plans (..., L, 3) whose lateral offset and rotation change by at most
+    ``max_lateral_speed_um_s`` and ``max_rotation_speed_rad_s`` per step, starting from
+    ``previous`` (..., 3)."""
+    step = jnp.asarray([jnp.inf, config.max_lateral_speed_um_s * config.step_s,
+                        config.max_rotation_speed_rad_s * config.step_s], plans.dtype)
+
+    def limit(last, target):
+        value = jnp.clip(target, last - step, last + step)
+        return value, value
+
+    first = jnp.broadcast_to(previous, plans.shape[:-2] + plans.shape[-1:])
+    _, limited = jax.lax.scan(limit, first, jnp.moveaxis(plans, -2, 0))
+    return jnp.moveaxis(limited, 0, -2)
 
 
 def _scene_indices(scene: sc.Scene):
@@ -216,12 +247,32 @@ def step_cost_terms(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, even
     return {"obstacle": obstacle, "wall": wall, "trap": trap, "contact_force": contact, "detached": detached}
 
 
-def rollout_costs(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, state: sc.SceneState, tracks: dict,
-                  start, actions, *, config: MPCConfig, obstacle_config: ScenarioConfig):
+def lookahead_cost(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, tracks: dict):
+    """Terminal cost (N,): for each obstacle, the closest approach of its predicted
+    straight path over ``lookahead_s`` to the payload's spheres where they stand at the
+    end of the rollout, penalised quadratically below ``lookahead_margin_um`` (a cost to
+    go: an end state in an obstacle's way is worth less than one beside it)."""
+    model = scene.model
+    payload, obstacle_spheres = _scene_indices(scene)
+    xy = ph.sphere_positions_um(model, state.physics.pose)
+    spheres, obstacles = xy[:, payload], xy[:, obstacle_spheres]  # (N, P, 2), (N, K, 2)
+    velocity = tracks["direction"] * tracks["speed_um_s"][..., None]  # (N, K, 2)
+    relative = spheres[:, :, None] - obstacles[:, None]  # (N, P, K, 2)
+    speed2 = jnp.sum(velocity**2, axis=-1)[:, None]  # (N, 1, K)
+    when = jnp.clip(jnp.sum(relative * velocity[:, None], axis=-1) / jnp.maximum(speed2, 1e-9), 0.0,
+                    costs.lookahead_s)
+    closest = jnp.sqrt(jnp.sum((relative - velocity[:, None] * when[..., None]) ** 2, axis=-1))
+    radius = model.sphere_radius_um
+    gap = jnp.min(closest - radius[payload][None, :, None] - radius[obstacle_spheres][None, None], axis=1)
+    return costs.lookahead_per_um2 * jnp.sum(jnp.maximum(costs.lookahead_margin_um - gap, 0.0) ** 2, axis=-1)
+
+
+def rollout(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, state: sc.SceneState, tracks: dict, start,
+            actions, *, config: MPCConfig, obstacle_config: ScenarioConfig):
     """Roll out N action sequences (N, H, 3) from N scene states with the model's
     ``step_batch``; ``start`` (N, 3): the formation's arc, lateral offset and rotation
-    now; ``tracks``: predicted obstacle tracks (N, K, ...). Returns the cost terms
-    (dict of (N,), ``COST_TERMS``) summed over the horizon."""
+    now; ``tracks``: predicted obstacle tracks (N, K, ...). Returns the final state and
+    the cost terms (dict of (N,), ``COST_TERMS``) summed over the horizon."""
     step_s = config.step_s
     obstacles = np.asarray(scene.obstacles, int)
     cell_index = scene.payload
@@ -234,7 +285,7 @@ def rollout_costs(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts
         speed, lateral, rotation = action[:, 0], action[:, 1], action[:, 2]
         arc_next = jnp.clip(arc + speed * step_s, 0.0, route.path.length_um)
         places = formation_places(route, offsets_um, arc_next, clip_lateral(route, arc_next, lateral), rotation)
-        velocity = _cap((places - scene_state.physics.trap_xy_um) / step_s, config.max_trap_speed_um_s)
+        velocity = cap_rigid((places - scene_state.physics.trap_xy_um) / step_s, config.max_trap_speed_um_s)
         obstacle_xy = scene_state.physics.pose[:, obstacles, :2]
         flow = jax.vmap(scene.model.flow.velocity_um_s)(obstacle_xy)
         propulsion = propulsion_um_s(tracks, scene_state.time_s, obstacle_xy, flow, obstacle_config)
@@ -250,10 +301,12 @@ def rollout_costs(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts
 
     first = jnp.stack([jnp.zeros_like(start[:, 0]), start[:, 1], start[:, 2]], axis=-1)
     ahead_s = step_s * jnp.arange(1, actions.shape[1] + 1, dtype=actions.dtype)
-    _, (terms, progress) = jax.lax.scan(one_step, (state, start[:, 0], first), (jnp.swapaxes(actions, 0, 1), ahead_s))
+    (final, _, _), (terms, progress) = jax.lax.scan(one_step, (state, start[:, 0], first),
+                                                    (jnp.swapaxes(actions, 0, 1), ahead_s))
     summed = {name: jnp.sum(value, axis=0) for name, value in terms.items()}
+    summed["lookahead"] = lookahead_cost(scene, costs, final, tracks)
     summed["progress"] = -costs.progress_per_um * jnp.mean(progress, axis=0)
-    return {name: summed[name] for name in COST_TERMS}
+    return final, {name: summed[name] for name in COST_TERMS}
 
 
 def interpolation_matrix(plan_steps: int, knot_steps: int) -> np.ndarray:
@@ -296,13 +349,13 @@ def replan(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, state
     executed until the next replan, ``nominal`` (B, L, 3) the warm start. Returns the
     best plan (B, L, 3), its cost terms (dict of (B,)) and every candidate's total cost (B, R)."""
     n_env = nominal.shape[0]
-    plans = candidates(key, nominal, config)
+    plans = rate_limited(candidates(key, nominal, config), committed[:, None], config)
     n_rollouts = plans.shape[1]
     repeat = lambda a: jnp.repeat(a, n_rollouts, axis=0)  # noqa: E731
     actions = jnp.concatenate([jnp.broadcast_to(committed[:, None, None], (n_env, n_rollouts, 1, 3)), plans], axis=2)
-    terms = rollout_costs(scene, route, offsets_um, costs, jax.tree.map(repeat, state), jax.tree.map(repeat, tracks),
-                          repeat(start), actions.reshape(n_env * n_rollouts, -1, 3), config=config,
-                          obstacle_config=obstacle_config)
+    _, terms = rollout(scene, route, offsets_um, costs, jax.tree.map(repeat, state), jax.tree.map(repeat, tracks),
+                       repeat(start), actions.reshape(n_env * n_rollouts, -1, 3), config=config,
+                       obstacle_config=obstacle_config)
     terms = {name: value.reshape(n_env, n_rollouts) for name, value in terms.items()}
     total = sum(terms.values())
     best = jnp.argmin(total, axis=1)
@@ -320,31 +373,33 @@ GRIP_CALIBRATION_S = 0.2
 """Time the gripped assembly settles at rest before its contact force is read."""
 
 
+def settled_contact_force_pn(scene: sc.Scene, centre_um, heading_rad, extra_squeeze_um) -> np.ndarray:
+    """Mean robot-cell contact force (one per extra squeeze, pN) of the assembly gripped
+    at rest by ``reset_at`` at ``centre_um``, its traps moved ``extra_squeeze_um`` (n,)
+    further towards the cell, after ``GRIP_CALIBRATION_S``."""
+    key = jax.random.PRNGKey(0)
+    extra = jnp.asarray(extra_squeeze_um, jnp.float32)
+    state = jax.vmap(lambda _: sc.reset_at(scene, key, centre_um, heading_rad))(jnp.arange(len(extra)))
+    normal = jnp.array([-np.sin(heading_rad), np.cos(heading_rad)], jnp.float32)
+    towards_cell = jnp.stack([normal, normal, -normal, -normal])  # robot a's traps, then robot b's
+    traps = state.physics.trap_xy_um + extra[:, None, None] * towards_cell
+    state = state.replace(physics=state.physics.replace(trap_xy_um=traps))
+    step = jax.jit(functools.partial(sc.step_batch, scene))
+    for _ in range(max(1, int(round(GRIP_CALIBRATION_S / scene.config.control_period_s)))):
+        state, events = step(state, jnp.zeros_like(traps), key)
+    return np.asarray(events.contact_force_pn).mean(axis=1)
+
+
 def grip_squeeze_um(real_scene: sc.Scene, model_scene: sc.Scene, centre_um, heading_rad,
                     candidates_um=np.linspace(0.0, 2.0, 81)) -> float:
     """Squeeze (um) of the model's traps towards the cell, beyond the real scene's,
     that gives the model's gripped assembly at rest the robot-cell contact force the
-    real scene's has (both from ``reset_at`` at the same spot, settled for
-    ``GRIP_CALIBRATION_S``). The model's contact springs and traps are both softer
-    (their stiffness is tied to the step and to the law), so the real squeeze would
-    grip the cell with a fraction of the real force and the model would let it slip."""
-    key = jax.random.PRNGKey(0)
-
-    def settled_force(scene, extra_um):
-        n = len(extra_um)
-        state = jax.vmap(lambda _: sc.reset_at(scene, key, centre_um, heading_rad))(jnp.arange(n))
-        normal = jnp.array([-np.sin(heading_rad), np.cos(heading_rad)], jnp.float32)
-        towards_cell = jnp.stack([normal, normal, -normal, -normal])
-        traps = state.physics.trap_xy_um + jnp.asarray(extra_um, jnp.float32)[:, None, None] * towards_cell
-        state = state.replace(physics=state.physics.replace(trap_xy_um=traps))
-        step = jax.jit(functools.partial(sc.step_batch, scene))
-        steps = max(1, int(round(GRIP_CALIBRATION_S / scene.config.control_period_s)))
-        for _ in range(steps):
-            state, events = step(state, jnp.zeros_like(traps), key)
-        return np.asarray(events.contact_force_pn).mean(axis=1)
-
-    target = float(settled_force(real_scene, np.zeros(1))[0])
-    force = settled_force(model_scene, np.asarray(candidates_um))
+    real scene's has (``settled_contact_force_pn``; the smallest such squeeze). The
+    model's contact springs and traps are both softer (their stiffness is tied to the
+    step and to the law), so the real squeeze would grip the cell with a fraction of
+    the real force and the model would let it slip."""
+    target = float(settled_contact_force_pn(real_scene, centre_um, heading_rad, np.zeros(1))[0])
+    force = settled_contact_force_pn(model_scene, centre_um, heading_rad, np.asarray(candidates_um))
     reached = np.flatnonzero(force >= target)
     if reached.size == 0 or reached[0] == 0:
         raise ValueError(f"no model squeeze in [{candidates_um[0]}, {candidates_um[-1]}] um gives the real grip "

@@ -31,8 +31,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from otgym import physics as ph
-from otgym.runtime.mpc import (MPCConfig, MPCCosts, grip_squeeze_um, make_replan, model_scene_config,
-                               squeezed_offsets_um)
+from otgym.runtime.mpc import (MPCConfig, MPCCosts, cap_rigid, grip_squeeze_um, make_replan, model_scene_config,
+                               rate_limited, squeezed_offsets_um)
 from otgym.runtime.navigator import RouteNavigator, cap_speed
 from otgym.runtime.obstacle_prediction import ObstacleTracker
 from otgym.runtime.route_frame import clip_lateral, formation_places, formation_pose, route_data
@@ -72,6 +72,7 @@ class MPCNavigator:
         model = self.model.model
         self._handle_offsets_um = np.asarray(model.sphere_offset_um, float)[np.asarray(model.trap_sphere, int)]
         self.replan_seconds: list[float] = []
+        self.replan_sizes: list[int] = []
         self.reset(0)
 
     def reset(self, n_env: int) -> None:
@@ -85,6 +86,7 @@ class MPCNavigator:
         self.segment_start = np.zeros((n_env, 3), np.float32)
         self.segment_action = np.zeros((n_env, 3), np.float32)
         self.segment_valid = np.zeros(n_env, bool)
+        self.steps_since_sampling = np.zeros(n_env, int)
 
     def model_state(self, obs: Observation) -> sc.SceneState:
         """The model's scene state (E) rebuilt from an observation: each robot's pose
@@ -133,9 +135,9 @@ class MPCNavigator:
                 jnp.asarray(self.segment_action[rows]), low, low + 1.0 / self.ticks_per_step,
                 step_s=self.config.step_s))
             correction = self.carry_gain_per_s * self.task.config.tick_s * (places_now - obs.trap_xy_um[rows])
-            step[rows] = places_next - places_now + correction
-        step = np.where(carrying[:, None, None], step, chase)
-        return cap_speed(step, self.max_speed_um_s * self.task.config.tick_s)
+            step[rows] = np.asarray(cap_rigid(places_next - places_now + correction,
+                                              self.max_speed_um_s * self.task.config.tick_s))
+        return np.where(carrying[:, None, None], step, cap_speed(chase, self.max_speed_um_s * self.task.config.tick_s))
 
     def _start_segments(self, obs: Observation) -> None:
         """At a replan tick: the segment to execute now (the last replan's first step,
@@ -158,7 +160,15 @@ class MPCNavigator:
         nominal = np.where(planned[:, None, None], shifted, first_plan).astype(np.float32)
         self.segment_start[rows], self.segment_action[rows] = start, committed
         self.segment_valid = carrying.copy()
-        self.next_plan[rows] = self._plan(obs, rows, start, committed, nominal)
+        self.steps_since_sampling[~carrying] = 0
+        self.steps_since_sampling[rows] += 1
+        near = obs.nearest_obstacle_gap_um[rows] < self.config.far_gap_um
+        sample = ~planned | near | (self.steps_since_sampling[rows] >= self.config.far_replan_steps)
+        self.next_plan[rows] = nominal
+        if sample.any():
+            chosen = rows[sample]
+            self.next_plan[chosen] = self._plan(obs, chosen, start[sample], committed[sample], nominal[sample])
+            self.steps_since_sampling[chosen] = 0
         self.next_valid = carrying.copy()
 
     def _plan(self, obs: Observation, rows, start, committed, nominal) -> np.ndarray:
@@ -166,7 +176,7 @@ class MPCNavigator:
         began = time.perf_counter()
         chunk = min(self.chunk_envs, len(self.next_plan))
         padded = np.concatenate([np.arange(len(rows)), np.zeros((-len(rows)) % chunk, int)])
-        subset = _take(obs, rows[padded])
+        subset = observation_rows(obs, rows[padded])
         state = self.model_state(subset)
         tracks = self.tracker.predicted_tracks(obs.time_s)
         tracks = {name: value[rows[padded]] for name, value in tracks.items()}
@@ -182,6 +192,7 @@ class MPCNavigator:
                                       jax.random.fold_in(key, index))
             plans.append(np.asarray(plan))
         self.replan_seconds.append(time.perf_counter() - began)
+        self.replan_sizes.append(len(rows))
         return np.concatenate(plans)[:len(rows)]
 
 
@@ -200,7 +211,8 @@ def _segment_places(route, offsets_um, start, action, low, high, *, step_s: floa
     return at(low), at(high)
 
 
-def _take(obs: Observation, rows) -> Observation:
+def observation_rows(obs: Observation, rows) -> Observation:
+    """The observation of the environments ``rows`` only."""
     fields = {name: (value[rows] if isinstance(value, np.ndarray) else value) for name, value in vars(obs).items()}
     return Observation(**fields)
 

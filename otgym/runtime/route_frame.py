@@ -17,6 +17,10 @@ from flax import struct
 
 from otgym.control import formation as fm
 
+PROJECTION_PASSES = 2
+"""Projections on the tangent: each shrinks the arc error by lateral offset / radius of
+curvature (a guess 1.5 um off, 5 um beside a 60 um bend: 0.12 um after one, 0.01 after two)."""
+
 
 @struct.dataclass
 class RouteData:
@@ -85,11 +89,13 @@ def formation_places(route: RouteData, offsets_um, arc_um, lateral_um, rotation_
 
 def formation_pose(route: RouteData, offsets_um, trap_xy_um, arc_guess_um):
     """(arc, lateral, rotation) (...,) of the formation that best fits traps (..., T, 2):
-    its centre projected on the route near ``arc_guess_um`` and its rotation by a 2D
+    its centre projected on the route from ``arc_guess_um`` and its rotation by a 2D
     Procrustes fit of the traps about their centre to the formation's offsets."""
     centre = jnp.mean(trap_xy_um, axis=-2)
-    point, tangent, normal, heading = route_frame(route, arc_guess_um)
-    arc = jnp.clip(arc_guess_um + jnp.sum((centre - point) * tangent, axis=-1), 0.0, route.path.length_um)
+    arc = arc_guess_um
+    for _ in range(PROJECTION_PASSES):
+        point, tangent, _, _ = route_frame(route, arc)
+        arc = jnp.clip(arc + jnp.sum((centre - point) * tangent, axis=-1), 0.0, route.path.length_um)
     point, tangent, normal, heading = route_frame(route, arc)
     lateral = jnp.sum((centre - point) * normal, axis=-1)
     relative = trap_xy_um - centre[..., None, :]

@@ -1,7 +1,10 @@
 """Batched trials of the interactive task: every environment is one trial (a simulated
 participant, a mode, a scenario), all stepped together tick by tick:
 
-    dP_r = navigator(observation)                       (the autonomy, um)
+    dP_r = navigator(observation)                       (the autonomy, um: the route
+                                                         navigator, or the model-predictive
+                                                         one in mode ``mpc`` and, with
+                                                         ``shared_autonomy="mpc"``, in shared mode)
     alpha = law(mode, gap to the nearest obstacle)      (otgym.shared)
     dP_h = participants(what they saw, alpha, dP_r)     (two hands, um)
     dP_s = alpha dP_h + (1 - alpha) dP_r, clamped to the trap-speed limit
@@ -23,6 +26,8 @@ import jax
 import numpy as np
 
 from otgym.planning.human import HumanParams
+from otgym.runtime.mpc import MPCConfig, MPCCosts
+from otgym.runtime.mpc_navigator import MPCNavigator, observation_rows
 from otgym.runtime.navigator import RouteNavigator, cap_speed
 from otgym.runtime.task import InteractiveTask
 from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
@@ -34,6 +39,12 @@ TASK_RETARGET = RetargetConfig(dead_band_mm_s=0.3, max_trap_speed_um_s=20.0)
 """Stylus-to-trap mapping of the task: 2 um/mm; a 0.3 mm/s dead band (0.6 um/s at the
 trap, below the 2 um/s manual pace); trap speeds up to 20 um/s, enough to chase a free
 cell drifting in the chip's 8 um/s flow and far below the assembly's escape speed."""
+
+
+TRIAL_MODES = MODES + ("mpc",)
+"""The arbitration modes, and ``mpc``: autonomous (alpha 0) with the model-predictive
+navigator's dP_r (``otgym.runtime.mpc``) instead of the route navigator's."""
+AUTONOMIES = ("route", "mpc")
 
 
 TRIAL_COLUMNS = ["participant", "mode", "trial", "scenario", "completion_time_s", "obstacles_encountered",
@@ -50,8 +61,8 @@ class TrialSpec:
     scenario: int
 
     def __post_init__(self):
-        if self.mode not in MODES:
-            raise ValueError(f"unknown mode {self.mode!r}; choose one of {', '.join(MODES)}")
+        if self.mode not in TRIAL_MODES:
+            raise ValueError(f"unknown mode {self.mode!r}; choose one of {', '.join(TRIAL_MODES)}")
 
 
 def task_feedback(trap_law, retarget: RetargetConfig, handles_per_robot: int) -> FeedbackConfig:
@@ -65,8 +76,15 @@ def task_feedback(trap_law, retarget: RetargetConfig, handles_per_robot: int) ->
     return FeedbackConfig(newtons_per_pn=scale, contact_gain_n=scale * contact_limit_pn)
 
 
+def arbitration_modes(modes) -> np.ndarray:
+    """Each trial's arbitration mode: ``mpc`` trials are autonomous."""
+    modes = np.asarray(modes)
+    return np.where(modes == "mpc", "autonomous", modes)
+
+
 def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig) -> np.ndarray:
-    """alpha (E,) for each environment's mode at its obstacle gap."""
+    """alpha (E,) for each environment's mode at its obstacle gap (``mpc``: autonomous)."""
+    modes = arbitration_modes(modes)
     alpha = np.zeros(len(modes))
     for mode in MODES:
         chosen = modes == mode
@@ -78,12 +96,22 @@ def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig)
 def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict[int, HumanParams], seed: int,
                arbitration: ArbitrationConfig = ArbitrationConfig(), retarget: RetargetConfig = TASK_RETARGET,
                participant_task: ParticipantTask = ParticipantTask(), cruise_speed_um_s: float = 5.0,
-               progress: Callable[[float], None] | None = None) -> list[dict]:
-    """Run ``specs`` as one batch until every trial is done; one result row per spec."""
+               progress: Callable[[float], None] | None = None, shared_autonomy: str = "route",
+               mpc_config: MPCConfig = MPCConfig(), mpc_costs: MPCCosts = MPCCosts(),
+               mpc_stats: dict | None = None) -> list[dict]:
+    """Run ``specs`` as one batch until every trial is done; one result row per spec
+    (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The
+    model-predictive navigator gives dP_r to ``mpc`` trials and, with
+    ``shared_autonomy="mpc"``, to shared ones; ``mpc_stats`` (a dict) receives its
+    replan count and wall times."""
     if not specs:
         raise ValueError("no trials to run")
+    if shared_autonomy not in AUTONOMIES:
+        raise ValueError(f"unknown shared autonomy {shared_autonomy!r}; choose one of {', '.join(AUTONOMIES)}")
     tick = task.config.tick_s
     modes = np.array([s.mode for s in specs])
+    uses_mpc = (modes == "mpc") | ((modes == "shared") & (shared_autonomy == "mpc"))
+    mpc_rows = np.flatnonzero(uses_mpc)
     scenarios = [task.scenario(s.scenario) for s in specs]
     key = jax.random.PRNGKey(seed)
     key, reset_key = jax.random.split(key)
@@ -91,6 +119,9 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
     navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, tick, cruise_speed_um_s,
                                max_speed_um_s=retarget.max_trap_speed_um_s)
     navigator.reset(len(specs))
+    mpc = MPCNavigator(task, mpc_config, mpc_costs, seed=seed) if len(mpc_rows) else None
+    if mpc is not None:
+        mpc.reset(len(mpc_rows))
     law = task.config.scene.trap_law
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
     people = SimulatedParticipants([participants[s.participant] for s in specs], tick, seed, navigator, retarget,
@@ -100,8 +131,10 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
     total_ticks = int(np.ceil(task.config.time_limit_s / tick))
     for index in range(total_ticks):
         robot = navigator.increments(obs)
+        if mpc is not None:
+            robot[mpc_rows] = mpc.increments(observation_rows(obs, mpc_rows))
         alpha = mode_alpha(modes, obs.nearest_obstacle_gap_um, arbitration)
-        human = people.intend(obs, modes, alpha, robot, task.trap_robot)[:, task.trap_robot]
+        human = people.intend(obs, arbitration_modes(modes), alpha, robot, task.trap_robot)[:, task.trap_robot]
         command = cap_speed(blend(human, robot, alpha[:, None, None], arbitration.tau), max_step)
         key, step_key = jax.random.split(key)
         obs = task.step(state, command, step_key, alpha)
@@ -113,7 +146,11 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
             break
     if progress is not None:
         progress(1.0)
+    if mpc is not None and mpc_stats is not None:
+        mpc_stats.update(replans=len(mpc.replan_seconds), replan_seconds=list(mpc.replan_seconds),
+                         environments_planned=list(mpc.replan_sizes))
     rows = state.metrics.rows()
-    for spec, row in zip(specs, rows):
-        row.update(participant=spec.participant, mode=spec.mode, trial=spec.trial, scenario=spec.scenario)
+    for spec, row, planned in zip(specs, rows, uses_mpc):
+        row.update(participant=spec.participant, mode=spec.mode, trial=spec.trial, scenario=spec.scenario,
+                   autonomy="mpc" if planned else "route")
     return rows
