@@ -67,8 +67,10 @@ from otgym.runtime.route_frame import RouteData, cell_arc_um, clip_lateral, form
 from otgym.runtime.scenario import ScenarioConfig, propulsion_um_s
 from otgym.sim import scene as sc
 
-N_FIXED_MANOEUVRES = 4
-"""Candidates 0-3: the warm-started plan, hold, back off, cruise on the route."""
+N_FIXED_MANOEUVRES = 7
+"""Candidates 0-6: the warm-started plan, hold, back off, cruise on the route, dash along
+it, and step aside to either side while holding."""
+SIDE_STEP_UM = 6.0
 ACTIONS = ("speed_um_s", "lateral_um", "rotation_rad")
 
 
@@ -88,7 +90,7 @@ class MPCConfig:
     model_trap_waist_um: float = 2.0
     cruise_speed_um_s: float = 6.0
     """Speed of the cruise manoeuvre and of the first plan after the grip."""
-    min_speed_um_s: float = -4.0
+    min_speed_um_s: float = -8.0
     max_speed_um_s: float = 10.0
     max_lateral_um: float = 40.0
     max_rotation_rad: float = 0.5
@@ -154,16 +156,20 @@ class MPCCosts:
     """Weights of the cost terms (array leaves: changing them does not recompile)."""
 
     progress_per_um: float = 1.0
-    obstacle_margin_um: float = 2.5
-    obstacle_uncertainty_um_s: float = 1.0
-    """The clearance counted grows by this much per second into the horizon: an obstacle
-    seen standing may start, one seen moving may turn."""
-    obstacle_per_um2: float = 5.0
+    obstacle_margin_um: float = 1.5
+    """Clearance below which an obstacle costs, for one at rest after moving (parked)..."""
+    obstacle_idle_margin_um: float = 2.5
+    """... plus this for one never seen moving (it may start towards the assembly) ..."""
+    obstacle_speed_margin_s: float = 1.5
+    """... plus its predicted speed times this (a moving obstacle's prediction errs more) ..."""
+    obstacle_uncertainty_um_s: float = 0.5
+    """... plus this per second into the horizon (a prediction's error grows)."""
+    obstacle_per_um2: float = 20.0
     obstacle_contact: float = 500.0
     lookahead_s: float = 8.0
     """Terminal cost: each obstacle's closest approach to the assembly, standing where
     the rollout ends, over this long beyond the horizon at its predicted velocity."""
-    lookahead_margin_um: float = 4.0
+    lookahead_margin_um: float = 3.0
     lookahead_per_um2: float = 5.0
     wall_margin_um: float = 0.5
     wall_per_um2: float = 5.0
@@ -222,9 +228,15 @@ def _scene_indices(scene: sc.Scene):
     return payload, obstacle_spheres
 
 
-def step_cost_terms(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, events: sc.SceneEvents, ahead_s):
-    """Per-rollout cost terms (N,) of one model step's outcome ``ahead_s`` into the
-    horizon that depend on the state alone (clearances, handle margin, contact force,
+def obstacle_margin_um(costs: MPCCosts, tracks: dict, ahead_s):
+    """Clearance (N, K) below which each obstacle costs, ``ahead_s`` into the horizon."""
+    return (costs.obstacle_margin_um + costs.obstacle_idle_margin_um * tracks["idle"]
+            + costs.obstacle_speed_margin_s * tracks["speed_um_s"] + costs.obstacle_uncertainty_um_s * ahead_s)
+
+
+def step_cost_terms(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, events: sc.SceneEvents, margin_um):
+    """Per-rollout cost terms (N,) of one model step's outcome that depend on the state
+    alone (clearances, with the obstacles' margins (N, K); handle margin, contact force,
     detachment)."""
     model = scene.model
     payload, obstacle_spheres = _scene_indices(scene)
@@ -232,8 +244,7 @@ def step_cost_terms(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, even
     radius = model.sphere_radius_um
     between = jnp.sqrt(jnp.sum((xy[:, payload, None] - xy[:, None, obstacle_spheres]) ** 2, axis=-1))
     gap = jnp.min(between - radius[payload][:, None] - radius[obstacle_spheres][None], axis=1)  # (N, K)
-    margin = costs.obstacle_margin_um + costs.obstacle_uncertainty_um_s * ahead_s
-    obstacle = costs.obstacle_per_um2 * jnp.sum(jnp.maximum(margin - gap, 0.0) ** 2, axis=-1) \
+    obstacle = costs.obstacle_per_um2 * jnp.sum(jnp.maximum(margin_um - gap, 0.0) ** 2, axis=-1) \
         + costs.obstacle_contact * jnp.sum(events.obstacle_touched | (gap <= 0.0), axis=-1)
     wall_gap = model.walls.distance_and_normal(xy[:, payload])[0] - radius[payload]
     wall = costs.wall_per_um2 * jnp.sum(jnp.maximum(costs.wall_margin_um - wall_gap, 0.0) ** 2, axis=-1) \
@@ -290,7 +301,7 @@ def rollout(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, stat
         flow = jax.vmap(scene.model.flow.velocity_um_s)(obstacle_xy)
         propulsion = propulsion_um_s(tracks, scene_state.time_s, obstacle_xy, flow, obstacle_config)
         new_state, events = sc.step_batch(scene, scene_state, velocity, key, propulsion)
-        terms = step_cost_terms(scene, costs, new_state, events, ahead_s)
+        terms = step_cost_terms(scene, costs, new_state, events, obstacle_margin_um(costs, tracks, ahead_s))
         change = action - previous
         terms["smoothness"] = (costs.smooth_speed_per_um2_s2 * change[:, 0] ** 2
                                + costs.smooth_lateral_per_um2 * change[:, 1] ** 2
@@ -322,8 +333,10 @@ def interpolation_matrix(plan_steps: int, knot_steps: int) -> np.ndarray:
 
 
 def candidates(key, nominal, config: MPCConfig):
-    """(B, R, L, 3) candidate plans: the nominal, hold, back off, cruise on the route,
-    then the nominal plus knot noise (half of them at a quarter of the scale), clipped to the limits."""
+    """(B, R, L, 3) candidate plans: the nominal, hold, back off (the whole horizon),
+    cruise and dash on the route, side-steps of ``SIDE_STEP_UM`` either way while
+    holding, then the nominal plus knot noise (half of them at a quarter of the
+    scale), clipped to the limits."""
     n_env, plan_steps, _ = nominal.shape
     n_noisy = config.n_rollouts - N_FIXED_MANOEUVRES
     weights = jnp.asarray(interpolation_matrix(plan_steps, config.knot_steps), nominal.dtype)
@@ -333,9 +346,11 @@ def candidates(key, nominal, config: MPCConfig):
     noise = jnp.einsum("lk,bnkd->bnld", weights, knots) * shrink[None, :, None, None]
     noisy = nominal[:, None] + noise
     hold = nominal.at[..., 0].set(0.0)
-    back = nominal.at[..., 0].set(jnp.where(jnp.arange(plan_steps) < plan_steps // 2, config.min_speed_um_s, 0.0))
+    back = nominal.at[..., 0].set(config.min_speed_um_s)
     cruise = jnp.zeros_like(nominal).at[..., 0].set(config.cruise_speed_um_s)
-    fixed = jnp.stack([nominal, hold, back, cruise], axis=1)
+    dash = cruise.at[..., 0].set(config.max_speed_um_s)
+    left, right = (hold.at[..., 1].add(side * SIDE_STEP_UM) for side in (1.0, -1.0))
+    fixed = jnp.stack([nominal, hold, back, cruise, dash, left, right], axis=1)
     plans = jnp.concatenate([fixed, noisy], axis=1)
     low = jnp.asarray([config.min_speed_um_s, -config.max_lateral_um, -config.max_rotation_rad], nominal.dtype)
     high = jnp.asarray([config.max_speed_um_s, config.max_lateral_um, config.max_rotation_rad], nominal.dtype)

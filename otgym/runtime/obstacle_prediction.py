@@ -23,6 +23,9 @@ import numpy as np
 
 PREDICTION_LENGTH_S = 1e6
 """Predicted tracks never end: the model has no way of knowing where an obstacle stops."""
+MOVING_SPEED_UM_S = 1.0
+"""An obstacle whose fitted speed exceeds this has been seen moving (the fit's noise is
+about 0.44 um/s per axis for a free obstacle over 1 s; tracked ones wander less)."""
 
 
 class ObstacleTracker:
@@ -35,11 +38,13 @@ class ObstacleTracker:
         self.times_s = np.zeros((0, self.capacity))
         self.xy_um = np.zeros((0, self.capacity, 0, 2))
         self.count = np.zeros(0, int)
+        self.seen_moving = np.zeros((0, 0), bool)
 
     def reset(self, n_env: int, n_obstacles: int) -> None:
         self.times_s = np.zeros((n_env, self.capacity))
         self.xy_um = np.zeros((n_env, self.capacity, n_obstacles, 2))
         self.count = np.zeros(n_env, int)
+        self.seen_moving = np.zeros((n_env, n_obstacles), bool)
 
     def observe(self, time_s, obstacle_xy_um) -> None:
         """Add one observation per environment: times (E,) s, positions (E, K, 2) um."""
@@ -48,6 +53,8 @@ class ObstacleTracker:
         self.times_s[rows, slot] = np.asarray(time_s, float)
         self.xy_um[rows, slot] = np.asarray(obstacle_xy_um, float)
         self.count += 1
+        self.seen_moving |= (self.count >= self.capacity)[:, None] & (
+            np.linalg.norm(self.velocity_um_s(), axis=-1) > MOVING_SPEED_UM_S)
 
     def latest_um(self) -> np.ndarray:
         """The last observed positions (E, K, 2)."""
@@ -70,7 +77,9 @@ class ObstacleTracker:
 
     def predicted_tracks(self, now_s) -> dict[str, np.ndarray]:
         """Constant-velocity tracks (E, K, ...) from the last observed positions at
-        ``now_s`` (E,), in the form of ``otgym.runtime.scenario.stack_tracks``."""
+        ``now_s`` (E,), in the form of ``otgym.runtime.scenario.stack_tracks``, plus
+        ``idle`` (E, K): 1 for an obstacle never yet seen moving (it may still start;
+        one that moved and stopped has come to rest), else 0."""
         velocity = self.velocity_um_s()
         speed = np.linalg.norm(velocity, axis=-1)
         direction = np.where(speed[..., None] > 0, velocity / np.maximum(speed, 1e-12)[..., None], 0.0)
@@ -78,4 +87,4 @@ class ObstacleTracker:
         latest = self.latest_um()
         # departed one second ago from one second back along the line: moving from the first model step on
         return {"start_um": latest - velocity, "direction": direction, "speed_um_s": speed, "depart_s": now - 1.0,
-                "end_s": now + PREDICTION_LENGTH_S}
+                "end_s": now + PREDICTION_LENGTH_S, "idle": (~self.seen_moving).astype(float)}

@@ -1,6 +1,6 @@
 """The model-predictive navigator (``otgym.runtime.mpc``, ``otgym.runtime.mpc_navigator``).
 
-One task and one small controller (8 rollouts, a 0.9 s horizon) serve every test, so
+One task and one small controller (12 rollouts, a 0.9 s horizon) serve every test, so
 the planner compiles once; cost weights are arrays, so changing them does not
 recompile. Each cost-term test plans twice from the same state with the same key
 (the same candidates) and checks that the term moves the choice the way it should.
@@ -21,7 +21,7 @@ from otgym.runtime.navigator import RouteNavigator, route_point
 from otgym.runtime.scenario import Scenario
 from otgym.runtime.task import CARRY, InteractiveTask
 
-SMALL = MPCConfig(n_rollouts=8, plan_steps=8, knot_steps=4)
+SMALL = MPCConfig(n_rollouts=12, plan_steps=8, knot_steps=4)
 STEP_S = SMALL.step_s
 
 
@@ -158,7 +158,7 @@ def _parked_tracks(obs):
     k = obs.obstacle_xy_um.shape[1]
     zeros = jnp.zeros((1, k), jnp.float32)
     return {"start_um": jnp.asarray(obs.obstacle_xy_um, jnp.float32), "direction": jnp.zeros((1, k, 2)),
-            "speed_um_s": zeros, "depart_s": zeros, "end_s": zeros + 1e6}
+            "speed_um_s": zeros, "depart_s": zeros, "end_s": zeros + 1e6, "idle": zeros}
 
 
 def test_progress_sets_the_direction_of_travel(navigator, gripped):
