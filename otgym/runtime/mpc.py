@@ -67,10 +67,14 @@ from otgym.runtime.route_frame import RouteData, cell_arc_um, clip_lateral, form
 from otgym.runtime.scenario import ScenarioConfig, propulsion_um_s
 from otgym.sim import scene as sc
 
-N_FIXED_MANOEUVRES = 7
-"""Candidates 0-6: the warm-started plan, hold, back off, cruise on the route, dash along
-it, and step aside to either side while holding."""
+PASS_OFFSETS_UM = (-6.0, -3.0, 3.0, 6.0)
+"""Lateral offsets of the passing manoeuvres (cruise beside the route)."""
+N_FIXED_MANOEUVRES = 7 + len(PASS_OFFSETS_UM)
+"""Candidates: the warm-started plan, hold, back off, cruise on the route, dash along
+it, step aside to either side while holding, and cruise at each passing offset."""
 SIDE_STEP_UM = 6.0
+MOBILE_SPEED_UM_S = 1.0
+"""An obstacle predicted this fast or faster counts as fully mobile in the margin's growth."""
 ACTIONS = ("speed_um_s", "lateral_um", "rotation_rad")
 
 
@@ -93,12 +97,12 @@ class MPCConfig:
     min_speed_um_s: float = -8.0
     max_speed_um_s: float = 10.0
     max_lateral_um: float = 40.0
-    max_rotation_rad: float = 0.5
+    max_rotation_rad: float = 0.25
     max_lateral_speed_um_s: float = 4.0
     max_rotation_speed_rad_s: float = 0.2
     noise_speed_um_s: float = 2.5
-    noise_lateral_um: float = 2.0
-    noise_rotation_rad: float = 0.15
+    noise_lateral_um: float = 3.0
+    noise_rotation_rad: float = 0.05
     max_trap_speed_um_s: float = 20.0
     room_margin_um: float = 0.5
     """The lateral offset keeps the assembly's bounding circle this far from the walls."""
@@ -156,14 +160,19 @@ class MPCCosts:
     """Weights of the cost terms (array leaves: changing them does not recompile)."""
 
     progress_per_um: float = 1.0
-    obstacle_margin_um: float = 1.5
-    """Clearance below which an obstacle costs, for one at rest after moving (parked)..."""
+    obstacle_margin_um: float = 0.75
+    """Clearance below which an obstacle costs, for one at rest after moving (parked),
+    passed slowly..."""
+    obstacle_pass_margin_s: float = 0.15
+    """... plus the assembly's commanded speed along the route times this (the model errs
+    more at speed) ..."""
     obstacle_idle_margin_um: float = 2.5
     """... plus this for one never seen moving (it may start towards the assembly) ..."""
     obstacle_speed_margin_s: float = 1.5
     """... plus its predicted speed times this (a moving obstacle's prediction errs more) ..."""
     obstacle_uncertainty_um_s: float = 0.5
-    """... plus this per second into the horizon (a prediction's error grows)."""
+    """... plus this per second into the horizon for one that is idle or moving (a
+    prediction's error grows; a parked one stays put)."""
     obstacle_per_um2: float = 20.0
     obstacle_contact: float = 500.0
     lookahead_s: float = 8.0
@@ -182,7 +191,7 @@ class MPCCosts:
     contact_force_per_pn2: float = 5.0
     detached: float = 500.0
     lateral_per_um2: float = 0.002
-    rotation_per_rad2: float = 0.2
+    rotation_per_rad2: float = 5.0
     smooth_speed_per_um2_s2: float = 0.01
     smooth_lateral_per_um2: float = 0.05
     smooth_rotation_per_rad2: float = 2.0
@@ -228,10 +237,13 @@ def _scene_indices(scene: sc.Scene):
     return payload, obstacle_spheres
 
 
-def obstacle_margin_um(costs: MPCCosts, tracks: dict, ahead_s):
-    """Clearance (N, K) below which each obstacle costs, ``ahead_s`` into the horizon."""
-    return (costs.obstacle_margin_um + costs.obstacle_idle_margin_um * tracks["idle"]
-            + costs.obstacle_speed_margin_s * tracks["speed_um_s"] + costs.obstacle_uncertainty_um_s * ahead_s)
+def obstacle_margin_um(costs: MPCCosts, tracks: dict, ahead_s, speed_um_s):
+    """Clearance (N, K) below which each obstacle costs, ``ahead_s`` into the horizon
+    with the assembly commanded at ``speed_um_s`` (N,) along the route."""
+    mobile = jnp.clip(tracks["idle"] + tracks["speed_um_s"] / MOBILE_SPEED_UM_S, 0.0, 1.0)
+    return (costs.obstacle_margin_um + costs.obstacle_pass_margin_s * jnp.abs(speed_um_s)[:, None]
+            + costs.obstacle_idle_margin_um * tracks["idle"] + costs.obstacle_speed_margin_s * tracks["speed_um_s"]
+            + costs.obstacle_uncertainty_um_s * ahead_s * mobile)
 
 
 def step_cost_terms(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, events: sc.SceneEvents, margin_um):
@@ -301,7 +313,7 @@ def rollout(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, stat
         flow = jax.vmap(scene.model.flow.velocity_um_s)(obstacle_xy)
         propulsion = propulsion_um_s(tracks, scene_state.time_s, obstacle_xy, flow, obstacle_config)
         new_state, events = sc.step_batch(scene, scene_state, velocity, key, propulsion)
-        terms = step_cost_terms(scene, costs, new_state, events, obstacle_margin_um(costs, tracks, ahead_s))
+        terms = step_cost_terms(scene, costs, new_state, events, obstacle_margin_um(costs, tracks, ahead_s, speed))
         change = action - previous
         terms["smoothness"] = (costs.smooth_speed_per_um2_s2 * change[:, 0] ** 2
                                + costs.smooth_lateral_per_um2 * change[:, 1] ** 2
@@ -335,8 +347,9 @@ def interpolation_matrix(plan_steps: int, knot_steps: int) -> np.ndarray:
 def candidates(key, nominal, config: MPCConfig):
     """(B, R, L, 3) candidate plans: the nominal, hold, back off (the whole horizon),
     cruise and dash on the route, side-steps of ``SIDE_STEP_UM`` either way while
-    holding, then the nominal plus knot noise (half of them at a quarter of the
-    scale), clipped to the limits."""
+    holding, cruise at each of ``PASS_OFFSETS_UM`` beside the route (the rate limit
+    makes the offsets gradual), then the nominal plus knot noise (half of them at a
+    quarter of the scale), clipped to the limits."""
     n_env, plan_steps, _ = nominal.shape
     n_noisy = config.n_rollouts - N_FIXED_MANOEUVRES
     weights = jnp.asarray(interpolation_matrix(plan_steps, config.knot_steps), nominal.dtype)
@@ -350,7 +363,8 @@ def candidates(key, nominal, config: MPCConfig):
     cruise = jnp.zeros_like(nominal).at[..., 0].set(config.cruise_speed_um_s)
     dash = cruise.at[..., 0].set(config.max_speed_um_s)
     left, right = (hold.at[..., 1].add(side * SIDE_STEP_UM) for side in (1.0, -1.0))
-    fixed = jnp.stack([nominal, hold, back, cruise, dash, left, right], axis=1)
+    passing = [cruise.at[..., 1].set(offset) for offset in PASS_OFFSETS_UM]
+    fixed = jnp.stack([nominal, hold, back, cruise, dash, left, right, *passing], axis=1)
     plans = jnp.concatenate([fixed, noisy], axis=1)
     low = jnp.asarray([config.min_speed_um_s, -config.max_lateral_um, -config.max_rotation_rad], nominal.dtype)
     high = jnp.asarray([config.max_speed_um_s, config.max_lateral_um, config.max_rotation_rad], nominal.dtype)

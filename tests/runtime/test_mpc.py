@@ -1,6 +1,6 @@
 """The model-predictive navigator (``otgym.runtime.mpc``, ``otgym.runtime.mpc_navigator``).
 
-One task and one small controller (12 rollouts, a 0.9 s horizon) serve every test, so
+One task and one small controller (16 rollouts, a 0.9 s horizon) serve every test, so
 the planner compiles once; cost weights are arrays, so changing them does not
 recompile. Each cost-term test plans twice from the same state with the same key
 (the same candidates) and checks that the term moves the choice the way it should.
@@ -21,7 +21,7 @@ from otgym.runtime.navigator import RouteNavigator, route_point
 from otgym.runtime.scenario import Scenario
 from otgym.runtime.task import CARRY, InteractiveTask
 
-SMALL = MPCConfig(n_rollouts=12, plan_steps=8, knot_steps=4)
+SMALL = MPCConfig(n_rollouts=16, plan_steps=8, knot_steps=4)
 STEP_S = SMALL.step_s
 
 
@@ -61,7 +61,7 @@ def gripped(task):
     return state, obs
 
 
-def plan(navigator, obs, costs=MPCCosts(), committed=None, seed=0, velocity_um_s=None):
+def plan(navigator, obs, costs=MPCCosts(), committed=None, seed=0, velocity_um_s=None, nominal_action=None):
     """One replan from ``obs``, the obstacles seen over the last second standing where
     they are or moving at ``velocity_um_s`` (1, K, 2); returns the plan (L, 3) and its terms."""
     navigator.tracker.reset(1, obs.obstacle_xy_um.shape[1])
@@ -75,6 +75,8 @@ def plan(navigator, obs, costs=MPCCosts(), committed=None, seed=0, velocity_um_s
         committed = np.array([[0.0, start[0, 1], start[0, 2]]], np.float32)
     nominal = np.zeros((1, SMALL.plan_steps, 3), np.float32)
     nominal[..., 0] = SMALL.cruise_speed_um_s
+    if nominal_action is not None:
+        nominal[:] = nominal_action
     tracks = {name: jnp.asarray(value, jnp.float32) for name, value in
               navigator.tracker.predicted_tracks(obs.time_s).items()}
     best, terms, _ = navigator._replan(navigator.model, navigator.route, navigator.model_offsets_um, costs,
@@ -217,11 +219,13 @@ def test_smoothness_keeps_the_first_step_near_the_committed_one(navigator, gripp
 
 
 def test_offset_cost_brings_the_formation_back_to_the_route(navigator, gripped):
+    """Dashing 1.5 um left of the route, or the same dash on the route (a fixed
+    manoeuvre): the same progress, so only the offset cost prefers the route."""
     _, obs = gripped
-    committed = np.array([[0.0, 1.0, 0.0]], np.float32)  # 1 um left of the route
-    centred, _ = plan(navigator, obs, MPCCosts(lateral_per_um2=5.0), committed=committed)
-    loose, _ = plan(navigator, obs, MPCCosts(lateral_per_um2=0.0), committed=committed)
-    assert np.abs(centred[:, 1]).mean() < np.abs(loose[:, 1]).mean()
+    aside = np.array([[SMALL.max_speed_um_s, 1.5, 0.0]], np.float32)
+    centred, _ = plan(navigator, obs, MPCCosts(lateral_per_um2=1.0), committed=aside, nominal_action=aside)
+    loose, _ = plan(navigator, obs, MPCCosts(lateral_per_um2=0.0), committed=aside, nominal_action=aside)
+    assert np.abs(centred[:, 1]).mean() < 0.5 < 1.0 < np.abs(loose[:, 1]).mean()
 
 
 def test_wall_and_detachment_terms_cost_what_they_should(task, navigator, gripped):
