@@ -42,8 +42,8 @@ def register(app: typer.Typer) -> None:
         if not 64 <= width <= 7680:
             raise ValueError(f"--width must lie in [64, 7680] pixels, got {width}")
         frame_ticks(1, 0.02, fps, speed)  # checks --fps and --speed before any work
-        if out is not None:
-            check_out_dir(out)
+        if out is not None or video:
+            check_out_dir(out if out is not None else file.parent)  # writable, before any work
         recording = read_recording(file)
         info = summary(recording)
         state = "complete" if info["complete"] else "truncated (its writer stopped early; read to its last chunk)"
