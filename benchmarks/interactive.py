@@ -75,6 +75,8 @@ def main():
     parser.add_argument("--idle-s", type=float, default=5.0, help="servo reference with the simulation idle")
     parser.add_argument("--paced-s", type=float, default=5.0, help="simulated seconds of the paced run")
     parser.add_argument("--quick", action="store_true", help="300 ticks, 2 s idle, 2 s paced")
+    parser.add_argument("--normal-priority", action="store_true",
+                        help="run the servo loop at normal priority (default: it asks for SCHED_FIFO 50)")
     args = parser.parse_args()
     if args.quick:
         args.ticks, args.idle_s, args.paced_s = 300, 2.0, 2.0
@@ -85,9 +87,11 @@ def main():
     tick_s = task.config.tick_s
     hand = SteadyHand(velocity_mm_s=HAND_VELOCITY_MM_S)
     stylus = ServoDevice(functools.partial(SimulatedHapticBackend, hand=hand), SIMULATED_HAPTIC_CAPS,
-                         period_capacity=PERIOD_CAPACITY)
+                         period_capacity=PERIOD_CAPACITY, realtime_priority=None if args.normal_priority else 50)
     loop = InteractiveLoop(task, [DeviceBinding(stylus, (0, 1))], scenario, "shared", seed=0)
     with loop:
+        scheduling = "SCHED_FIFO 50" if stylus.realtime else "normal (" + (
+            "asked" if args.normal_priority else "SCHED_FIFO refused") + ")"
         loop.run(WARM_UP_TICKS * tick_s, realtime=False)
         idle_periods, _ = servo_phase(stylus, lambda: time.sleep(args.idle_s))
         begin = time.perf_counter()
@@ -120,7 +124,8 @@ def main():
     print(f"  paced at real time for {args.paced_s:g} s simulated: {len(paced)} ticks in {paced_wall_s:.2f} s wall "
           f"(simulated / wall = {len(paced) * tick_s / paced_wall_s:.3f}), schedule restarts {late}")
 
-    print(f"servo loop of the simulated stylus in its own process, target {SIMULATED_HAPTIC_CAPS.rate_hz:g} Hz")
+    print(f"servo loop of the simulated stylus in its own process, target {SIMULATED_HAPTIC_CAPS.rate_hz:g} Hz, "
+          f"scheduling {scheduling}")
     print(f"  {'phase':<42} {'periods':>8} {'p50 (ms)':>9} {'p99 (ms)':>9} {'max (ms)':>9} {'p99 ratio':>10}")
     idle_p99 = percentiles_ms(idle_periods)[1]
     for name, periods in (("reference: simulation idle", idle_periods),
