@@ -30,8 +30,8 @@ repo, scene_kind, n_env, start_at, window_s = sys.argv[1], sys.argv[2], int(sys.
 sys.path[:0] = [repo, repo + "/benchmarks"]
 import jax, jax.numpy as jnp
 from otgym import physics as ph
+import physics_throughput as pt
 if scene_kind == "standard":
-    import physics_throughput as pt
     model, pose = pt.standard_model()
     state = jax.tree.map(lambda a: jnp.broadcast_to(a, (n_env,) + a.shape), ph.initial_state(model, pose))
     step, first, second, substeps = jax.jit(ph.control_step_batch), model, ph.Controls.zeros(model, n_env), pt.SUBSTEPS
@@ -41,18 +41,11 @@ else:
     state = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), n_env))
     step, first, second = jax.jit(sc.step_batch), scene, jnp.zeros((n_env, scene.n_traps, 2))
     substeps = scene.model.substeps
-key = jax.random.PRNGKey(1)
-jax.block_until_ready(step(first, state, second, key))
+jax.block_until_ready(step(first, state, second, jax.random.PRNGKey(0)))  # compile before the window
 while time.time() < start_at:
     time.sleep(0.01)
-calls, begin = 0, time.time()
-while time.time() - begin < window_s:
-    key, step_key = jax.random.split(key)
-    state, _ = step(first, state, second, step_key)
-    jax.block_until_ready(state)
-    calls += 1
-elapsed = time.time() - begin
-print(calls, elapsed, calls * n_env * substeps / elapsed, flush=True)
+rate = pt.control_steps_per_second(step, first, state, second, window_s)
+print(rate * window_s, window_s, rate * n_env * substeps, flush=True)
 """
 
 
@@ -71,7 +64,7 @@ def run_pair(this: Path, baseline: Path, scene: str, n_env: int, seconds: float,
         if worker.returncode != 0:
             raise SystemExit(f"error: a worker failed:\n{err.strip().splitlines()[-1] if err.strip() else out}")
         calls, elapsed, rate = out.split()
-        results.append((int(calls), float(elapsed), float(rate)))
+        results.append((round(float(calls)), float(elapsed), float(rate)))
     return results
 
 
