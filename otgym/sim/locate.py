@@ -119,7 +119,7 @@ def _box_filter(image, box, out):
             out[i, j] = total / box
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def sample(image, x, y):
     """Bilinear sample at column x, row y of a frame (h, w) float32, clamped to the
     frame (``map_coordinates(order=1, mode="nearest")``), in float64, rounded to

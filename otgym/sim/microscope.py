@@ -90,13 +90,11 @@ def microscope_images(
     if origin.shape[0] != centres.shape[0]:
         raise ValueError(f"origin_um gives {origin.shape[0]} frames but sphere_xy_um {centres.shape[0]}")
     height, width = (int(n) for n in shape)
-    if chip is None:
-        chip_image, chip_pixel_um = _NO_CHIP, np.float32(1.0)
-    else:
-        chip_image, chip_pixel_um = np.ascontiguousarray(chip.image, np.float32), np.float32(chip.pixel_size_um)
+    chip_image = _NO_CHIP if chip is None else _read_only(chip.image)
+    chip_pixel_um = np.float32(1.0 if chip is None else chip.pixel_size_um)
     p = params
     noise = rng.standard_normal((origin.shape[0], height, width), dtype=np.float32)
-    return _render(np.ascontiguousarray(centres), np.ascontiguousarray(radii), np.ascontiguousarray(origin),
+    return _render(_read_only(centres), _read_only(radii), _read_only(origin),
                    np.float32(p.pixel_size_um), chip_image, chip_pixel_um, chip is not None,
                    np.float32(p.background), np.float32(p.wall_level), np.float32(p.background - p.wall_level),
                    np.float32(1.0 - p.body_transmission), np.float32(p.halo_strength), np.float32(p.halo_width_um),
@@ -114,7 +112,17 @@ def microscope_image(sphere_xy_um, sphere_radius_um, origin_um, shape, params=Mi
 TRUNCATE_SIGMAS = 4.0
 """The defocus kernel is cut at 4 standard deviations (scipy.ndimage.gaussian_filter's
 default)."""
-_NO_CHIP = np.zeros((1, 1), np.float32)
+
+
+def _read_only(array) -> np.ndarray:
+    """A C-contiguous float32 read-only view (a copy only where needed): the kernel's
+    arguments have one numba type whatever the caller passed, so it compiles once."""
+    view = np.ascontiguousarray(array, np.float32).view()
+    view.flags.writeable = False
+    return view
+
+
+_NO_CHIP = _read_only(np.zeros((1, 1)))
 
 
 @functools.lru_cache(maxsize=16)

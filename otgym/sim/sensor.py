@@ -116,8 +116,10 @@ class VisionForceSensor:
         frames, k = traps_px.shape[:2]
         g = self._geometry(pixel_size_um)
         frame_of = np.repeat(np.arange(frames), k)
+        images = np.ascontiguousarray(images).view()
+        images.flags.writeable = False  # one numba type whatever the caller passed: one compile
         centres, valid = locate_handles(
-            np.ascontiguousarray(images), frame_of, np.ascontiguousarray(traps_px.reshape(-1, 2)), g.box, g.lattice,
+            images, frame_of, np.ascontiguousarray(traps_px.reshape(-1, 2)), g.box, g.lattice,
             g.lattice_penalty, g.ring, g.ray_s, g.ray_dx, g.ray_dy, g.directions, g.blocked_margin,
             float(self.ray_step_px), g.radius_px)
         return centres.reshape(frames, k, 2), valid.reshape(frames, k)
