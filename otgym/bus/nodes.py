@@ -249,7 +249,9 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
                  on_tick: Callable[[InteractiveLoop], None] | None = None, remote_autonomy: bool = False) -> int:
     """Trials one after another (trial t meets scenario ``seed * 10000 + t``), each an
     ``InteractiveLoop`` paced by the wall clock on ``RemoteDevice`` s named ``devices``
-    (device i drives robot i), publishing every tick's messages and the trial events;
+    (device i drives robot i), publishing the session's description once (latched),
+    every tick's messages (the mode at a trial's first tick and on change) and the
+    trial events;
     until ``stop`` is set or ``duration_s`` of simulated time is spent. With
     ``remote_autonomy`` dP_r comes from an autonomy node (``RemoteAutonomy``), else from
     the loop's own navigator. Returns the ticks run."""
@@ -258,7 +260,8 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
     autonomy_live = True
     bindings = [DeviceBinding(remote, robots=(i,)) for i, remote in enumerate(remotes)]
     ticks, spent_s, trial = 0, 0.0, 0
-    node.publish(msg.MODE, msg.string(mode))
+    for topic, data in msg.session_messages(task, devices, time.time()):  # latched: once per session
+        node.publish(topic, data)
     half_tick_s = 0.5 * task.config.tick_s  # simulated time is a float sum of ticks
     while not stop.is_set() and (duration_s is None or spent_s < duration_s - half_tick_s):
         trial += 1
@@ -266,6 +269,7 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
         loop = InteractiveLoop(task, bindings, task.scenario(scenario), mode, seed=scenario, autonomy=autonomy)
         node.publish(msg.EVENTS, msg.event("trial_start", trial=trial, scenario=scenario, mode=mode,
                                            sphere_radius_um=loop.sphere_radius_um.tolist()))
+        mode_sent = None  # the mode goes out at a trial's first tick and when it changes
         with loop:
             deadline_s = time.monotonic()
             while not (stop.is_set() or loop.done
@@ -277,7 +281,9 @@ def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: st
                     autonomy_live = record.autonomy_live
                     node.publish(msg.EVENTS, msg.event("autonomy_back" if autonomy_live else "autonomy_lost",
                                                        trial=trial, time_s=record.time_s, mode=record.mode))
-                for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), record.mode, time.time()):
+                changed = record.mode if record.mode != mode_sent else None
+                mode_sent = record.mode
+                for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), time.time(), changed):
                     node.publish(topic, data)
                 if on_tick is not None:
                     on_tick(loop)

@@ -108,6 +108,8 @@ class Simulation:
         """Start every device (none left running if one fails), then trial 1."""
         start_devices([binding.device for binding in self.bindings])
         self._warm_up()
+        if self.recording is not None:
+            self.recording.describe(self.task)  # the chip, route and spheres, so a replay draws the global view
         self._new_trial()
 
     def _warm_up(self) -> None:
