@@ -13,7 +13,9 @@ def register(app: typer.Typer) -> None:
 
     @experiment.command("shared-control")
     def shared_control(
-        participants: int = typer.Option(8, "--participants", help="Simulated participants (at least 2)."),
+        participants: int = typer.Option(8, "--participants",
+                                         help="Simulated participants (the statistical tests need 2 or more; with "
+                                              "one, summary.md says that no test is possible)."),
         trials: int = typer.Option(8, "--trials", help="Trials per participant and mode."),
         modes: str = typer.Option("manual,autonomous,shared", "--modes",
                                   help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive)."),

@@ -15,15 +15,15 @@ import json
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
 import pandas as pd
 
 from otgym.planning.human import sample_population
-import numpy as np
-
 from otgym.runtime.mpc import MPCConfig
 from otgym.runtime.task import InteractiveConfig, InteractiveTask
 from otgym.runtime.trials import AUTONOMIES, TRIAL_COLUMNS, TRIAL_MODES, TrialSpec, run_trials
 from otgym.study import plot_fig8, write_summary
+from otgym.study.summary import json_safe
 
 MPC_ACCEPTANCE_RATE = 0.99
 """Issue 13: the MPC avoids at least this share of the obstacles it meets and reaches
@@ -41,8 +41,9 @@ def parse_modes(text: str) -> list[str]:
 
 def check_arguments(participants: int, trials: int, seed: int) -> None:
     """Refuse bad sizes before any work or any file."""
-    if participants < 2:
-        raise ValueError(f"--participants must be at least 2 (a repeated-measures analysis), got {participants}")
+    if participants < 1:
+        raise ValueError(f"--participants must be at least 1 (2 or more for the repeated-measures tests), "
+                         f"got {participants}")
     if trials < 1:
         raise ValueError(f"--trials must be at least 1, got {trials}")
     if not 0 <= seed < 2**32:
@@ -137,6 +138,26 @@ def write_experiment(trials: pd.DataFrame, out: Path, mpc: dict | None = None) -
         (out / "mpc.json").write_text(json.dumps(mpc, indent=2))
     stats = write_summary(trials, out)
     plot_fig8(trials, out / "fig8.png", stats)
-    checks = acceptance(pd.read_csv(out / "summary.csv"))
-    (out / "acceptance.json").write_text(json.dumps(checks, indent=2))
+    summary = pd.read_csv(out / "summary.csv")
+    checks = acceptance(summary)
+    evidence = mpc_evidence(summary)
+    (out / "acceptance.json").write_text(json.dumps(json_safe({**checks, **({"mpc": evidence} if evidence else {})}), indent=2))
     return checks
+
+
+def mpc_evidence(summary: pd.DataFrame) -> dict | None:
+    """The figures behind the MPC's checks, for acceptance.json: counts, rates with their
+    95 % Wilson intervals (as summary.csv has them), mean completion time beside shared
+    control's (same scenarios), trap losses. None where the MPC did not run."""
+    by_mode = summary.set_index("mode")
+    if "mpc" not in by_mode.index:
+        return None
+    row = by_mode.loc["mpc"]
+    shared_time = float(by_mode.loc["shared"].completion_time_mean_s) if "shared" in by_mode.index else None
+    return {"trials": int(row.trials), "obstacles_encountered": int(row.obstacles_encountered),
+            "obstacles_avoided": int(row.obstacles_avoided), "avoided_rate": float(row.avoided_rate),
+            "avoided_rate_ci95": [float(row.avoided_rate_ci_low), float(row.avoided_rate_ci_high)],
+            "goals_reached": int(row.goals_reached), "goal_rate": float(row.goal_rate),
+            "goal_rate_ci95": [float(row.goal_rate_ci_low), float(row.goal_rate_ci_high)],
+            "completion_time_mean_s": float(row.completion_time_mean_s), "shared_completion_time_mean_s": shared_time,
+            "trap_losses": int(row.trap_losses), "detachments": int(row.detachments)}

@@ -34,12 +34,36 @@ def test_small_experiment_writes_every_file(tmp_path):
     assert "% of trials done" in run.stdout
 
 
+def test_mpc_mode_alone_with_one_participant(tmp_path):
+    """Mode mpc from the command line, small (12 rollouts, 5 steps of 0.1 s), one
+    participant, cut at 4 s: fails if the MPC's trials are not written as mpc with the
+    MPC's dP_r, if mpc.json or acceptance.json's MPC figures (with 95 % intervals) are
+    missing, or if the MPC does not grip in the route navigator's 0.5 s."""
+    out = tmp_path / "mpc"
+    run = subprocess.run(COMMAND + ["--participants", "1", "--trials", "1", "--modes", "mpc", "--time-limit-s", "4",
+                                    "--mpc-rollouts", "12", "--mpc-plan-steps", "5", "--out", str(out)],
+                         capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr
+    trials = pd.read_csv(out / "trials.csv")
+    assert list(trials["mode"]) == ["mpc"] and list(trials["autonomy"]) == ["mpc"]
+    assert (trials["grip_time_s"] < 0.5).all() and not trials["reached_goal"].any()
+    size = json.loads((out / "mpc.json").read_text())
+    assert size["rollouts"] == 12 and size["modes"]["mpc"]["replans"] > 0
+    evidence = json.loads((out / "acceptance.json").read_text())["mpc"]
+    assert evidence["trials"] == 1 and evidence["goals_reached"] == 0
+    low, high = evidence["goal_rate_ci95"]
+    assert low == 0.0 < high < 1.0  # Wilson's interval for 0 of 1
+    assert "no test" in (out / "summary.md").read_text().lower()
+
+
 @pytest.mark.parametrize("args, message", [
-    (["--participants", "1"], "at least 2"),
+    (["--participants", "0"], "at least 1"),
     (["--modes", "manual,bogus"], "bogus"),
     (["--trials", "0"], "at least 1"),
     (["--seed", "-1"], "seed"),
     (["--time-limit-s", "0"], "time-limit"),
+    (["--shared-autonomy", "human"], "shared-autonomy"),
+    (["--mpc-rollouts", "3"], "mpc-rollouts"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):
     out = tmp_path / "never"
