@@ -41,7 +41,7 @@ from otgym.runtime.scenario import Scenario
 from otgym.runtime.task import CARRY, InteractiveTask
 from otgym.sim import scene as sc
 
-SIZES = ((8, 24), (16, 24), (32, 12), (32, 24), (64, 24))
+SIZES = ((16, 24), (24, 24), (32, 12), (32, 24), (64, 24))
 """(rollouts, plan steps) timed; the default is (32, 24)."""
 MANOEUVRES = {"cruise 6 um/s": (6.0, 0.0, 0.0), "side-step 2 um": (0.0, 2.0, 0.0),
               "dash 8 um/s, -1 um, 0.2 rad": (8.0, -1.0, 0.2), "back off 4 um/s": (-4.0, 0.0, 0.0)}
