@@ -5,6 +5,7 @@ checked before the window opens; a bad one is one ``error:`` line and exit 2."""
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -50,16 +51,21 @@ def register(app: typer.Typer) -> None:
 
 def run_play(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
              questionnaire: bool, screenshot: Path | None, out: Path) -> None:
+    """The window in this process, the session in its own (``otgym.runtime.worker``)."""
+    import functools
+
     from otgym.experiments.output_folder import check_out_dir
-    from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
-    from otgym.runtime.trials import TASK_RETARGET, task_feedback
+    from otgym.record.mcap_file import session_path
+    from otgym.runtime.worker import SessionProcess, WorkerError, WorkerSpec
     from otgym.sim.chip import load_chip
-    from otgym.teleop.device import DeviceError
-    from otgym.ui.bindings import play_bindings, primary_devices
+    from otgym.teleop.device import DeviceError, start_devices
+    from otgym.ui.bindings import robot_primaries, window_devices
+    from otgym.ui.play_worker import play_setup
 
     chip_data = load_chip(chip)
     try:
-        primaries = primary_devices(device)
+        windowed = window_devices(device)
+        robot_primaries(device, windowed)  # the Touch fails here at once without its runtime
     except DeviceError as error:
         raise ValueError(str(error)) from None
     if screenshot is not None and screenshot.parent and not screenshot.parent.is_dir():
@@ -68,41 +74,50 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
     check_out_dir(out)
     import pygame
 
+    from otgym.ui.app import PlayApp
+
+    def remove_empty_out() -> None:
+        if created_out and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()
+
     pygame.display.init()  # no audio: nothing plays sound
     pygame.font.init()
     try:
-        print(f"building the task on chip {chip_data.name!r} ...", flush=True)
-        task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip_data)))
-        feedback = task_feedback(task.config.scene.trap_law, TASK_RETARGET, int((task.trap_robot == task.trap_robot[0]).sum()))
-        from otgym.ui.app import PlayApp
-        from otgym.record.mcap_file import session_path
-        from otgym.ui.recording import SessionRecording
-        from otgym.ui.simulation import Simulation
-
-        recording = SessionRecording(session_path(out))
-        bindings = recording.wrap(play_bindings(primaries, keyboard=device == "keyboard", feedback=feedback))
-        simulation = Simulation(task, bindings, participant, mode, seed, duration_s, recording=recording)
         try:
-            simulation.start()
-        except DeviceError as error:  # e.g. no gamepad plugged in: leave no recording or empty --out behind
-            recording.close()
-            recording.path.unlink(missing_ok=True)
-            if created_out and not any(out.iterdir()):
-                out.rmdir()
+            start_devices(windowed)  # e.g. no gamepad plugged in: nothing written
+        except DeviceError as error:
+            remove_empty_out()
+            raise ValueError(str(error)) from None
+        recording_path = session_path(out)
+        spec = WorkerSpec(functools.partial(play_setup, chip, device, recording_path), participant, mode, seed,
+                          duration_s, forwarded_caps=tuple(d.caps for d in windowed))
+        session = SessionProcess(spec)
+        print(f"starting the simulation on chip {chip_data.name!r} in its own process ...", flush=True)
+        try:
+            session.start()
+        except DeviceError as error:  # a Touch that would not open: the worker left no recording behind
+            remove_empty_out()
             raise ValueError(str(error)) from None
         try:
-            app = PlayApp(simulation, out, keyboard=primaries[0] if device == "keyboard" else None,
-                          questionnaire=questionnaire)
+            app = PlayApp(session, out, window_devices=windowed, questionnaire=questionnaire)
             app.run()
             if screenshot is not None:
                 app.save_screenshot(screenshot)
+        except WorkerError as error:
+            print(f"error: {str(error).splitlines()[0]}", file=sys.stderr)
+            print(str(error), file=sys.stderr)
+            raise SystemExit(1) from None
         finally:
-            simulation.close()
+            session.finish()
         frames = np.asarray(app.frame_times_s[1:]) if len(app.frame_times_s) > 1 else None
+        stats = session.stats or {}
         if frames is not None:
-            print(f"{len(frames)} frames, median {1 / np.median(frames):.0f} fps; "
-                  f"{simulation.ticks} ticks, {simulation.late_ticks} schedule restarts")
-        print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {recording.path}"
+            print(f"{len(frames)} frames, median {1 / np.median(frames):.0f} fps "
+                  f"({app.frames_with_new_state} with a new simulation state); "
+                  f"{stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts")
+        print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {recording_path}"
               + (f"; screenshot {screenshot}" if screenshot is not None else ""))
     finally:
+        for each in windowed:
+            each.stop()
         pygame.quit()
