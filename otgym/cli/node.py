@@ -8,6 +8,7 @@ cleanly (devices at zero force, the recording closed)."""
 
 from __future__ import annotations
 
+import functools
 import signal
 import sys
 import threading
@@ -27,7 +28,14 @@ def register(app: typer.Typer) -> None:
         device: str = typer.Option("simulated", "--device",
                                    help="device node: its driver (keyboard, gamepad, touch, simulated, replay)."),
         replay: Path = typer.Option(None, "--replay", help="device node with --device replay: the CSV to play (looped)."),
+        takeover: str = typer.Option(None, "--takeover", help="sim node: devices (comma-separated, robot i by the "
+                                                               "i-th) that take robot i over while their clutch is "
+                                                               "held: a ui node's mouse (ui0,ui1)."),
         mode: str = typer.Option("shared", "--mode", help="sim node: manual, shared or autonomous."),
+        participant: str = typer.Option("P1", "--participant", help="sim node: the participant ID of its trials."),
+        hold: bool = typer.Option(False, "--hold", help="sim node: after each trial wait for a next_trial command "
+                                                        "(a ui node's questionnaires)."),
+        chip: str = typer.Option("default", "--chip", help="sim, autonomy, ui nodes: chip name or PNG."),
         autonomy: str = typer.Option("local", "--autonomy", help="sim node: dP_r from its own navigator (local) "
                                                                  "or from an autonomy node (remote)."),
         seed: int = typer.Option(0, "--seed", help="sim node: trial t meets scenario seed * 10000 + t."),
@@ -44,8 +52,11 @@ def register(app: typer.Typer) -> None:
         if role not in BUILT:
             raise ValueError(f"unknown or unbuilt node {role!r}; choose one of {', '.join(BUILT)}")
         names = [n.strip() for n in name.split(",")] if role == "sim" else [name]
-        for each in names:
+        takeovers = [n.strip() for n in takeover.split(",")] if takeover else []
+        for each in names + takeovers:
             msg.check_name(each)
+        if not participant.strip() or "," in participant:
+            raise ValueError(f"--participant must be a non-empty ID without commas, got {participant!r}")
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         if autonomy not in ("local", "remote"):
@@ -61,7 +72,8 @@ def register(app: typer.Typer) -> None:
                          config_file=str(zenoh_config) if zenoh_config else None)
         {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy}[role](
             stop, endpoints, name=name, names=names, device=device, replay=replay, mode=mode, seed=seed,
-            duration=duration, out=out, remote_autonomy=autonomy == "remote")
+            duration=duration, out=out, remote_autonomy=autonomy == "remote", takeover=takeovers,
+            participant=participant.strip(), hold=hold, chip=chip)
 
 
 def _ready(text: str) -> None:
@@ -108,13 +120,13 @@ def _recorder(stop, endpoints, *, out, **_):
           flush=True)
 
 
-def _autonomy(stop, endpoints, **_):
+def _autonomy(stop, endpoints, *, chip, **_):
     from otgym.bus.nodes import run_autonomy_node
+    from otgym.bus.sim_node import build_task
     from otgym.bus.transport import Node
-    from otgym.runtime.task import InteractiveTask
 
     print("building the task ...", flush=True)
-    task = InteractiveTask()
+    task = build_task(chip)
     with Node("autonomy", "autonomy", **endpoints) as node:
         _ready("autonomy (route navigator)")
         answered = run_autonomy_node(node, task, stop)
@@ -122,15 +134,29 @@ def _autonomy(stop, endpoints, **_):
               flush=True)
 
 
-def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, **_):
-    from otgym.bus.nodes import run_sim_node
+def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, takeover, participant, hold, chip,
+         **_):
+    from otgym.bus.sim_node import serve_sim_node
     from otgym.bus.transport import Node
-    from otgym.runtime.task import InteractiveTask
+    from otgym.cli.app import report_worker_error
+    from otgym.runtime.worker import WorkerError
+    from otgym.sim.chip import load_chip
+    from otgym.teleop.device import DeviceError
 
-    print("building the task ...", flush=True)
-    task = InteractiveTask()
+    load_chip(chip)  # a bad chip is an error line before anything starts
+    print("starting the simulation in its own process ...", flush=True)
     with Node("sim", "sim", **endpoints) as node:
-        _ready(f"sim for devices {', '.join(names)}" + (" with a remote autonomy" if remote_autonomy else ""))
-        ticks = run_sim_node(node, task, names, mode, seed, stop, duration, remote_autonomy=remote_autonomy)
-        print(f"sim: {ticks} ticks; dropped {sum(node.dropped.values())} malformed messages", flush=True)
+        ready = functools.partial(_ready, f"sim for devices {', '.join(names)}"
+                                  + (f", taken over by {', '.join(takeover)}" if takeover else "")
+                                  + (" with a remote autonomy" if remote_autonomy else ""))
+        try:
+            stats = serve_sim_node(node, names, mode, seed, stop, duration, remote_autonomy, chip=chip,
+                                   takeover=takeover, participant=participant, hold_between_trials=hold,
+                                   on_ready=ready)
+        except DeviceError as error:
+            raise ValueError(str(error)) from None
+        except WorkerError as error:
+            report_worker_error(error)
+        print(f"sim: {stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts; dropped "
+              f"{sum(node.dropped.values())} malformed messages", flush=True)
     sys.stdout.flush()

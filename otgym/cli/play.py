@@ -56,6 +56,7 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
 
     from otgym.experiments.output_folder import check_out_dir
     from otgym.record.mcap_file import session_path
+    from otgym.cli.app import report_worker_error
     from otgym.runtime.worker import SessionProcess, WorkerError, WorkerSpec
     from otgym.sim.chip import load_chip
     from otgym.teleop.device import DeviceError, start_devices
@@ -104,9 +105,7 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
             if screenshot is not None:
                 app.save_screenshot(screenshot)
         except WorkerError as error:
-            print(f"error: {str(error).splitlines()[0]}", file=sys.stderr)
-            print(str(error), file=sys.stderr)
-            raise SystemExit(1) from None
+            report_worker_error(error)
         finally:
             session.finish()
         frames = np.asarray(app.frame_times_s[1:]) if len(app.frame_times_s) > 1 else None

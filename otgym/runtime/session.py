@@ -18,10 +18,11 @@ safe to read from another thread).
 
 Sink: an object with ``tick(record, sphere_xy_um, mode)``, ``event(name, **fields)``
 and ``close()`` gets every tick and the events ``trial_start`` (trial, scenario, mode,
-the spheres' radii in um), ``mode`` (a switch), ``trial_end`` (the trial's row),
-``autonomy_lost`` / ``autonomy_back`` (trial, time_s, mode: the autonomy's dP_r
-stopped or came back) and ``session_end``: the MCAP recording of ``otgym play``
-(``otgym.ui.recording``) or the sim node's publisher.
+the spheres' radii in um), ``mode`` (a switch), ``paused`` / ``resumed`` (trial,
+time_s), ``trial_end`` (the trial's row), ``autonomy_lost`` / ``autonomy_back``
+(trial, time_s, mode: the autonomy's dP_r stopped or came back) and ``session_end``:
+the MCAP recording of ``otgym play`` (``otgym.ui.recording``) or the sim node's
+publisher (``otgym.bus.sim_node``).
 
 Trials: trial t (from 1) meets scenario ``seed * 10000 + t`` (the experiment's
 numbering). A trial ends when the task is DONE (goal reached, a trap lost, the task's
@@ -363,5 +364,8 @@ class Session:
                 binding.device.set_force(np.zeros(3))
         else:
             self._next_tick_wall_s = self.clock()
+        if self.sink is not None:
+            self.sink.event("paused" if paused else "resumed", trial=self.trial,
+                            time_s=self.loop.time_s if self.loop is not None else 0.0)
         if self.snapshot is not None:
             self.snapshot = dataclasses.replace(self.snapshot, paused=self.paused)

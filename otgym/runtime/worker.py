@@ -12,10 +12,14 @@ the autonomy), starts the session and paces it by the wall clock until it is ask
 quit, its parent dies, or (without ``hold_between_trials``) its duration is spent.
 
 Channels:
-- parent -> worker, a pipe of commands (``("set_mode", "manual")``, ``("feed", i,
-  sample)``, ``("drag", robot, pointer_um, traps_um)``, ``("autonomy", arrival_s,
-  increments)``, ``("quit",)``...), applied between ticks; the worker waits for its
-  next tick on this pipe, so a command is applied at once;
+- parent -> worker, a pipe of commands (``("set_mode", "manual")``, ``("drag",
+  robot, pointer_um, traps_um)``, ``("autonomy", arrival_s, increments)``,
+  ``("quit",)``...), applied between ticks; the worker waits for its next tick on
+  this pipe, so a command is applied at once;
+- parent -> worker, each forwarded device's latest sample in a ``LatestBytes`` block
+  of its own (``feed``): a device that sends 1000 samples a second costs the worker
+  nothing until it reads the latest before a tick, and a worker busy for a moment
+  (a trial's start) never blocks the sender;
 - worker -> parent, a pipe of events: ``ready`` (what the parent asked to know:
   the task's layout, the devices' force limits), ``finished`` (a trial's row),
   ``over``, ``publish`` (whatever the sink sends: the sim node's messages), ``force``
@@ -39,16 +43,19 @@ import multiprocessing
 import os
 import pickle
 import signal
+import struct
 import threading
 import time
 import traceback
 from typing import Any, Callable
 
-from otgym.teleop.device import DeviceCaps, DeviceError
+from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 
 SNAPSHOT_BYTES = 1 << 17
 """Room for one pickled snapshot (about 5 kB for the interactive task's 19 spheres)."""
 _SEQLOCK_TRIES = 256
+_SAMPLE = struct.Struct("<dq3d3dq")
+"""A device sample in a block: time_s, sequence, position_mm, velocity_mm_s, buttons."""
 
 
 class WorkerError(RuntimeError):
@@ -160,15 +167,24 @@ class ForwardedAutonomy:
         return self._latest[1]
 
 
-_SESSION_COMMANDS = ("set_mode", "toggle_pause", "set_paused", "reset", "next_trial", "feed", "lose", "drag",
-                     "release_drag")
+_SESSION_COMMANDS = ("set_mode", "toggle_pause", "set_paused", "reset", "next_trial", "lose", "drag", "release_drag")
+
+
+def pack_sample(sample: Sample) -> bytes:
+    return _SAMPLE.pack(sample.time_s, sample.sequence, *sample.position_mm, *sample.velocity_mm_s, sample.buttons)
+
+
+def unpack_sample(data: bytes) -> Sample:
+    values = _SAMPLE.unpack(data)
+    return Sample(values[0], values[1], values[2:5], values[5:8], values[8])
 
 
 def _exit_on_sigterm(signum, frame):
     raise SystemExit(0)
 
 
-def _worker_main(spec: WorkerSpec, commands, events, snapshot_block: LatestBytes | None, parent_pid: int) -> None:
+def _worker_main(spec: WorkerSpec, commands, events, snapshot_block: LatestBytes | None,
+                 device_blocks: list[LatestBytes], parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     import numpy as np
@@ -204,14 +220,20 @@ def _worker_main(spec: WorkerSpec, commands, events, snapshot_block: LatestBytes
             parts.on_failure()
         send(("error", "crash", traceback.format_exc()))
         return
-    info = {}
+    info = {"n_traps": parts.task.n_traps}
     if spec.snapshots:
-        info = {"layout": session.layout, "force_limits_n": session.force_limits_n}
+        info.update(layout=session.layout, force_limits_n=session.force_limits_n)
     send(("ready", info))
     published = None
     over_sent = False
+    fed = [0] * len(device_blocks)
     try:
         while os.getppid() == parent_pid:
+            for index, block in enumerate(device_blocks):
+                latest = block.read()
+                if latest is not None and latest[0] != fed[index]:
+                    fed[index] = latest[0]
+                    forwarded[index].feed(unpack_sample(latest[1]))
             quit_asked = False
             while commands.poll():
                 name, *arguments = commands.recv()
@@ -267,6 +289,7 @@ class SessionProcess:
         self.start_timeout_s = start_timeout_s
         self.layout = None
         self.force_limits_n: list[float] = []
+        self.n_traps = 0
         self.over = False
         self.stats: dict | None = None
         self.failure: str | None = None
@@ -274,6 +297,7 @@ class SessionProcess:
         self.process = None
         self._context = multiprocessing.get_context("spawn")
         self._snapshots = LatestBytes(SNAPSHOT_BYTES, self._context) if spec.snapshots else None
+        self._device_blocks = [LatestBytes(_SAMPLE.size, self._context) for _ in spec.forwarded_caps]
         self._snapshot = None
         self._snapshot_sequence = 0
         self._finished: collections.deque = collections.deque()
@@ -288,7 +312,7 @@ class SessionProcess:
         self._events, event_writer = self._context.Pipe(duplex=False)
         self.process = self._context.Process(
             target=_worker_main, name="otgym-session",
-            args=(self.spec, command_reader, event_writer, self._snapshots, os.getpid()))
+            args=(self.spec, command_reader, event_writer, self._snapshots, self._device_blocks, os.getpid()))
         limits = thread_limits(self.spec.threads)
         saved = {name: os.environ.get(name) for name in limits}
         os.environ.update(limits)  # the spawned interpreter inherits the environment at its start
@@ -303,19 +327,25 @@ class SessionProcess:
         command_reader.close()
         event_writer.close()
         deadline = time.monotonic() + self.start_timeout_s
-        while not self._events.poll(0.1):
-            if not self.process.is_alive() or time.monotonic() > deadline:
-                self._kill()
-                raise WorkerError(f"the simulation process ended before it was ready (exit code "
-                                  f"{self.process.exitcode})")
-        message = self._events.recv()
-        if message[0] == "ready":
-            info = message[1]
-            self.layout, self.force_limits_n = info.get("layout"), info.get("force_limits_n", [])
-            return
+        while True:
+            if not self._events.poll(0.1):
+                if not self.process.is_alive() or time.monotonic() > deadline:
+                    self._kill()
+                    raise WorkerError(f"the simulation process ended before it was ready (exit code "
+                                      f"{self.process.exitcode})")
+                continue
+            message = self._events.recv()
+            if message[0] == "ready":
+                info = message[1]
+                self.layout, self.force_limits_n = info.get("layout"), info.get("force_limits_n", [])
+                self.n_traps = info["n_traps"]
+                return
+            if message[0] == "error":
+                break
+            self._handle(message)  # e.g. the warm-up's zero forces
         self.process.join(5.0)
         self._kill()
-        if message[0] == "error" and message[1] == "device":
+        if message[1] == "device":
             raise DeviceError(message[2])
         raise WorkerError(f"the simulation process failed to start:\n{message[-1]}")
 
@@ -367,8 +397,9 @@ class SessionProcess:
     def next_trial(self) -> None:
         self.send("next_trial")
 
-    def feed(self, index: int, sample) -> None:
-        self.send("feed", index, sample)
+    def feed(self, index: int, sample: Sample) -> None:
+        """The latest sample of forwarded device ``index`` (never blocks; one writer per device)."""
+        self._device_blocks[index].write(pack_sample(sample))
 
     def lose(self, index: int, reason: str) -> None:
         self.send("lose", index, reason)

@@ -227,7 +227,7 @@ def test_malformed_messages_are_dropped_and_counted_never_applied():
 
 
 def test_sim_node_publishes_every_tick_and_the_trial_events():
-    from otgym.bus.nodes import run_sim_node
+    from otgym.bus.sim_node import run_sim_node
     from tests.runtime import shared_task
 
     endpoint = free_endpoint()
@@ -241,7 +241,8 @@ def test_sim_node_publishes_every_tick_and_the_trial_events():
     for topic in (msg.TRAPS, msg.BODIES, msg.ALPHA, msg.MODE):
         assert len(seen[topic]) == ticks + (topic == msg.MODE), topic
     events = [msg.event_fields(e) for e in seen[msg.EVENTS]]
-    assert [e["event"] for e in events] == ["trial_start", "trial_end"] and events[1]["ended_by"] == "duration"
+    assert [e["event"] for e in events] == ["trial_start", "trial_end", "session_end"]
+    assert events[1]["ended_by"] == "duration" and events[1]["completion_time_s"] == pytest.approx(1.0, abs=0.011)
     assert len(msg.xy_um(seen[msg.TRAPS][-1])) == shared_task().n_traps
 
 
@@ -250,7 +251,7 @@ def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_
     process: the traps move as the in-process navigator would move them. Killed by its
     pid, the sim runs as manual (mode message and an ``autonomy_lost`` event) within the
     detection bound, and with no device the traps then hold."""
-    from otgym.bus.nodes import run_sim_node
+    from otgym.bus.sim_node import run_sim_node
     from tests.runtime import shared_task
 
     endpoint = free_endpoint()

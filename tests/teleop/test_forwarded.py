@@ -48,3 +48,22 @@ def test_a_forwarded_sample_moves_the_traps_as_the_device_itself_would():
         device.feed(each)
         np.testing.assert_array_equal(forwarded(device.read(), each.time_s), direct(each, each.time_s))
     assert np.linalg.norm(direct(sample(31), time.monotonic())) > 0  # it moved at all
+
+
+def test_a_takeover_device_passes_the_primary_until_the_other_holds_its_clutch():
+    from otgym.teleop.takeover import TakeoverDevice
+
+    sent = []
+    primary, mouse = ForwardedDevice(CAPS, on_force=sent.append), ForwardedDevice(CAPS)
+    device = TakeoverDevice(primary, mouse)
+    primary.feed(sample(1, 1.0))
+    assert device.read().velocity_mm_s[0] == 1.0  # nothing from the mouse yet
+    mouse.feed(sample(1, 5.0, buttons=1))
+    assert device.read().velocity_mm_s[0] == 5.0  # a drag takes over
+    mouse.feed(sample(2, 5.0, buttons=0))
+    assert device.read().velocity_mm_s[0] == 1.0  # released
+    mouse.feed(Sample(time.monotonic() - 0.5, 3, np.zeros(3), (5.0, 0.0, 0.0), 1))
+    assert device.read().velocity_mm_s[0] == 1.0  # a stale drag does not
+    device.set_force([0.2, 0.0, 0.0])
+    assert len(sent) == 1  # forces go to the primary
+    assert TakeoverDevice(None, mouse).read() is None
