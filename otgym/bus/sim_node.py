@@ -34,6 +34,7 @@ from otgym.bus import messages as msg
 from otgym.bus.nodes import AUTONOMY_TIMEOUT_S, RemoteAutonomy, RemoteDevice
 from otgym.bus.transport import Node
 from otgym.runtime.loop import DeviceBinding
+from otgym.runtime.trials import stylus_feedback
 from otgym.runtime.worker import ForwardedAutonomy, SessionProcess, WorkerParts, WorkerSpec
 from otgym.teleop.takeover import TakeoverDevice
 
@@ -76,14 +77,16 @@ def device_plan(devices: list[str], takeover: list[str] = ()) -> tuple[list[str]
     return names, plan
 
 
-def plan_bindings(plan, devices: list) -> list[DeviceBinding]:
-    """One binding per robot: its device, wrapped in a ``TakeoverDevice`` where one may take it over."""
+def plan_bindings(plan, devices: list, feedback=None) -> list[DeviceBinding]:
+    """One binding per robot: its device, wrapped in a ``TakeoverDevice`` where one may
+    take it over; ``feedback``: the styluses' (``trials.stylus_feedback``, as ``otgym
+    play`` gives them)."""
     bindings = []
     for robot, (primary, over) in enumerate(plan):
         device = devices[primary] if primary is not None else None
         if over is not None:
             device = TakeoverDevice(device, devices[over])
-        bindings.append(DeviceBinding(device, robots=(robot,)))
+        bindings.append(DeviceBinding(device, robots=(robot,), feedback=feedback))
     return bindings
 
 
@@ -128,8 +131,8 @@ def run_sim_node(node: Node, task, devices: list[str], mode: str, seed: int, sto
     remotes = [RemoteDevice(node, name) for name in names]
     autonomy = RemoteAutonomy(node, task.n_traps) if remote_autonomy else None
     sink = BusSink(lambda messages: [node.publish(topic, data) for topic, data in messages])
-    session = Session(task, plan_bindings(plan, remotes), participant, mode, seed, duration_s, sink=sink,
-                      autonomy=autonomy, hold_between_trials=hold_between_trials)
+    session = Session(task, plan_bindings(plan, remotes, stylus_feedback(task)), participant, mode, seed, duration_s,
+                      sink=sink, autonomy=autonomy, hold_between_trials=hold_between_trials)
     node.publish(msg.MODE, msg.string(mode))
     follow_commands(node, session, stop.set)
     session.start()
@@ -150,7 +153,8 @@ def sim_worker_setup(chip: str, plan, remote_autonomy: bool, forwarded, outbox) 
     per robot over the forwarded devices, a ``BusSink`` that sends each tick's
     messages to the bus side, and the forwarded autonomy."""
     autonomy = ForwardedAutonomy(AUTONOMY_TIMEOUT_S) if remote_autonomy else None
-    return WorkerParts(build_task(chip), plan_bindings(plan, list(forwarded)), sink=BusSink(outbox),
+    task = build_task(chip)
+    return WorkerParts(task, plan_bindings(plan, list(forwarded), stylus_feedback(task)), sink=BusSink(outbox),
                        autonomy=autonomy)
 
 

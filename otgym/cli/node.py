@@ -1,9 +1,12 @@
 """``otgym node ROLE``: one part of the runtime as a process on the bus
-(``otgym.bus``): ``sim`` (the simulator, listening on tcp/127.0.0.1:7447), ``device``
-(a local device published as ``--name``), ``recorder`` (every message into
-``--out``/session.mcap), ``autonomy`` (the route navigator's dP_r for a simulator
-started with ``--autonomy remote``; without it, shared control runs as manual). Loopback only unless ``--listen``/``--connect`` name other
-endpoints. Prints one ``ready`` line once on the bus; SIGTERM or Ctrl-C ends it
+(``otgym.bus``): ``sim`` (the simulator, listening on tcp/127.0.0.1:7447; its session
+ticks in a worker process), ``device`` (a local device published as ``--name``),
+``recorder`` (every message into ``--out``/session.mcap), ``autonomy`` (the route
+navigator's dP_r for a simulator started with ``--autonomy remote``; without it,
+shared control runs as manual), ``ui`` (the window: draws from the sim's topics, sends
+the keyboard, gamepad or mouse as devices ui0, ui1 and the keys as commands; trials.csv
+and questionnaires.csv into ``--out``). Loopback only unless ``--listen``/``--connect``
+name other endpoints. Prints one ``ready`` line once on the bus; SIGTERM or Ctrl-C ends it
 cleanly (devices at zero force, the recording closed)."""
 
 from __future__ import annotations
@@ -16,17 +19,23 @@ from pathlib import Path
 
 import typer
 
-BUILT = ("sim", "device", "recorder", "autonomy")
+BUILT = ("sim", "device", "recorder", "autonomy", "ui")
 
 
 def register(app: typer.Typer) -> None:
     @app.command("node")
     def node(
-        role: str = typer.Argument(..., help="sim, device, recorder or autonomy."),
+        role: str = typer.Argument(..., help="sim, device, recorder, autonomy or ui."),
         name: str = typer.Option("device0", "--name", help="device node: its name on the bus; sim node: the device "
-                                                           "names it drives (robot i by the i-th), comma-separated."),
-        device: str = typer.Option("simulated", "--device",
-                                   help="device node: its driver (keyboard, gamepad, touch, simulated, replay)."),
+                                                           "names it drives (robot i by the i-th), comma-separated; "
+                                                           "ui node: the device nodes whose feedback and loss it "
+                                                           "shows (robot i by the i-th; '' for none)."),
+        device: str = typer.Option(None, "--device",
+                                   help="device node: its driver (keyboard, gamepad, touch, simulated, replay; "
+                                        "default simulated); ui node: what the window sends as ui0, ui1 "
+                                        "(keyboard, gamepad, mouse; default keyboard)."),
+        device_name: str = typer.Option(None, "--device-name", help="device node with --device touch: the Touch's "
+                                                                    "name in Touch Setup."),
         replay: Path = typer.Option(None, "--replay", help="device node with --device replay: the CSV to play (looped)."),
         takeover: str = typer.Option(None, "--takeover", help="sim node: devices (comma-separated, robot i by the "
                                                                "i-th) that take robot i over while their clutch is "
@@ -43,7 +52,9 @@ def register(app: typer.Typer) -> None:
         listen: list[str] = typer.Option(None, "--listen", help="zenoh endpoint to listen on (repeatable)."),
         connect: list[str] = typer.Option(None, "--connect", help="zenoh endpoint to connect to (repeatable)."),
         zenoh_config: Path = typer.Option(None, "--zenoh-config", help="zenoh config file (TLS, user/password)."),
-        out: Path = typer.Option(None, "--out", help="recorder node: folder for session.mcap."),
+        out: Path = typer.Option(None, "--out", help="recorder node: folder for session.mcap; ui node: for "
+                                                     "trials.csv and questionnaires.csv."),
+        no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="ui node: no questionnaires."),
     ) -> None:
         """Run one node of the distributed runtime until stopped."""
         from otgym.bus import messages as msg
@@ -51,7 +62,7 @@ def register(app: typer.Typer) -> None:
 
         if role not in BUILT:
             raise ValueError(f"unknown or unbuilt node {role!r}; choose one of {', '.join(BUILT)}")
-        names = [n.strip() for n in name.split(",")] if role == "sim" else [name]
+        names = [n.strip() for n in name.split(",") if n.strip()] if role in ("sim", "ui") else [name]
         takeovers = [n.strip() for n in takeover.split(",")] if takeover else []
         for each in names + takeovers:
             msg.check_name(each)
@@ -61,8 +72,9 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         if autonomy not in ("local", "remote"):
             raise ValueError(f"--autonomy must be local or remote, got {autonomy!r}")
-        if role == "recorder" and out is None:
-            raise ValueError("the recorder node needs --out")
+        if role in ("recorder", "ui") and out is None:
+            raise ValueError(f"the {role} node needs --out")
+        device = device or {"device": "simulated", "ui": "keyboard"}.get(role)
         if zenoh_config is not None and not zenoh_config.is_file():
             raise FileNotFoundError(f"no zenoh config file {zenoh_config}")
         stop = threading.Event()
@@ -70,22 +82,25 @@ def register(app: typer.Typer) -> None:
             signal.signal(signum, lambda *_: stop.set())
         endpoints = dict(listen=list(listen or []), connect=list(connect or []),
                          config_file=str(zenoh_config) if zenoh_config else None)
-        {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy}[role](
+        {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy, "ui": _ui}[role](
             stop, endpoints, name=name, names=names, device=device, replay=replay, mode=mode, seed=seed,
             duration=duration, out=out, remote_autonomy=autonomy == "remote", takeover=takeovers,
-            participant=participant.strip(), hold=hold, chip=chip)
+            participant=participant.strip(), hold=hold, chip=chip, device_name=device_name,
+            questionnaire=not no_questionnaire)
 
 
 def _ready(text: str) -> None:
     print(f"ready: {text}", flush=True)
 
 
-def _device(stop, endpoints, *, name, device, replay, **_):
+def _device(stop, endpoints, *, name, device, replay, device_name, **_):
     from otgym.bus.nodes import run_device_node
     from otgym.bus.transport import Node
     from otgym.teleop.device import DeviceError, open_device
 
     options = {"path": replay, "loop": True} if device == "replay" else {}
+    if device == "touch" and device_name:
+        options["device_name"] = device_name
     if device == "replay" and replay is None:
         raise ValueError("--device replay needs --replay FILE")
     try:
@@ -118,6 +133,29 @@ def _recorder(stop, endpoints, *, out, **_):
             recorder.flush()
     print(f"recorder: {sum(recorder.counts.values())} messages, {sum(node.dropped.values())} dropped, into {path}",
           flush=True)
+
+
+def _ui(stop, endpoints, *, names, device, chip, out, questionnaire, **_):
+    from otgym.bus.sim_node import build_task
+    from otgym.bus.transport import Node
+    from otgym.experiments.output_folder import check_out_dir
+    from otgym.runtime.layout import layout_of
+    from otgym.teleop.device import DeviceError
+    from otgym.ui.node import WINDOW_KINDS, run_window
+
+    if device not in WINDOW_KINDS:
+        raise ValueError(f"unknown window device {device!r} for the ui node; choose one of {', '.join(WINDOW_KINDS)}")
+    check_out_dir(out)
+    print("building the task ...", flush=True)
+    layout = layout_of(build_task(chip))
+    with Node("ui", "ui", **endpoints) as node:
+        _ready(f"ui ({device})")
+        try:
+            app = run_window(node, layout, device, names if device == "mouse" else [], out,
+                             questionnaire=questionnaire, stop=stop)
+        except DeviceError as error:
+            raise ValueError(str(error)) from None
+    print(f"ui: wrote {app.trials_written} trial(s) to {out / 'trials.csv'}", flush=True)
 
 
 def _autonomy(stop, endpoints, *, chip, **_):

@@ -24,11 +24,15 @@ def register(app: typer.Typer) -> None:
         no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="No questionnaires after trials."),
         screenshot: Path = typer.Option(None, "--screenshot", help="Save the last frame as this PNG."),
         headless: bool = typer.Option(False, "--headless", help="No window (SDL dummy drivers); for tests and CI."),
+        distributed: bool = typer.Option(False, "--distributed", help="Run the sim, device, recorder (and autonomy) "
+                                                                      "as local node processes on loopback, the "
+                                                                      "window as the ui node."),
         out: Path = typer.Option(..., "--out", help="Folder for trials.csv, session.mcap (and questionnaires.csv)."),
     ) -> None:
         """The interactive task in a window: global and microscope views, cues, keys 1/2/3
         for the mode, space to pause, R to reset, H for help, Esc to quit; trials.csv and
-        the session's MCAP recording (session.mcap)."""
+        the session's MCAP recording (session.mcap). The simulation runs in a process of
+        its own (with --distributed: as nodes on the bus)."""
         from otgym.shared import MODES
         from otgym.ui.bindings import check_device_name
 
@@ -46,7 +50,8 @@ def register(app: typer.Typer) -> None:
         if headless:
             os.environ["SDL_VIDEODRIVER"] = "dummy"
             os.environ["SDL_AUDIODRIVER"] = "dummy"
-        run_play(chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
+        run = run_distributed if distributed else run_play
+        run(chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
 
 
 def run_play(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
@@ -120,3 +125,119 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         for each in windowed:
             each.stop()
         pygame.quit()
+
+
+def node_plan(device: str, endpoint: str) -> tuple[list[tuple[str, list[str]]], list[str], str, list[str]]:
+    """For ``--device``: the device nodes (label, arguments), the sim's device
+    arguments, what the window sends (keyboard, gamepad or mouse) and the device nodes
+    whose feedback it shows. The keyboard and the gamepad are the window's own (sent as
+    ui0, ui1); the simulated stylus and the Touches are device nodes, which the
+    window's mouse takes over while it drags."""
+    from otgym.ui.bindings import TOUCH_NAMES
+
+    connect = ["--connect", endpoint]
+    if device in ("keyboard", "gamepad"):
+        return [], ["--name", "ui0,ui1"], device, []
+    if device == "simulated":
+        return ([("device0", ["device", "--device", "simulated", "--name", "device0", *connect])],
+                ["--name", "device0", "--takeover", "ui0,ui1"], "mouse", ["device0"])
+    nodes = [(f"device{i}", ["device", "--device", "touch", "--device-name", touch, "--name", f"device{i}",
+                             *connect]) for i, touch in enumerate(TOUCH_NAMES)]
+    return nodes, ["--name", "device0,device1", "--takeover", "ui0,ui1"], "mouse", ["device0", "device1"]
+
+
+def _window_over_nodes(nodes, endpoint: str, layout, window_kind: str, shown: list[str], out: Path,
+                       questionnaire: bool, screenshot: Path | None, failed: list[str]):
+    """The window as the ui node until it closes, a node fails (its line appended to
+    ``failed``) or the sim ends; then the sim's own end is awaited."""
+    import threading
+    import time
+
+    from otgym.bus.transport import Node
+    from otgym.teleop.device import DeviceError
+    from otgym.ui.node import run_window
+
+    stop, done = threading.Event(), threading.Event()
+
+    def watch() -> None:  # a failed node, or the sim gone without a word, closes the window
+        while not done.wait(0.1):
+            failure = nodes.failure()
+            if failure:
+                failed.append(failure)
+                stop.set()
+                return
+            if nodes.ended("sim") and not done.wait(1.0):
+                stop.set()
+                return
+
+    threading.Thread(target=watch, name="otgym-nodes-watch", daemon=True).start()
+    with Node("ui", "ui", connect=[endpoint]) as node:
+        try:
+            app = run_window(node, layout, window_kind, shown, out, questionnaire=questionnaire,
+                             screenshot=screenshot, stop=stop)
+        except DeviceError as error:  # e.g. no gamepad: the nodes stop all the same
+            raise ValueError(str(error)) from None
+        finally:
+            done.set()
+    if not nodes.wait_exit("sim", 30.0) and not failed:
+        failed.append("the sim node did not end within 30 s of the session's end")
+    time.sleep(0.5)  # the session's last messages reach the recorder
+    return app
+
+
+def run_distributed(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
+                    questionnaire: bool, screenshot: Path | None, out: Path) -> None:
+    """The sim, device, recorder (and, in shared or autonomous mode, autonomy) nodes as
+    local processes on a loopback port; this process is the ui node (the window).
+    All stop when the window closes or when one of them fails (one ``error:`` line,
+    exit code 1)."""
+    from otgym.bus.sim_node import build_task
+    from otgym.cli.launch import NodeProcesses, free_loopback_endpoint
+    from otgym.experiments.output_folder import check_out_dir
+    from otgym.runtime.layout import layout_of
+    from otgym.sim.chip import load_chip
+    from otgym.teleop.device import DeviceError
+    from otgym.ui.bindings import robot_primaries, window_devices
+
+    load_chip(chip)
+    try:
+        robot_primaries(device, window_devices(device))  # the Touch fails here at once without its runtime
+    except DeviceError as error:
+        raise ValueError(str(error)) from None
+    if screenshot is not None and screenshot.parent and not screenshot.parent.is_dir():
+        raise ValueError(f"--screenshot {screenshot}: folder {screenshot.parent} does not exist")
+    check_out_dir(out)
+    endpoint = free_loopback_endpoint()
+    device_nodes, sim_devices, window_kind, shown = node_plan(device, endpoint)
+    remote_autonomy = mode in ("shared", "autonomous")
+    sim = ["sim", "--listen", endpoint, "--mode", mode, "--seed", str(seed), "--participant", participant,
+           "--chip", chip, *sim_devices]
+    sim += (["--duration", repr(duration_s)] if duration_s is not None else []) + (["--hold"] if questionnaire else [])
+    sim += ["--autonomy", "remote"] if remote_autonomy else []
+    nodes = NodeProcesses()
+    failed: list[str] = []
+    app = None
+    try:
+        nodes.start("sim", sim)
+        for label, arguments in device_nodes:
+            nodes.start(label, arguments)
+        nodes.start("recorder", ["recorder", "--out", str(out), "--connect", endpoint])
+        if remote_autonomy:
+            nodes.start("autonomy", ["autonomy", "--chip", chip, "--connect", endpoint])
+        print(f"starting {len(nodes.children)} nodes on {endpoint} ({', '.join(nodes.children)}) ...", flush=True)
+        layout = layout_of(build_task(chip))
+        try:
+            nodes.wait_ready(900.0)
+        except RuntimeError as error:
+            failed.append(str(error))
+        if not failed:
+            print("nodes ready; the window opens", flush=True)
+            app = _window_over_nodes(nodes, endpoint, layout, window_kind, shown, out, questionnaire, screenshot,
+                                     failed)
+    finally:
+        nodes.stop_all(order=["sim", "autonomy", *[label for label, _ in device_nodes], "recorder"])
+    if failed:
+        print(f"error: {failed[0]}", file=sys.stderr)
+        raise SystemExit(1)
+    print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {out}/session*.mcap"
+          + (f"; screenshot {screenshot}" if screenshot is not None else ""))

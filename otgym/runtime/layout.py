@@ -26,6 +26,8 @@ class TaskLayout:
     route_arc_um: np.ndarray
     """(P,) arc length along the route."""
     goal_tolerance_um: float
+    encounter_gap_um: float
+    """An obstacle closer than this to the assembly counts as encountered."""
     escape_distance_um: float
     """The trap law's escape distance: a handle farther than this from its trap is lost."""
     tick_s: float
@@ -66,6 +68,7 @@ def layout_of(task: InteractiveTask) -> TaskLayout:
     return TaskLayout(
         chip=chip, flow_velocity_um_s=flow, route_um=np.asarray(task.route_um, float),
         route_arc_um=np.asarray(task.route_arc_um, float), goal_tolerance_um=float(task.config.goal_tolerance_um),
+        encounter_gap_um=float(task.config.encounter_gap_um),
         escape_distance_um=float(task.config.scene.trap_law.escape_distance), tick_s=float(task.config.tick_s),
         sphere_body=np.asarray(model.sphere_body, int), sphere_radius_um=np.asarray(model.sphere_radius_um, float),
         robots=tuple(int(r) for r in task.scene.robots), payload=int(task.scene.payload),

@@ -18,7 +18,7 @@ safe to read from another thread).
 
 Sink: an object with ``tick(record, sphere_xy_um, mode)``, ``event(name, **fields)``
 and ``close()`` gets every tick and the events ``trial_start`` (trial, scenario, mode,
-the spheres' radii in um), ``mode`` (a switch), ``paused`` / ``resumed`` (trial,
+participant, the spheres' radii in um), ``mode`` (a switch), ``paused`` / ``resumed`` (trial,
 time_s), ``trial_end`` (the trial's row), ``autonomy_lost`` / ``autonomy_back``
 (trial, time_s, mode: the autonomy's dP_r stopped or came back) and ``session_end``:
 the MCAP recording of ``otgym play`` (``otgym.ui.recording``) or the sim node's
@@ -85,6 +85,14 @@ class Snapshot:
     @property
     def time_s(self) -> float:
         return float(self.observation.time_s[0])
+
+
+def smoothed_velocity(previous_um_s: np.ndarray, before_um: np.ndarray, after_um: np.ndarray,
+                      tick_s: float) -> np.ndarray:
+    """The obstacles' velocity estimate after one tick: a first-order low-pass
+    (``OBSTACLE_VELOCITY_SMOOTHING_S``) of their displacement over the tick."""
+    raw = (after_um - before_um) / tick_s
+    return previous_um_s + tick_s / OBSTACLE_VELOCITY_SMOOTHING_S * (raw - previous_um_s)
 
 
 class Session:
@@ -297,9 +305,8 @@ class Session:
         previous = self.snapshot
         velocity = np.zeros_like(obs.obstacle_xy_um[0])
         if before is not None and previous is not None and previous.trial == self.trial:
-            raw = (obs.obstacle_xy_um[0] - before.obstacle_xy_um[0]) / loop.tick_s
-            weight = loop.tick_s / OBSTACLE_VELOCITY_SMOOTHING_S
-            velocity = previous.obstacle_velocity_um_s + weight * (raw - previous.obstacle_velocity_um_s)
+            velocity = smoothed_velocity(previous.obstacle_velocity_um_s, before.obstacle_xy_um[0],
+                                         obs.obstacle_xy_um[0], loop.tick_s)
         metrics = loop.state.metrics
         alpha = record.alpha if record is not None else float(previous.alpha if previous else 0.0)
         self.snapshot = Snapshot(self.trial, self.mode, self.paused, obs, record, loop.sphere_xy_um(), velocity,
@@ -342,7 +349,7 @@ class Session:
         self._publish(None, None)
         if self.sink is not None:
             self.sink.event("trial_start", trial=self.trial, scenario=scenario_seed, mode=self.mode,
-                            sphere_radius_um=self.loop.sphere_radius_um.tolist())
+                            participant=self.participant, sphere_radius_um=self.loop.sphere_radius_um.tolist())
 
     def _set_mode(self, mode: str) -> None:
         self.mode = mode

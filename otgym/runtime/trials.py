@@ -65,6 +65,12 @@ def task_feedback(trap_law, retarget: RetargetConfig, handles_per_robot: int) ->
     return FeedbackConfig(newtons_per_pn=scale, contact_gain_n=scale * contact_limit_pn)
 
 
+def stylus_feedback(task) -> FeedbackConfig:
+    """``task_feedback`` for a person's styluses on ``task`` (``TASK_RETARGET``, the
+    task's handles per robot): what ``otgym play`` and the sim node give each device."""
+    return task_feedback(task.config.scene.trap_law, TASK_RETARGET, int(np.sum(task.trap_robot == task.trap_robot[0])))
+
+
 def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig) -> np.ndarray:
     """alpha (E,) for each environment's mode at its obstacle gap."""
     alpha = np.zeros(len(modes))

@@ -255,8 +255,11 @@ class PlayApp:
         """Draw what changed since the last frame; the rectangles to present (None: the
         whole window)."""
         snapshot = self.session.snapshot
-        if snapshot is None:
-            return []
+        if snapshot is None:  # the whole window says so until the first snapshot, which redraws it all
+            self.screen.fill(BACKGROUND_RGB)
+            self._text("waiting for the simulator ...", (40, 40), TEXT_RGB, "title")
+            self._full_redraw = True
+            return None
         now = time.monotonic()
         rendered = self.local_view.update(snapshot, now)
         fresh = snapshot is not self._drawn_snapshot
@@ -298,7 +301,8 @@ class PlayApp:
                    (150, 16))
         if snapshot.paused:
             self._text("PAUSED (space)", (700, 14), (250, 180, 30), "title")
-        warnings = cues.loss_warnings(self._lost_devices(snapshot), snapshot.autonomy_live, snapshot.mode)
+        warnings = cues.loss_warnings(self._lost_devices(snapshot), snapshot.autonomy_live, snapshot.mode,
+                                      getattr(self.session, "simulator_live", True))
         if warnings:
             self._text("    ".join(warnings), (880, 8), DANGER_RGB, "body")
         self._text("microscope, around the cell", (LOCAL_RECT.left, LOCAL_RECT.top - 20), DIM_TEXT_RGB, "small")

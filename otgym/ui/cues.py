@@ -129,12 +129,13 @@ def format_elapsed(time_s: float) -> str:
     return f"{int(minutes)}:{seconds:04.1f}"
 
 
-def loss_warnings(lost_devices, autonomy_live: bool, mode: str) -> list[str]:
-    """The lines of the loss banner: each device whose link was lost (by name; its
-    robot's input is zero, the traps hold), and the autonomy when its dP_r stopped in
-    a mode that uses it (shared control then runs as manual, autonomous holds the
-    traps: ``InteractiveLoop``'s fallback)."""
-    lines = [f"{name} LOST: its robot holds" for name in lost_devices]
+def loss_warnings(lost_devices, autonomy_live: bool, mode: str, simulator_live: bool = True) -> list[str]:
+    """The lines of the loss banner: the simulator gone (a window on the bus), each
+    device whose link was lost (by name; its robot's input is zero, the traps hold),
+    and the autonomy when its dP_r stopped in a mode that uses it (shared control then
+    runs as manual, autonomous holds the traps: ``InteractiveLoop``'s fallback)."""
+    lines = [] if simulator_live else ["SIMULATOR LOST: waiting for it"]
+    lines += [f"{name} LOST: its robot holds" for name in lost_devices]
     if not autonomy_live and mode == "shared":
         lines.append("AUTONOMY LOST: manual control")
     elif not autonomy_live and mode == "autonomous":

@@ -12,14 +12,13 @@ from otgym.runtime.worker import WorkerParts
 
 def play_setup(chip: str, device: str, recording_path: Path, forwarded, outbox) -> WorkerParts:
     from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
-    from otgym.runtime.trials import TASK_RETARGET, task_feedback
+    from otgym.runtime.trials import stylus_feedback
     from otgym.sim.chip import load_chip
     from otgym.ui.bindings import play_bindings, robot_primaries
     from otgym.ui.recording import SessionRecording
 
     task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=load_chip(chip))))
-    handles_per_robot = int((task.trap_robot == task.trap_robot[0]).sum())
-    feedback = task_feedback(task.config.scene.trap_law, TASK_RETARGET, handles_per_robot)
+    feedback = stylus_feedback(task)
     primaries = robot_primaries(device, list(forwarded))
     recording = SessionRecording(recording_path)
     bindings = recording.wrap(play_bindings(primaries, keyboard=device == "keyboard", feedback=feedback))

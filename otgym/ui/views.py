@@ -330,11 +330,14 @@ class CuePanel:
         y += 26
         # contact force
         contact = float(obs.contact_force_pn[0].max())
-        gauge = cues.contact_gauge(contact, self.contact_limit_pn)
         text("contact force", (x, y), DIM_TEXT_RGB, "small")
-        bar(surface, bar_rect(y - 2), gauge.fraction / self.CONTACT_FULL_SCALE,
-            cues.DANGER_RGB if gauge.over else CELL_RGB, marks=(1.0 / self.CONTACT_FULL_SCALE,))
-        text(f"{contact:4.1f} pN", (x + width - 64, y - 2), TEXT_RGB, "small")
+        if math.isfinite(contact):
+            gauge = cues.contact_gauge(contact, self.contact_limit_pn)
+            bar(surface, bar_rect(y - 2), gauge.fraction / self.CONTACT_FULL_SCALE,
+                cues.DANGER_RGB if gauge.over else CELL_RGB, marks=(1.0 / self.CONTACT_FULL_SCALE,))
+            text(f"{contact:4.1f} pN", (x + width - 64, y - 2), TEXT_RGB, "small")
+        else:  # a window on the bus: the simulator does not publish it
+            text("not on the bus", (x + label_w, y), DIM_TEXT_RGB, "small")
         y += 24
         # haptic force per device
         record = snapshot.record
