@@ -287,3 +287,44 @@ def test_the_keyboard_moves_both_robots_as_a_formation(task):
     first, second = moved[robot == robot[0]].mean(axis=0), moved[robot != robot[0]].mean(axis=0)
     assert first[0] > 0.5 and second[0] > 0.5, moved
     assert abs(first[0] - second[0]) < 0.1 * first[0] and abs(first[1]) < 0.1 * first[0], moved
+
+
+def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_path):
+    """``otgym play``'s arrangement: the session in a worker process, the keyboard read
+    by the window and its samples forwarded. Holding the right arrow moves both robots'
+    traps along +x (manual mode: nothing else moves them); closing the window mid-trial
+    saves the trial as aborted, and its recording ends with it."""
+    import functools
+
+    from otgym.record.mcap_file import read_recording
+    from otgym.record.replay import summary
+    from otgym.runtime.worker import SessionProcess, WorkerSpec
+    from otgym.teleop.device import start_devices
+    from otgym.ui.bindings import window_devices
+    from otgym.ui.play_worker import play_setup
+
+    pygame.init()
+    windowed = window_devices("keyboard")
+    start_devices(windowed)
+    session = SessionProcess(WorkerSpec(functools.partial(play_setup, "default", "keyboard",
+                                                          tmp_path / "session.mcap"),
+                                        "K2", "manual", 3, forwarded_caps=tuple(d.caps for d in windowed)))
+    session.start()
+    try:
+        app = PlayApp(session, tmp_path, window_devices=windowed, questionnaire=False)
+        run_frames(app, 10, 0.02)
+        before = np.array(session.snapshot.observation.trap_xy_um[0])
+        pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RIGHT, mod=0, unicode="", scancode=0))
+        run_frames(app, 40, 0.02)
+        moved = np.array(session.snapshot.observation.trap_xy_um[0]) - before
+        pygame.event.post(pygame.event.Event(pygame.QUIT))
+        app.run()
+    finally:
+        session.finish()
+        pygame.quit()
+    assert np.all(moved[:, 0] > 0.5) and np.all(np.abs(moved[:, 1]) < 0.1 * moved[:, 0]), moved
+    with open(tmp_path / "trials.csv", newline="") as handle:
+        assert [row["ended_by"] for row in csv.DictReader(handle)] == ["aborted"]
+    recorded = summary(read_recording(tmp_path / "session.mcap"))
+    assert recorded["complete"] and recorded["ended_by"] == ["aborted"]
+    assert recorded["counts"]["/otgym/device/device0/twist"] > 20  # the forwarded samples are recorded
