@@ -4,10 +4,13 @@ frames per second, a zenoh node answering the devices) never shares an interpret
 lock with the ticks: each process has a core of its own on a 2-core machine.
 
 Processes: ``SessionProcess(spec).start()`` spawns the worker (``multiprocessing``'s
-spawn context; nothing but two pipes and one shared-memory block: no socket) with XLA
-and the BLAS libraries limited to ``spec.threads`` threads (XLA's CPU client
-otherwise starts a thread per core, which would take the other process's core). The
-worker calls ``spec.setup`` (a picklable callable: the task, the bindings, the sink,
+spawn context; nothing but pipes and shared-memory blocks: no socket) with the BLAS
+and OpenMP libraries limited to ``spec.threads`` threads, so that they do not spin on
+the window's core. XLA's CPU client keeps its own pool of a thread per core whatever
+``XLA_FLAGS`` says (``--xla_cpu_multi_thread_eigen=false`` and
+``intra_op_parallelism_threads=1`` changed neither the pool nor the CPU time with
+jaxlib 0.10.2); it runs the tick's compiled programs one at a time, so the worker uses
+about a third of one core (benchmarks/README.md). The worker calls ``spec.setup`` (a picklable callable: the task, the bindings, the sink,
 the autonomy), starts the session and paces it by the wall clock until it is asked to
 quit, its parent dies, or (without ``hold_between_trials``) its duration is spent.
 
@@ -134,12 +137,8 @@ class WorkerSpec:
 
 
 def thread_limits(threads: int) -> dict[str, str]:
-    """Environment that keeps XLA's CPU client and the BLAS libraries to ``threads`` threads."""
-    flags = os.environ.get("XLA_FLAGS", "")
-    if threads == 1:
-        flags += " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
-    return {"XLA_FLAGS": flags.strip(), "OMP_NUM_THREADS": str(threads), "OPENBLAS_NUM_THREADS": str(threads),
-            "MKL_NUM_THREADS": str(threads)}
+    """Environment that keeps the BLAS and OpenMP libraries to ``threads`` threads."""
+    return {name: str(threads) for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
 
 
 class ForwardedAutonomy:
