@@ -16,17 +16,26 @@
   process, against the reference of the same process with the simulation idle (this
   process asleep), measured first in the same run.
 
+* Compile: the microscope's and the sensor's numba kernels (``cache=True``) compiled
+  from nothing, in CPU seconds, in a fresh interpreter with an empty temporary numba
+  cache (the machine's cache is left alone), and then loaded from that cache by a
+  second fresh interpreter: what a new installation pays once, and every later start.
+
 Warm-up before timing: the task's step and the loop's jitted helpers compile on the
 first ticks, which are not timed.
 
-    python benchmarks/interactive.py [--ticks 1000] [--idle-s 5] [--paced-s 5] [--quick]
+    python benchmarks/interactive.py [--ticks 1000] [--idle-s 5] [--paced-s 5] [--quick] [--no-compile]
 """
 
 from __future__ import annotations
 
 import argparse
 import functools
+import json
 import os
+import subprocess
+import sys
+import tempfile
 import time
 
 import jax
@@ -69,12 +78,40 @@ def physics_reference(task: InteractiveTask, scenario, ticks: int) -> float:
     return (time.perf_counter() - begin) / ticks
 
 
+KERNELS_FIRST_CALLS = """
+import json, time
+import numpy as np
+begin = time.process_time()
+from otgym.sim.microscope import microscope_images
+from otgym.sim.sensor import VisionForceSensor
+imported = time.process_time()
+images = microscope_images(np.zeros((1, 1, 2)), np.ones(1), np.zeros((1, 2)), (8, 8))
+rendered = time.process_time()
+VisionForceSensor().measure(images, np.zeros((1, 2)), 0.1, np.zeros((1, 1, 2)))
+print(json.dumps({"microscope": rendered - imported, "sensor": time.process_time() - rendered}))
+"""
+
+
+def kernel_first_calls_cpu_s() -> tuple[dict, dict]:
+    """CPU seconds of the first microscope and sensor calls in a fresh interpreter with
+    an empty numba cache (compiling), then in another with that cache (loading). The
+    first of them also pays numba's own start-up (about 0.2 s)."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        runs = [subprocess.run([sys.executable, "-c", KERNELS_FIRST_CALLS], env=env, capture_output=True, text=True,
+                               check=True) for _ in range(2)]
+    return tuple(json.loads(run.stdout) for run in runs)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ticks", type=int, default=1000, help="ticks timed back to back")
     parser.add_argument("--idle-s", type=float, default=5.0, help="servo reference with the simulation idle")
     parser.add_argument("--paced-s", type=float, default=5.0, help="simulated seconds of the paced run")
     parser.add_argument("--quick", action="store_true", help="300 ticks, 2 s idle, 2 s paced")
+    parser.add_argument("--no-compile", action="store_true", help="skip timing the numba kernels' compilation")
+    parser.add_argument("--normal-priority", action="store_true",
+                        help="run the servo loop at normal priority (default: it asks for SCHED_FIFO 50)")
     args = parser.parse_args()
     if args.quick:
         args.ticks, args.idle_s, args.paced_s = 300, 2.0, 2.0
@@ -85,9 +122,11 @@ def main():
     tick_s = task.config.tick_s
     hand = SteadyHand(velocity_mm_s=HAND_VELOCITY_MM_S)
     stylus = ServoDevice(functools.partial(SimulatedHapticBackend, hand=hand), SIMULATED_HAPTIC_CAPS,
-                         period_capacity=PERIOD_CAPACITY)
+                         period_capacity=PERIOD_CAPACITY, realtime_priority=None if args.normal_priority else 50)
     loop = InteractiveLoop(task, [DeviceBinding(stylus, (0, 1))], scenario, "shared", seed=0)
     with loop:
+        scheduling = "SCHED_FIFO 50" if stylus.realtime else "normal (" + (
+            "asked" if args.normal_priority else "SCHED_FIFO refused") + ")"
         loop.run(WARM_UP_TICKS * tick_s, realtime=False)
         idle_periods, _ = servo_phase(stylus, lambda: time.sleep(args.idle_s))
         begin = time.perf_counter()
@@ -120,7 +159,8 @@ def main():
     print(f"  paced at real time for {args.paced_s:g} s simulated: {len(paced)} ticks in {paced_wall_s:.2f} s wall "
           f"(simulated / wall = {len(paced) * tick_s / paced_wall_s:.3f}), schedule restarts {late}")
 
-    print(f"servo loop of the simulated stylus in its own process, target {SIMULATED_HAPTIC_CAPS.rate_hz:g} Hz")
+    print(f"servo loop of the simulated stylus in its own process, target {SIMULATED_HAPTIC_CAPS.rate_hz:g} Hz, "
+          f"scheduling {scheduling}")
     print(f"  {'phase':<42} {'periods':>8} {'p50 (ms)':>9} {'p99 (ms)':>9} {'max (ms)':>9} {'p99 ratio':>10}")
     idle_p99 = percentiles_ms(idle_periods)[1]
     for name, periods in (("reference: simulation idle", idle_periods),
@@ -132,6 +172,11 @@ def main():
     worst = max(percentiles_ms(busy_periods)[1], percentiles_ms(paced_periods)[1])
     print(f"  goal p99 <= 1.5 ms with the simulation running: {'met' if worst <= 1.5 else 'not met'} "
           f"(worst p99 {worst:.3f} ms)")
+    if not args.no_compile:
+        cold, cached = kernel_first_calls_cpu_s()
+        print(f"numba kernels, first call in a fresh interpreter (CPU s): compiled from nothing: microscope "
+              f"{cold['microscope']:.2f}, sensor {cold['sensor']:.2f}; loaded from the cache: microscope "
+              f"{cached['microscope']:.3f}, sensor {cached['sensor']:.3f}")
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
 
 

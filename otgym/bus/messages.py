@@ -17,6 +17,18 @@ schema encodings)::
     /otgym/phase                    std_msgs/msg/String           approach, carry or done (every tick)
     /otgym/autonomy/increments      geometry_msgs/msg/PoseArray   the autonomy's dP_r per trap, um
     /otgym/command                  std_msgs/msg/String           a ui node's command to the sim (JSON)
+    /otgym/session                  std_msgs/msg/String           the session's description (JSON), latched
+    /otgym/chip                     sensor_msgs/msg/CompressedImage the chip's image (PNG), latched
+    /otgym/route                    nav_msgs/msg/Path             the planned route, um, chip frame, latched
+
+Latched topics (``LATCHED``: the three above and ``/otgym/mode``) are sent once (per
+session, or when the mode changes and at each trial's start) and kept by their
+publisher for subscribers that join later, as ROS 2's transient-local durability does
+(``otgym.bus.transport``). ``session_messages`` builds the first three from the task:
+the description holds the chip's name, content hash (``Chip.content_hash``) and JSON
+sidecar, the destination's tolerance, the tick, each sphere's kind and which spheres
+are trap handles; with the chip's image and the route, a recording can draw the global
+view without the chip file (``otgym.record.replay``).
 
 Units. Lengths in the chip frame are micrometres (x right, y down, z = 0), as the issue
 asks, not REP 103's metres: a trap moves by fractions of a micrometre. Velocities and
@@ -42,6 +54,7 @@ that fails raises ``MessageError`` with the reason; a subscriber drops and count
 from __future__ import annotations
 
 import dataclasses
+import io
 import json
 import math
 import re
@@ -49,6 +62,7 @@ import struct
 from typing import TYPE_CHECKING
 
 import numpy as np
+from PIL import Image
 from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
 
 from otgym.shared import MODES
@@ -56,6 +70,7 @@ from otgym.teleop.device import Sample
 
 if TYPE_CHECKING:  # the loop imports JAX; a device node need not
     from otgym.runtime.loop import TickRecord
+    from otgym.runtime.task import InteractiveTask
 
 _RULE = "=" * 80
 _HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
@@ -75,6 +90,8 @@ WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 JOY = "sensor_msgs/msg/Joy"
 FLOAT64 = "std_msgs/msg/Float64"
 STRING = "std_msgs/msg/String"
+PATH = "nav_msgs/msg/Path"
+COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 
 SCHEMAS: dict[str, str] = {
     POSE_ARRAY: _schema("std_msgs/Header header\ngeometry_msgs/Pose[] poses\n", _HEADER, _POSE),
@@ -85,6 +102,9 @@ SCHEMAS: dict[str, str] = {
     JOY: _schema("std_msgs/Header header\nfloat32[] axes\nint32[] buttons\n", _HEADER),
     FLOAT64: "float64 data\n",
     STRING: "string data\n",
+    PATH: _schema("std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n", _HEADER,
+                  "MSG: geometry_msgs/PoseStamped\nstd_msgs/Header header\nPose pose\n", _POSE),
+    COMPRESSED_IMAGE: _schema("std_msgs/Header header\nstring format\nuint8[] data\n", _HEADER),
 }
 """ros2msg schema text per type (definitions of ROS 2 Humble's common_interfaces)."""
 
@@ -99,12 +119,21 @@ EVENTS = "/otgym/trial/events"
 PHASE = "/otgym/phase"
 AUTONOMY = "/otgym/autonomy/increments"
 COMMAND = "/otgym/command"
+SESSION = "/otgym/session"
+CHIP = "/otgym/chip"
+ROUTE = "/otgym/route"
 _FIXED_TOPICS = {TRAPS: POSE_ARRAY, BODIES: POSE_ARRAY, ALPHA: FLOAT64, MODE: STRING, EVENTS: STRING,
-                 PHASE: STRING, AUTONOMY: POSE_ARRAY, COMMAND: STRING}
+                 PHASE: STRING, AUTONOMY: POSE_ARRAY, COMMAND: STRING, SESSION: STRING, CHIP: COMPRESSED_IMAGE,
+                 ROUTE: PATH}
 COMMANDS = ("mode", "pause", "resume", "reset", "next_trial", "quit")
 """What a ui node asks of the sim: switch the mode, pause or resume simulated time,
 abandon the trial for the next (R), start the next trial after the questionnaires,
 end the session (the trial under way saved as aborted)."""
+LATCHED = (SESSION, CHIP, ROUTE, MODE)
+"""Topics whose latest message a late subscriber still receives (see the module's docstring)."""
+SPHERE_KINDS = ("robot", "cell", "obstacle", "bead")
+"""Names of ``otgym.physics.bodies.BodyKind`` by value, as the session description gives them."""
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 PHASES = ("approach", "carry", "done")
 """The task's phases by their number (``otgym.runtime.task``'s APPROACH, CARRY, DONE)."""
 MAX_INCREMENT_UM = 100.0
@@ -165,6 +194,9 @@ class Limits:
     axes: int = 64
     string_chars: int = 65536
     frame_chars: int = 256
+    route_poses: int = 1 << 16
+    image_bytes: int = 16 << 20
+    """A chip image's PNG (16 MiB)."""
 
 
 LIMITS = Limits()
@@ -198,6 +230,20 @@ def pose_array(xy_um, stamp_s: float, frame_id: str = "chip") -> bytes:
     poses = [{"position": {"x": float(x), "y": float(y), "z": 0.0},
               "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}} for x, y in xy]
     return encode(POSE_ARRAY, {"header": _header(stamp_s, frame_id), "poses": poses})
+
+
+def path(xy_um, stamp_s: float, frame_id: str = "chip") -> bytes:
+    """nav_msgs Path of points (N, 2) in um (each pose stamped alike, z = 0, identity orientation)."""
+    header = _header(stamp_s, frame_id)
+    poses = [{"header": header, "pose": {"position": {"x": float(x), "y": float(y), "z": 0.0},
+                                         "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+             for x, y in np.asarray(xy_um, float).reshape(-1, 2)]
+    return encode(PATH, {"header": header, "poses": poses})
+
+
+def compressed_png(png: bytes, stamp_s: float, frame_id: str = "chip") -> bytes:
+    """sensor_msgs CompressedImage holding the PNG file ``png`` (format ``png``)."""
+    return encode(COMPRESSED_IMAGE, {"header": _header(stamp_s, frame_id), "format": "png", "data": bytes(png)})
 
 
 def twist(sample: Sample, stamp_s: float, device: str) -> bytes:
@@ -280,15 +326,35 @@ def _xyz(v) -> tuple[float, float, float]:
     return (v.x, v.y, v.z)
 
 
+def _check_poses(poses, topic: str, bound_um: float) -> None:
+    _check_finite_within(topic, "position_um", [_xyz(p.position) for p in poses], bound_um)
+    quaternions = np.array([(*_xyz(p.orientation), p.orientation.w) for p in poses], float).reshape(-1, 4)
+    if not np.isfinite(quaternions).all() or np.any(np.abs(np.linalg.norm(quaternions, axis=1) - 1) > 1e-6):
+        _fail(topic, "orientation is not a unit quaternion")
+
+
 def _check_pose_array(message, topic: str) -> None:
     _check_header(message, topic)
     if len(message.poses) > LIMITS.poses:
         _fail(topic, f"more than {LIMITS.poses} poses")
-    bound = MAX_INCREMENT_UM if topic == AUTONOMY else LIMITS.position_um
-    _check_finite_within(topic, "position_um", [_xyz(p.position) for p in message.poses], bound)
-    quaternions = np.array([(*_xyz(p.orientation), p.orientation.w) for p in message.poses], float).reshape(-1, 4)
-    if not np.isfinite(quaternions).all() or np.any(np.abs(np.linalg.norm(quaternions, axis=1) - 1) > 1e-6):
-        _fail(topic, "orientation is not a unit quaternion")
+    _check_poses(message.poses, topic, MAX_INCREMENT_UM if topic == AUTONOMY else LIMITS.position_um)
+
+
+def _check_path(message, topic: str) -> None:
+    _check_header(message, topic)
+    if len(message.poses) > LIMITS.route_poses:
+        _fail(topic, f"more than {LIMITS.route_poses} poses")
+    for pose in message.poses:
+        _check_header(pose, topic)
+    _check_poses([pose.pose for pose in message.poses], topic, LIMITS.position_um)
+
+
+def _check_compressed_image(message, topic: str) -> None:
+    _check_header(message, topic)
+    if message.format != "png" or bytes(message.data[:8]) != PNG_SIGNATURE:
+        _fail(topic, "the chip's image must be a PNG (format \"png\")")
+    if len(message.data) > LIMITS.image_bytes:
+        _fail(topic, f"image larger than {LIMITS.image_bytes} bytes")
 
 
 def _check_twist(message, topic: str) -> None:
@@ -324,13 +390,15 @@ def _check_string(message, topic: str) -> None:
         _fail(topic, f"unknown mode {message.data[:40]!r}")
     if topic == PHASE and message.data not in PHASES:
         _fail(topic, f"unknown phase {message.data[:40]!r}")
-    if topic == EVENTS:
+    if topic in (EVENTS, SESSION):
         try:
             payload = json.loads(message.data)
         except ValueError:
-            _fail(topic, "event is not JSON")
-        if not isinstance(payload, dict) or not isinstance(payload.get("event"), str):
+            _fail(topic, "not JSON")
+        if topic == EVENTS and (not isinstance(payload, dict) or not isinstance(payload.get("event"), str)):
             _fail(topic, "event must be a JSON object with an \"event\" string")
+        if topic == SESSION:
+            _check_session(payload, topic)
     if topic == COMMAND:
         _check_command(message.data, topic)
 
@@ -349,8 +417,28 @@ def _check_command(text: str, topic: str) -> None:
         _fail(topic, f"unknown mode {str(payload['mode'])[:40]!r}")
 
 
+def _check_session(payload, topic: str) -> None:
+    """The session description's fields that a reader relies on (``session_description``)."""
+    chip = payload.get("chip") if isinstance(payload, dict) else None
+    if not isinstance(chip, dict) or not isinstance(chip.get("name"), str):
+        _fail(topic, "session must be a JSON object with a \"chip\" object naming the chip")
+    if not re.fullmatch(r"[0-9a-f]{64}", str(chip.get("content_hash", ""))):
+        _fail(topic, "chip content_hash must be 64 hex digits (SHA-256)")
+    for key, where in (("pixel_size_um", chip), ("channel_height_um", chip), ("goal_tolerance_um", payload),
+                       ("tick_s", payload)):
+        value = where.get(key)
+        if not isinstance(value, (int, float)) or not (0 < value < LIMITS.position_um):
+            _fail(topic, f"{key} must be a positive number, got {str(value)[:40]}")
+    kinds, handles = payload.get("sphere_kind"), payload.get("handle_spheres")
+    if not isinstance(kinds, list) or len(kinds) > LIMITS.poses or any(k not in SPHERE_KINDS for k in kinds):
+        _fail(topic, f"sphere_kind must list one of {SPHERE_KINDS} per sphere")
+    if not isinstance(handles, list) or any(not isinstance(i, int) or not 0 <= i < len(kinds) for i in handles):
+        _fail(topic, "handle_spheres must list sphere indices")
+
+
 _CHECKS = {POSE_ARRAY: _check_pose_array, TWIST_STAMPED: _check_twist, WRENCH_STAMPED: _check_wrench,
-           JOY: _check_joy, FLOAT64: _check_float64, STRING: _check_string}
+           JOY: _check_joy, FLOAT64: _check_float64, STRING: _check_string, PATH: _check_path,
+           COMPRESSED_IMAGE: _check_compressed_image}
 
 
 # --- back to otgym's objects -----------------------------------------------------------
@@ -392,14 +480,44 @@ def sample_from(twist_message, buttons: int, time_s: float, sequence: int) -> Sa
     return Sample(time_s, sequence, np.zeros(3), velocity_mm_s(twist_message), buttons)
 
 
-def tick_messages(record: TickRecord, devices: list[str], sphere_xy_um, mode: str,
-                  stamp_s: float) -> list[tuple[str, bytes]]:
+def tick_messages(record: TickRecord, devices: list[str], sphere_xy_um, stamp_s: float,
+                  mode: str | None = None) -> list[tuple[str, bytes]]:
     """(topic, CDR) of what the simulator publishes after one tick: traps, phase, alpha,
-    mode, bodies (every sphere's centre; after the others, so that a subscriber that acts
-    on it has seen the tick's traps and phase, or at worst the previous tick's) and the
-    feedback force for each device (``devices`` in the order of the record's
-    ``feedback_n`` rows)."""
+    the mode only when ``mode`` is given (the caller gives it at a trial's first tick and
+    when it changes: ``/otgym/mode`` is latched, not sent every tick), bodies (every
+    sphere's centre; after the others, so that a subscriber that acts on it has seen the
+    tick's traps and phase, or at worst the previous tick's) and the feedback force for
+    each device (``devices`` in the order of the record's ``feedback_n`` rows)."""
     messages = [(TRAPS, pose_array(record.trap_xy_um, stamp_s)), (PHASE, string(PHASES[record.phase])),
-                (ALPHA, float64(record.alpha)), (MODE, string(mode)), (BODIES, pose_array(sphere_xy_um, stamp_s))]
+                (ALPHA, float64(record.alpha))]
+    messages += [] if mode is None else [(MODE, string(mode))]
+    messages += [(BODIES, pose_array(sphere_xy_um, stamp_s))]
     messages += [(feedback_topic(name), wrench(force, stamp_s, name)) for name, force in zip(devices, record.feedback_n)]
     return messages
+
+
+def session_description(task: InteractiveTask, devices: list[str]) -> dict:
+    """The JSON object of ``/otgym/session`` for ``task``: ``chip`` (the sidecar's
+    fields, ``Chip.metadata``, and ``content_hash``), ``goal_tolerance_um``, ``tick_s``,
+    ``sphere_kind`` (one of ``SPHERE_KINDS`` per sphere, the order of ``/otgym/bodies``),
+    ``handle_spheres`` (the spheres the traps hold, in trap order) and ``devices``."""
+    model = task.scene.model
+    return {"chip": {**task.chip.metadata(), "content_hash": task.chip.content_hash},
+            "goal_tolerance_um": float(task.config.goal_tolerance_um), "tick_s": float(task.config.tick_s),
+            "sphere_kind": [SPHERE_KINDS[int(model.body_kinds[b])] for b in model.sphere_body],
+            "handle_spheres": [int(i) for i in task.trap_sphere], "devices": list(devices)}
+
+
+def chip_png(chip) -> bytes:
+    """The chip's image as an 8-bit gray PNG (``otgym.sim.chip.save_chip``'s encoding)."""
+    buffer = io.BytesIO()
+    Image.fromarray(np.round(np.asarray(chip.image) * 255).astype(np.uint8), mode="L").save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def session_messages(task: InteractiveTask, devices: list[str], stamp_s: float) -> list[tuple[str, bytes]]:
+    """(topic, CDR) of what describes a session, sent once at its start (latched):
+    ``/otgym/session`` (``session_description``), ``/otgym/chip`` (``chip_png``) and
+    ``/otgym/route`` (the planned route, um)."""
+    return [(SESSION, string(json.dumps(session_description(task, devices), sort_keys=True))),
+            (CHIP, compressed_png(chip_png(task.chip), stamp_s)), (ROUTE, path(task.route_um, stamp_s))]

@@ -41,17 +41,26 @@ from otgym.teleop.takeover import TakeoverDevice
 
 class BusSink:
     """A session's ticks and events as the sim publishes them, handed to ``send`` as
-    lists of (topic, CDR): every tick's traps, phase, alpha, mode and bodies
-    (``messages.tick_messages``; each device's feedback is its ``RemoteDevice`` 's to
-    publish), every event on ``/otgym/trial/events``."""
+    lists of (topic, CDR): the session's description, chip and route once at its start
+    (latched topics), every tick's traps, phase, alpha and bodies, the mode at a trial's
+    first tick and when it changes (``messages.tick_messages``; each device's feedback
+    is its ``RemoteDevice`` 's to publish), every event on ``/otgym/trial/events``."""
 
     def __init__(self, send: Callable[[list[tuple[str, bytes]]], None]):
         self.send = send
+        self._mode_sent: str | None = None
+
+    def describe(self, task) -> None:
+        self.send(msg.session_messages(task, [], time.time()))
 
     def tick(self, record, sphere_xy_um, mode: str) -> None:
-        self.send(msg.tick_messages(record, [], sphere_xy_um, mode=mode, stamp_s=time.time()))
+        changed = mode if mode != self._mode_sent else None
+        self._mode_sent = mode
+        self.send(msg.tick_messages(record, [], sphere_xy_um, stamp_s=time.time(), mode=changed))
 
     def event(self, name: str, **fields) -> None:
+        if name == "trial_start":
+            self._mode_sent = None
         self.send([(msg.EVENTS, msg.event(name, **fields))])
 
     def close(self) -> None:
@@ -133,7 +142,6 @@ def run_sim_node(node: Node, task, devices: list[str], mode: str, seed: int, sto
     sink = BusSink(lambda messages: [node.publish(topic, data) for topic, data in messages])
     session = Session(task, plan_bindings(plan, remotes, stylus_feedback(task)), participant, mode, seed, duration_s,
                       sink=sink, autonomy=autonomy, hold_between_trials=hold_between_trials)
-    node.publish(msg.MODE, msg.string(mode))
     follow_commands(node, session, stop.set)
     session.start()
     try:
@@ -189,7 +197,6 @@ def serve_sim_node(node: Node, devices: list[str], mode: str, seed: int, stop: t
 
     events = threading.Thread(target=serve, name="otgym-sim-events", daemon=True)
     try:
-        node.publish(msg.MODE, msg.string(mode))
         for index, remote in enumerate(remotes):
             remote.on_sample = functools.partial(session.feed, index)
             remote.start()

@@ -10,8 +10,10 @@ an ephemeral loopback port and connects to the simulator's endpoint, retried eve
 is found again; gossip scouting (on by default) tells peers each other's loopback
 listeners, so they stay meshed while the simulator is away. ``--listen``/``--connect``
 replace these endpoints (another machine's address to span machines); a zenoh
-configuration file (``config_file``) adds TLS or user/password authentication, its own
-endpoints kept unless given.
+configuration file (``config_file``) adds TLS or user/password authentication. What the
+file sets (endpoints, multicast scouting) is kept unless ``--listen``/``--connect`` are
+given; what it leaves out gets the loopback defaults above, never zenoh's own (which
+listen on every interface and scout by multicast).
 
 Keys. A ROS 2 topic ``/otgym/traps`` travels on the zenoh key ``otgym/traps`` (the
 leading slash dropped); payloads are the messages' CDR bytes. A node declares the
@@ -19,6 +21,20 @@ liveliness token ``otgym/node/<role>/<name>``; zenoh withdraws it when the sessi
 closes or its link drops (a killed process's sockets close at once, so peers hear of
 it within milliseconds: ``benchmarks/bus.py`` measures it), which is how a simulator
 learns that a device node died.
+
+Latched topics (``messages.LATCHED``: the session's description, chip and route, and
+the mode) are published through zenoh-ext's ``AdvancedPublisher`` with a cache of the
+last message, and ``subscribe`` to such a topic (or to a pattern with ``*``) declares an
+``AdvancedSubscriber`` that asks the publishers' caches for history, also from
+publishers that appear later: a recorder or window that joins a running simulator
+still gets the chip, the route and the current mode. This is how rmw_zenoh carries ROS 2's
+transient-local durability; it needs zenoh's timestamping, which every node's
+configuration turns on.
+
+Congestion. A stream's publisher (every tick's messages, device twists) is express
+and drops a message that waits longer than ``WAIT_BEFORE_DROP_US`` (one tick) for room;
+trial events and commands (``NOT_TO_DROP``) and the latched topics block instead, so
+none of them is lost. A configuration file's own ``wait_before_drop`` is kept.
 
 Checks. ``subscribe`` decodes and checks each payload (``messages.decode``) before the
 callback sees it; a malformed one is dropped and counted in ``dropped`` (per topic),
@@ -33,11 +49,20 @@ import threading
 from typing import Callable
 
 import zenoh
+import zenoh.ext
 
 from otgym.bus import messages as msg
 
 SIM_ENDPOINT = "tcp/127.0.0.1:7447"
 EPHEMERAL_ENDPOINT = "tcp/127.0.0.1:0"
+WAIT_BEFORE_DROP_US = 20_000
+"""How long a publisher of a stream (every tick's traps, bodies, alpha, feedback,
+twists) waits for room in a congested queue before it drops the message: one tick.
+zenoh's default, 1 ms, lost 1-2 % of ticks' messages on a loaded 2-core machine; a
+message later than a tick is stale anyway."""
+NOT_TO_DROP = (msg.EVENTS, msg.COMMAND)
+"""Topics whose every message matters (trial events carry the trials' rows, commands
+change the session): their publishers block when congested instead of dropping."""
 ROLES = ("sim", "device", "autonomy", "recorder", "ui")
 log = logging.getLogger(__name__)
 
@@ -57,15 +82,20 @@ def zenoh_config(role: str, listen: list[str] | None = None, connect: list[str] 
     if role not in ROLES:
         raise ValueError(f"unknown node role {role!r}; choose one of {', '.join(ROLES)}")
     config = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
+    unset = zenoh.Config()  # what a file leaves out reads as zenoh's defaults: replaced by ours below
     default_listen = [SIM_ENDPOINT] if role == "sim" else [EPHEMERAL_ENDPOINT]
     default_connect = [] if role == "sim" else [SIM_ENDPOINT]
     config.insert_json5("mode", '"peer"')
-    if listen or not config_file:
-        config.insert_json5("listen/endpoints", json.dumps(list(listen or default_listen)))
-    if connect or not config_file:
-        config.insert_json5("connect/endpoints", json.dumps(list(connect or default_connect)))
-    if not config_file:
+    config.insert_json5("timestamping/enabled", "true")  # latched topics' publishers need it
+    for key, given, default in (("listen/endpoints", listen, default_listen),
+                                ("connect/endpoints", connect, default_connect)):
+        if given or config.get_json(key) == unset.get_json(key):
+            config.insert_json5(key, json.dumps(list(given or default)))
+    if config.get_json("scouting/multicast/enabled") == unset.get_json("scouting/multicast/enabled"):
         config.insert_json5("scouting/multicast/enabled", "false")
+    drop_key = "transport/link/tx/queue/congestion_control/drop/wait_before_drop"
+    if config.get_json(drop_key) == unset.get_json(drop_key):
+        config.insert_json5(drop_key, str(WAIT_BEFORE_DROP_US))
     config.insert_json5("connect/retry",
                         '{"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 2}')
     return config
@@ -90,17 +120,29 @@ class Node:
         """Checked messages passed on, per topic."""
 
     def publish(self, topic: str, data: bytes) -> None:
+        """Send ``data`` on ``topic``; a latched topic's publisher keeps the last message
+        for subscribers that join later (see the module's docstring)."""
         publisher = self._publishers.get(topic)
         if publisher is None:
-            publisher = self.session.declare_publisher(key_of(topic), congestion_control=zenoh.CongestionControl.DROP,
-                                                       express=True)
+            if topic in msg.LATCHED:
+                publisher = zenoh.ext.declare_advanced_publisher(  # rare and not to be lost: blocks when congested
+                    self.session, key_of(topic), congestion_control=zenoh.CongestionControl.BLOCK,
+                    cache=zenoh.ext.CacheConfig(1), publisher_detection=True)
+            elif topic in NOT_TO_DROP:
+                publisher = self.session.declare_publisher(key_of(topic),
+                                                           congestion_control=zenoh.CongestionControl.BLOCK)
+            else:
+                publisher = self.session.declare_publisher(
+                    key_of(topic), congestion_control=zenoh.CongestionControl.DROP, express=True)
             self._publishers[topic] = publisher
         publisher.put(data)
 
     def subscribe(self, topic_pattern: str, callback: Callable[[str, object, bytes], None]) -> None:
         """Call ``callback(topic, message, data)`` for each checked message on topics
         matching ``topic_pattern`` (a topic, or a zenoh key expression with ``*``/``**``
-        written with the leading slash); malformed messages are dropped and counted."""
+        written with the leading slash); malformed messages are dropped and counted. A
+        latched topic, or a pattern, also receives the latest message of each latched
+        publisher, however late either side joins."""
 
         def on_sample(sample: zenoh.Sample) -> None:
             topic = topic_of(str(sample.key_expr))
@@ -117,7 +159,12 @@ class Node:
                 self.received[topic] = self.received.get(topic, 0) + 1
             callback(topic, message, data)
 
-        self._handles.append(self.session.declare_subscriber(key_of(topic_pattern), on_sample))
+        if topic_pattern in msg.LATCHED or "*" in topic_pattern:
+            history = zenoh.ext.HistoryConfig(detect_late_publishers=True)
+            self._handles.append(zenoh.ext.declare_advanced_subscriber(self.session, key_of(topic_pattern), on_sample,
+                                                                       history=history))
+        else:
+            self._handles.append(self.session.declare_subscriber(key_of(topic_pattern), on_sample))
 
     def watch(self, role: str, on_change: Callable[[str, bool], None]) -> None:
         """``on_change(name, alive)`` whenever a node of ``role`` appears or goes away

@@ -1,9 +1,11 @@
-"""``otgym replay FILE.mcap``: a recording's summary, and PNG frames of its global
-view (``otgym.record.replay``) with ``--out``. A file whose writer died reads up to
-its last complete chunk and is reported as truncated."""
+"""``otgym replay FILE.mcap``: a recording's summary; with ``--out`` PNG frames of its
+global view, with ``--video`` an MP4 of it (``otgym.record``). A file whose writer
+died reads up to its last complete chunk and is reported as truncated; a recording
+without its chip (made before chips were recorded) replays with a one-line note."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import typer
@@ -13,20 +15,35 @@ def register(app: typer.Typer) -> None:
     @app.command("replay")
     def replay(
         file: Path = typer.Argument(..., help="An MCAP recording (otgym play's session.mcap or a recorder node's)."),
-        out: Path = typer.Option(None, "--out", help="Folder for PNG frames of the global view (none without it)."),
-        every: int = typer.Option(25, "--every", help="One frame per this many ticks (25: 0.5 s at 50 Hz)."),
+        out: Path = typer.Option(None, "--out", help="Folder for PNG frames of the global view (none without it); "
+                                                     "with --video, the folder for the MP4."),
+        every: int = typer.Option(25, "--every", help="PNG frames: one per this many ticks (25: 0.5 s at 50 Hz)."),
+        video: bool = typer.Option(False, "--video", help="Write an MP4 (H.264) instead of PNG frames: FILE's name "
+                                                          "with .mp4, beside FILE or in --out."),
+        fps: float = typer.Option(25.0, "--fps", help="Video frames per second."),
+        speed: float = typer.Option(1.0, "--speed", help="Video speed: 1 plays simulated time in real time."),
+        width: int = typer.Option(960, "--width", help="Frame width in pixels (the height follows the chip)."),
     ) -> None:
-        """Print a recording's duration, messages per topic and trials; with --out, draw frames."""
+        """Print a recording's duration, messages per topic and trials; with --out, draw
+        frames of the global view; with --video, encode them as an MP4."""
+        from rich.console import Console
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
         from otgym.experiments.output_folder import check_out_dir
+        from otgym.record.frames import render_frames
         from otgym.record.mcap_file import read_recording
-        from otgym.record.replay import render_frames, summary
+        from otgym.record.replay import session_scene, summary
+        from otgym.record.video import frame_ticks, write_video
 
         if not file.is_file():
             raise FileNotFoundError(f"no recording {file}")
         if every < 1:
             raise ValueError(f"--every must be a positive number of ticks, got {every}")
-        if out is not None:
-            check_out_dir(out)
+        if not 64 <= width <= 7680:
+            raise ValueError(f"--width must lie in [64, 7680] pixels, got {width}")
+        frame_ticks(1, 0.02, fps, speed)  # checks --fps and --speed before any work
+        if out is not None or video:
+            check_out_dir(out if out is not None else file.parent)  # writable, before any work
         recording = read_recording(file)
         info = summary(recording)
         state = "complete" if info["complete"] else "truncated (its writer stopped early; read to its last chunk)"
@@ -35,6 +52,29 @@ def register(app: typer.Typer) -> None:
             print(f"  {topic:40s} {count:8d}")
         print(f"trials: {info['trials']} started, {len(info['ended_by'])} finished"
               + (f" ({', '.join(str(e) for e in info['ended_by'])})" if info["ended_by"] else ""))
-        if out is not None:
-            frames = render_frames(recording, out, every)
-            print(f"wrote {len(frames)} frame(s) to {out}")
+        if out is None and not video:
+            return
+        scene = session_scene(recording)
+        print(f"note: {scene.chip_note}" if scene.chip_note else f"chip: {scene.chip.name}")
+        console = Console()
+        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} frames"),
+                   TimeElapsedColumn())
+        started = time.perf_counter()
+        with Progress(*columns, console=console, transient=True) as progress:
+            bar = progress.add_task("encoding" if video else "drawing", total=None)
+
+            def report(done: int, total: int) -> None:
+                progress.update(bar, completed=done, total=total)
+
+            if video:
+                target = (out if out is not None else file.parent) / f"{file.stem}.mp4"
+                made = write_video(recording, target, fps, speed, width, report)
+            else:
+                frames = render_frames(recording, out, every, width, report)
+        wall_s = time.perf_counter() - started
+        if video:
+            print(f"wrote {target}: {made['frames']} frames, {made['width']}x{made['height']}, H.264 at "
+                  f"{made['fps']:g} fps ({made['simulated_s']:.2f} s of simulated time at {speed:g}x) in "
+                  f"{wall_s:.1f} s")
+        else:
+            print(f"wrote {len(frames)} frame(s) to {out} in {wall_s:.1f} s")

@@ -1,4 +1,7 @@
-"""``otgym study analyze``: Fig. 8 and the questionnaire scores from recorded study sessions."""
+"""``otgym study analyze``: Fig. 8 and the questionnaire scores from recorded study
+sessions: folders with ``trials.csv``, or MCAP recordings (a ``session.mcap`` file, or
+a folder of ``session*.mcap`` without ``trials.csv``), whose ``trial_end`` events carry
+the trials' rows (``otgym.record.trials``)."""
 
 from __future__ import annotations
 
@@ -13,9 +16,10 @@ def register(app: typer.Typer) -> None:
 
     @study.command("analyze")
     def analyze(
-        dirs: list[Path] = typer.Argument(..., help="Session folders, each with trials.csv and, where answers "
-                                                    "were given, questionnaires.csv; participant ids unique "
-                                                    "across folders."),
+        sources: list[Path] = typer.Argument(..., help="Session folders (trials.csv and, where answers were "
+                                                       "given, questionnaires.csv; without trials.csv, its "
+                                                       "session*.mcap recordings) or MCAP files; participant "
+                                                       "ids unique across them."),
         out: Path = typer.Option(..., "--out", help="Folder for fig8.png, questionnaire_scores.csv, summary.md, "
                                                     "summary.csv, stats.json, analysis.json."),
     ) -> None:
@@ -24,11 +28,30 @@ def register(app: typer.Typer) -> None:
         from otgym.experiments.output_folder import check_out_dir
         from otgym.study.analyze import analyze as run
 
-        for folder in dirs:  # before touching --out
-            if not folder.is_dir():
-                raise FileNotFoundError(f"no study folder {folder}")
+        tables = [_source(path) for path in sources]  # before touching --out
         check_out_dir(out)
-        result = run(dirs, out)
+        result = run(tables, out)
         print((out / "summary.md").read_text())
         print(f"panels: {'; '.join(result['panels'])}")
         print(f"wrote {out}/fig8.png, questionnaire_scores.csv, summary.md, summary.csv, stats.json, analysis.json")
+
+
+def _source(path: Path):
+    """A folder with trials.csv as it is; MCAP recordings as a ``StudyTable`` of their
+    trial_end rows (a folder's with its questionnaires.csv)."""
+    import pandas as pd
+
+    from otgym.record.trials import SESSION_PATTERN, folder_recordings, trial_rows
+    from otgym.study.analyze import StudyTable
+
+    if path.is_file():
+        return StudyTable(str(path), pd.DataFrame(trial_rows(path)))
+    if not path.is_dir():
+        raise FileNotFoundError(f"no study folder or recording {path}")
+    recordings = folder_recordings(path)
+    if (path / "trials.csv").is_file() or not recordings:
+        return path  # study.analyze reads it (and says so if it has no trials.csv)
+    answers = path / "questionnaires.csv"
+    rows = [row for recording in recordings for row in trial_rows(recording)]
+    print(f"{path}: trials from {', '.join(r.name for r in recordings)} (no trials.csv; pattern {SESSION_PATTERN})")
+    return StudyTable(str(path), pd.DataFrame(rows), answers if answers.is_file() else None)

@@ -21,6 +21,10 @@ The chip's flow and wall distance are sampled every ``model.field_refresh`` step
 (default every step); in between the flow is held and the wall distance is carried to
 first order along the sampled normal, which costs nothing in accuracy while a body
 moves far less than a pixel between samples (a 1 um sphere diffuses 7 nm per 0.1 ms).
+The flow's drag on each body is computed at the sample in the body's frame and turned
+with the body's angle at every step in between (the flow as the body sees it is that
+of the sample's angle: a robot turns by about 3 mrad in 1 ms of rotational diffusion),
+so the per-sphere multiblob weights cost once per sample, not once per step.
 
 ``control_step`` runs ``model.substeps`` steps with ``lax.scan`` and reports what the
 tasks need: contact forces per body pair (pN, net force averaged over the control
@@ -117,8 +121,9 @@ def _sample_fields(model: Model, x, y):
     return flow + walls + (x, y)
 
 
-def _flow_drag(model: Model, theta, fields):
-    """Generalised drag (3 arrays (B, E)) of the flow on each body held still.
+def _body_frame_flow_drag(model: Model, theta, fields):
+    """Generalised drag (3 arrays (B, E)) of the flow on each body held still, in the
+    body frame (force along the body's axes, torque), for bodies at angles ``theta``.
 
     Uniform flow: the body's translational resistance, no torque about its centre.
     Otherwise the multiblob weights applied to the sampled flow and half its vorticity
@@ -127,21 +132,22 @@ def _flow_drag(model: Model, theta, fields):
         velocity = model.flow.velocity.astype(theta.dtype)
         to_body_x, to_body_y = rotate_body_frame(-theta, velocity[0], velocity[1])
         resistance = model.body_translational_resistance_pn_s_per_um[:, :, :, None]
-        force_x, force_y = rotate_body_frame(theta, resistance[:, 0, 0] * to_body_x + resistance[:, 0, 1] * to_body_y,
-                                             resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y)
-        return force_x, force_y, jnp.zeros_like(theta)
+        return (resistance[:, 0, 0] * to_body_x + resistance[:, 0, 1] * to_body_y,
+                resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y, jnp.zeros_like(theta))
     sphere_theta = theta[np.asarray(model.sphere_body, dtype=int)]
     u_x, u_y = rotate_body_frame(-sphere_theta, fields[0], fields[1])
     spin = fields[2] / 2
     weight = model.sphere_flow_weight[:, :, :, None]
     per_sphere = [weight[:, row, 0] * u_x + weight[:, row, 1] * u_y + weight[:, row, 2] * spin for row in range(3)]
     to_body = model.body_of_sphere.T
-    force_x, force_y = rotate_body_frame(theta, to_body @ per_sphere[0], to_body @ per_sphere[1])
-    return force_x, force_y, to_body @ per_sphere[2]
+    return to_body @ per_sphere[0], to_body @ per_sphere[1], to_body @ per_sphere[2]
 
 
-def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields):
+def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields, body_drag):
     """Generalised forces (3 arrays (B, E)) and the contact details for reporting.
+
+    ``body_drag`` is the flow's drag in the body frame (``_body_frame_flow_drag``),
+    computed with the fields; it is turned with each body's present angle.
 
     ``fields`` is a ``_sample_fields`` result from at most ``model.field_refresh`` steps
     ago: the flow is held, the wall distance is carried to the current positions to
@@ -184,19 +190,20 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields):
         wall_touch = (wall_contact > 0) & dynamic
     torque = lever_x * fy - lever_y * fx
     to_body = model.body_of_sphere.T
-    flow_x, flow_y, flow_torque = _flow_drag(model, theta, fields)
+    flow_x, flow_y = rotate_body_frame(theta, body_drag[0], body_drag[1])
+    flow_torque = body_drag[2]
     generalised = (to_body @ fx + flow_x + external[0], to_body @ fy + flow_y + external[1],
                    to_body @ torque + flow_torque + external[2])
     return generalised, contact_x, contact_y, wall_touch, overlap_max, trap_distance
 
 
-def _substep(model: Model, controls, trap_start, fields, carry, inputs):
+def _substep(model: Model, controls, trap_start, fields, body_drag, carry, inputs):
     noise, index = inputs
     (px, py, theta, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
      distance_max, overlap_max) = carry
     trap_vx, trap_vy, body_velocity, external = controls
     (gx, gy, gt), cx, cy, wall_touch, overlap, distance = _forces(
-        model, px, py, theta, trap_x, trap_y, external, fields)
+        model, px, py, theta, trap_x, trap_y, external, fields, body_drag)
     kinematic = model.kinematic_mask
     dt = model.dt_s
     # translational step in the body frame: A^-1 (R^T F) dt + sqrt(2 kT dt) L xi, then back to the lab
@@ -252,15 +259,19 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     refresh = model.field_refresh
     blocks = model.substeps // refresh
 
-    def block(carry, inputs):
+    def sample(carry):
         x, y, _, _ = _sphere_xy(model, carry[0], carry[1], carry[2])
         fields = _sample_fields(model, x, y)
-        return jax.lax.scan(lambda c, i: _substep(model, step_controls, trap_start, fields, c, i), carry, inputs)
+        return fields, _body_frame_flow_drag(model, carry[2], fields)
+
+    def block(carry, inputs):
+        fields, body_drag = sample(carry)
+        return jax.lax.scan(lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, i),
+                            carry, inputs)
 
     if refresh == 1:  # one flat loop: a scan of one-step blocks costs a loop level per step
         def single(carry, inputs):
-            x, y, _, _ = _sphere_xy(model, carry[0], carry[1], carry[2])
-            return _substep(model, step_controls, trap_start, _sample_fields(model, x, y), carry, inputs)
+            return _substep(model, step_controls, trap_start, *sample(carry), carry, inputs)
 
         carry, _ = jax.lax.scan(single, carry, (noise, jnp.arange(model.substeps)))
     else:

@@ -1,27 +1,42 @@
-"""A recording read back: its summary (duration, messages per topic, trials) and
-frames of the global view drawn from its messages.
+"""A recording read back: its summary (duration, messages per topic, trials), the
+scene it shows (``SessionScene``: chip, route, what each sphere is) and its ticks
+(``ticks``: the state after each tick, for frames and video, ``otgym.record.frames``).
 
 Messages are decoded with the schema text stored in the file (mcap-ros2-support's
-dynamic decoder), so any ROS 2 recording with these topics reads the same way. A
-frame is drawn for every ``every``-th ``/otgym/bodies`` message: each sphere (its
-centre from ``/otgym/bodies``, its radius from the latest ``trial_start`` event's
-``sphere_radius_um``) as a grey disc, the traps (``/otgym/traps``, the latest at that
-time) as red crosses, on a white field fitted to every body of the recording, 4 px per
-um by default, with the trial, the time and alpha written in the corner.
+dynamic decoder), so any ROS 2 recording with these topics reads the same way.
+
+The scene comes from the latched messages a session starts with (``otgym.bus.messages``:
+``/otgym/session``, ``/otgym/chip``, ``/otgym/route``). The chip is rebuilt from its
+recorded PNG and sidecar fields and checked against the recorded content hash; a
+recording that names a shipped chip but lacks its image falls back to the shipped chip
+when the hashes agree. A recording made before chips were recorded has none of these
+messages: its scene has no chip, no route and unknown sphere kinds, and ``chip_note``
+says so in one line.
+
+A tick is one ``/otgym/bodies`` message (every sphere's centre) with the latest traps,
+alpha and mode before it, the trial of the latest ``trial_start`` event (which also
+gives the spheres' radii) and the time in the trial: ticks since that event times the
+tick (``tick_s`` of the description; else the median interval between bodies messages).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import io
 import json
-from pathlib import Path
+from typing import Callable, Iterator
 
 import numpy as np
 from mcap_ros2._dynamic import generate_dynamic
-from PIL import Image, ImageDraw
+from PIL import Image, UnidentifiedImageError
 
-from otgym.record.mcap_file import Recording
+from otgym.record.mcap_file import RecordedMessage, Recording
 
-TRAPS, BODIES, ALPHA, EVENTS = "/otgym/traps", "/otgym/bodies", "/otgym/shared/alpha", "/otgym/trial/events"
+TRAPS, BODIES, ALPHA, MODE, EVENTS = "/otgym/traps", "/otgym/bodies", "/otgym/shared/alpha", "/otgym/mode", \
+    "/otgym/trial/events"
+SESSION, CHIP, ROUTE = "/otgym/session", "/otgym/chip", "/otgym/route"
+DEFAULT_TICK_S = 0.02
+"""The interactive task's tick, for a recording with a single tick to measure."""
 
 
 class Decoder:
@@ -30,7 +45,7 @@ class Decoder:
     def __init__(self):
         self._decoders = {}
 
-    def __call__(self, message):
+    def __call__(self, message: RecordedMessage):
         decoder = self._decoders.get(message.type_name)
         if decoder is None:
             decoder = generate_dynamic(message.type_name, message.schema_text)[message.type_name]
@@ -59,53 +74,130 @@ def summary(recording: Recording) -> dict:
     }
 
 
-def _xy(message) -> np.ndarray:
-    return np.array([(p.position.x, p.position.y) for p in message.poses], float).reshape(-1, 2)
+def xy_um(poses) -> np.ndarray:
+    """(N, 2) positions in um of a list of poses."""
+    return np.array([(p.position.x, p.position.y) for p in poses], float).reshape(-1, 2)
 
 
-def render_frames(recording: Recording, out_dir: Path, every: int = 25, px_per_um: float = 4.0) -> list[Path]:
-    """PNG frames ``frame_00000.png``... of the global view into ``out_dir``."""
-    if every < 1:
-        raise ValueError(f"every must be a positive number of ticks, got {every}")
+@dataclasses.dataclass(frozen=True)
+class SessionScene:
+    """What a recording says about its scene. ``chip`` None: not recorded (or not
+    rebuilt: ``chip_note`` says why); ``route_um`` (M, 2) or None; ``sphere_kind`` one
+    ``BodyKind`` value per sphere, -1 where unknown; ``tick_s`` the simulation's tick."""
+
+    chip: object | None  # otgym.sim.chip.Chip
+    chip_note: str | None
+    route_um: np.ndarray | None
+    goal_tolerance_um: float | None
+    sphere_kind: np.ndarray
+    handle_spheres: np.ndarray
+    tick_s: float
+
+
+_KIND_VALUES = {"robot": 0, "cell": 1, "obstacle": 2, "bead": 3}  # otgym.physics.bodies.BodyKind
+
+
+def _first(recording: Recording, topic: str) -> RecordedMessage | None:
+    found = recording.topic(topic)
+    return found[0] if found else None
+
+
+def _measured_tick_s(recording: Recording) -> float:
+    times = np.array([m.log_time_ns for m in recording.topic(BODIES)], float) * 1e-9
+    steps = np.diff(times)
+    steps = steps[steps > 0]
+    return float(np.median(steps)) if len(steps) else DEFAULT_TICK_S
+
+
+def _rebuild_chip(description: dict, png_message, decode: Decoder):
+    """(chip, note): the chip from its recorded image and sidecar fields, else the
+    shipped chip of that name with the recorded content hash, else None and why."""
+    from otgym.sim.chip import CHIP_DATA_DIR, Chip, Port, load_chip
+
+    fields = description["chip"]
+    name, recorded_hash = fields["name"], fields["content_hash"]
+    if png_message is not None:
+        try:
+            with Image.open(io.BytesIO(bytes(decode(png_message).data))) as picture:
+                image = np.asarray(picture.convert("L"), np.float32) / 255.0
+            chip = Chip(name, image, fields["pixel_size_um"], fields["channel_height_um"],
+                        tuple(Port(**port) for port in fields.get("ports", ())))
+        except (UnidentifiedImageError, OSError, TypeError, ValueError) as error:
+            return None, f"the recorded image of chip {name!r} does not load ({error})"
+        if chip.content_hash != recorded_hash:
+            return chip, (f"the recorded image of chip {name!r} differs from the simulated chip (content hash "
+                          f"{chip.content_hash[:12]} is not {recorded_hash[:12]}: an image not in 8-bit gray?)")
+        return chip, None
+    if (CHIP_DATA_DIR / f"{name}.png").is_file():
+        shipped = load_chip(name)
+        if shipped.content_hash == recorded_hash:
+            return shipped, None
+        return None, f"chip {name!r}'s image is not recorded and the shipped chip of that name differs from it"
+    return None, f"chip {name!r}'s image is not recorded and no shipped chip has that name"
+
+
+def session_scene(recording: Recording) -> SessionScene:
+    """The recording's scene (see the module's docstring)."""
     decode = Decoder()
-    bodies = [(m, decode(m)) for m in recording.topic(BODIES)]
-    if not bodies:
-        return []
-    all_xy = np.concatenate([_xy(b) for _, b in bodies])
-    radii: np.ndarray | None = None
-    margin_um = 10.0
-    low, high = all_xy.min(axis=0) - margin_um, all_xy.max(axis=0) + margin_um
-    size = np.maximum(((high - low) * px_per_um).astype(int), 16)
-    traps = alpha = None
-    trial = 0
-    written, index = [], 0
+    described = _first(recording, SESSION)
+    if described is None:
+        return SessionScene(None, "this recording holds no chip (it was made before chips were recorded): "
+                                  "the bodies are drawn on a blank field, without walls or route",
+                            None, None, np.zeros(0, int), np.zeros(0, int), _measured_tick_s(recording))
+    description = json.loads(decode(described).data)
+    chip, note = _rebuild_chip(description, _first(recording, CHIP), decode)
+    route = _first(recording, ROUTE)
+    return SessionScene(chip, note, xy_um([p.pose for p in decode(route).poses]) if route is not None else None,
+                        float(description["goal_tolerance_um"]),
+                        np.array([_KIND_VALUES[k] for k in description["sphere_kind"]], int),
+                        np.asarray(description["handle_spheres"], int), float(description["tick_s"]))
+
+
+@dataclasses.dataclass(frozen=True)
+class Tick:
+    """The state after one tick (see the module's docstring)."""
+
+    index: int
+    """Ticks before this one in the recording."""
+    trial: int
+    time_s: float
+    """Simulated time in the trial."""
+    mode: str | None
+    alpha: float | None
+    trap_xy_um: np.ndarray
+    sphere_xy_um: np.ndarray
+    sphere_radius_um: np.ndarray | None
+
+
+def tick_count(recording: Recording) -> int:
+    return len(recording.topic(BODIES))
+
+
+def ticks(recording: Recording, tick_s: float, wanted: Callable[[int], bool] = lambda index: True) -> Iterator[Tick]:
+    """The ticks whose index ``wanted`` accepts, in order (others are not decoded)."""
+    decode = Decoder()
+    trial, trial_ticks, radii = 0, 0, None
+    traps = alpha = mode = None
+    index = 0
     for message in recording.messages:
         if message.topic == EVENTS:
             payload = json.loads(decode(message).data)
             if payload["event"] == "trial_start":
-                trial = payload["trial"]
+                trial, trial_ticks = payload["trial"], 0
                 radii = np.asarray(payload.get("sphere_radius_um", []), float)
+                mode = payload.get("mode", mode)
+            elif payload["event"] == "mode":
+                mode = payload["mode"]
         elif message.topic == TRAPS:
-            traps = _xy(decode(message))
+            traps = message
         elif message.topic == ALPHA:
-            alpha = decode(message).data
+            alpha = message
+        elif message.topic == MODE:
+            mode = decode(message).data
         elif message.topic == BODIES:
+            trial_ticks += 1
+            if wanted(index):
+                yield Tick(index, trial, trial_ticks * tick_s, mode, decode(alpha).data if alpha else None,
+                           xy_um(decode(traps).poses) if traps else np.zeros((0, 2)), xy_um(decode(message).poses),
+                           radii)
             index += 1
-            if (index - 1) % every:
-                continue
-            image = Image.new("RGB", tuple(int(s) for s in size), "white")
-            draw = ImageDraw.Draw(image)
-            spheres = _xy(decode(message))
-            for i, (x, y) in enumerate((spheres - low) * px_per_um):
-                r = (radii[i] if radii is not None and i < len(radii) else 1.0) * px_per_um
-                draw.ellipse((x - r, y - r, x + r, y + r), fill=(170, 170, 170), outline=(60, 60, 60))
-            for x, y in ((traps - low) * px_per_um if traps is not None else []):
-                draw.line((x - 4, y, x + 4, y), fill=(220, 0, 0), width=2)
-                draw.line((x, y - 4, x, y + 4), fill=(220, 0, 0), width=2)
-            elapsed_s = (message.log_time_ns - recording.messages[0].log_time_ns) * 1e-9
-            label = f"trial {trial}  t {elapsed_s:6.2f} s" + (f"  alpha {alpha:.2f}" if alpha is not None else "")
-            draw.text((4, 4), label, fill=(0, 0, 0))
-            path = Path(out_dir) / f"frame_{len(written):05d}.png"
-            image.save(path)
-            written.append(path)
-    return written

@@ -4,13 +4,22 @@ follows the planned route (the paper's "progressive" autonomy, section II-C).
 * APPROACH: the formation is centred on the cell as the camera sees it now, facing
   along the route, so the robots close in and grip it (the free cell drifts with the
   flow; the formation chases it).
-* CARRY: a commanded arc advances at ``cruise_speed_um_s`` but never more than
-  ``lead_um`` ahead of the cell's own progress (a cell held back by an obstacle, a
-  wall or a person is not left behind). The command is a rate, as the paper's speed
-  control along the path: the motion of the formation's places as the arc advances
-  (feed-forward) plus ``carry_gain_per_s`` times each trap's offset from its place
-  (a correction that removes drift in 1 / gain). A person sharing control holds the
-  assembly back against at most gain * lead (3 um/s), not against a position servo.
+* CARRY: a commanded arc advances at ``cruise_speed_um_s`` but never runs more than
+  ``lead_um`` ahead of the cell's own progress, also when the cell goes back (a cell
+  held back or backed off by an obstacle, a wall or a person is not left behind). The
+  command is a rate, as the paper's speed control along the path: the motion of the
+  formation's places as the arc advances (feed-forward; an arc pulled back with the cell
+  moves nothing) plus ``carry_gain_per_s``
+  times each trap's offset from its place (a correction that removes drift in
+  1 / gain), the formation's common drift capped at ``carry_gain_per_s * lead_um``
+  (3 um/s) and its shape (the robots' places relative to each other, which hold the
+  cell) corrected in full. So a person sharing control who holds the assembly back,
+  backs it away from a threat or
+  steps it aside is opposed by at most 3 um/s, not by a position servo whose pull
+  grows with the distance. (Before the cap the commanded arc never went back and the
+  correction grew without bound: a person backing away from an obstacle at alpha 0.5
+  got about 0.5 um/s of the 4 um/s they commanded, and on development scenario 900003
+  seven of eight simulated participants were hit while backing off.)
 Each trap's increment is capped at ``max_speed_um_s`` times the tick. Numpy, batched
 over environments.
 
@@ -93,10 +102,14 @@ class RouteNavigator:
         previous_arc = self.commanded_arc_um
         advanced = np.minimum(self.commanded_arc_um + self.cruise_speed_um_s * self.tick_s,
                               obs.cell_arc_um + self.lead_um)
-        self.commanded_arc_um = np.where(carrying, np.maximum(advanced, self.commanded_arc_um), self.commanded_arc_um)
+        self.commanded_arc_um = np.where(carrying, advanced, self.commanded_arc_um)
         places = self.formation_targets(self.commanded_arc_um, self.route_point_at(self.commanded_arc_um))
-        feed_forward = places - self.formation_targets(previous_arc, self.route_point_at(previous_arc))
-        carry = feed_forward + self.carry_gain_per_s * self.tick_s * (places - obs.trap_xy_um)
+        advanced_from = np.minimum(previous_arc, self.commanded_arc_um)  # an arc pulled back moves nothing
+        feed_forward = places - self.formation_targets(advanced_from, self.route_point_at(advanced_from))
+        correction = self.carry_gain_per_s * self.tick_s * (places - obs.trap_xy_um)
+        common = correction.mean(axis=1, keepdims=True)  # the formation's drift as a whole
+        carry = feed_forward + cap_speed(common, self.carry_gain_per_s * self.lead_um * self.tick_s) \
+            + (correction - common)
         chase = self.formation_targets(obs.cell_arc_um, obs.cell_xy_um) - obs.trap_xy_um
         step = np.where(carrying[:, None, None], carry, chase)
         return cap_speed(step, self.max_speed_um_s * self.tick_s)

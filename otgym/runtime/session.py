@@ -16,8 +16,9 @@ by ``advance`` between ticks, so the loop is only ever touched by the thread tha
 ticks it. ``snapshot`` is replaced whole after each tick (one reference assignment,
 safe to read from another thread).
 
-Sink: an object with ``tick(record, sphere_xy_um, mode)``, ``event(name, **fields)``
-and ``close()`` gets every tick and the events ``trial_start`` (trial, scenario, mode,
+Sink: an object with ``describe(task)``, ``tick(record, sphere_xy_um, mode)``,
+``event(name, **fields)`` and ``close()`` gets the task once at the session's start
+(the chip, route and spheres: latched topics), every tick and the events ``trial_start`` (trial, scenario, mode,
 participant, the spheres' radii in um), ``mode`` (a switch), ``paused`` / ``resumed`` (trial,
 time_s), ``trial_end`` (the trial's row), ``autonomy_lost`` / ``autonomy_back``
 (trial, time_s, mode: the autonomy's dP_r stopped or came back) and ``session_end``:
@@ -155,6 +156,8 @@ class Session:
         """Start every device (none left running if one fails), then trial 1."""
         start_devices([binding.device for binding in self.bindings])
         self._warm_up()
+        if self.sink is not None:
+            self.sink.describe(self.task)  # the chip, route and spheres: a replay or a ui node draws the global view
         self._new_trial()
 
     def _warm_up(self) -> None:

@@ -24,6 +24,8 @@ KIND_RGB = {
     BodyKind.OBSTACLE: np.array([130, 100, 170], np.float32),
     BodyKind.BEAD: np.array([230, 200, 60], np.float32),
 }
+UNKNOWN_KIND_RGB = np.array([160, 160, 160], np.float32)
+"""A sphere whose kind is not a ``BodyKind`` (e.g. -1: unknown, in an old recording)."""
 HANDLE_RGB = np.array([185, 70, 30], np.float32)
 TRAP_RGB = np.array([220, 30, 40], np.float32)
 PATH_RGB = np.array([200, 40, 200], np.float32)
@@ -35,13 +37,16 @@ class SceneRenderer:
     """Renders frames of ``size_px`` = (width, height) pixels showing ``region_um`` =
     (x0, y0, x1, y1) of the chip (default: all of it), aspect ratio kept, centred.
     ``flow_velocity_um_s``: optional node velocity grid (H+1, W+1, 2) of the chip
-    (``FlowSolution.node_velocity_um_s``) to draw arrows."""
+    (``FlowSolution.node_velocity_um_s``) to draw arrows. ``chip`` None (its region
+    then required): a plain channel-coloured field, for a scene whose chip is unknown."""
 
-    def __init__(self, chip: Chip, size_px: tuple[int, int] = (512, 512), flow_velocity_um_s=None,
+    def __init__(self, chip: Chip | None, size_px: tuple[int, int] = (512, 512), flow_velocity_um_s=None,
                  region_um: tuple[float, float, float, float] | None = None):
         width, height = size_px
         if width < 16 or height < 16:
             raise ValueError(f"size_px must be at least 16 x 16, got {size_px}")
+        if chip is None and (region_um is None or flow_velocity_um_s is not None):
+            raise ValueError("without a chip, give region_um (and no flow)")
         x0, y0, x1, y1 = region_um if region_um is not None else (0.0, 0.0) + chip.size_um
         if not (x1 > x0 and y1 > y0):
             raise ValueError(f"region_um must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {region_um}")
@@ -56,7 +61,9 @@ class SceneRenderer:
     def to_px(self, xy_um) -> np.ndarray:
         return self.offset + np.asarray(xy_um, float) * self.scale
 
-    def _background(self, chip: Chip, shape) -> np.ndarray:
+    def _background(self, chip: Chip | None, shape) -> np.ndarray:
+        if chip is None:
+            return np.broadcast_to(CHANNEL_RGB, (*shape, 3)).copy()
         rows, cols = np.mgrid[0:shape[0], 0:shape[1]]
         x_um = (cols + 0.5 - self.offset[0]) / self.scale
         y_um = (rows + 0.5 - self.offset[1]) / self.scale
@@ -66,7 +73,8 @@ class SceneRenderer:
 
     def render(self, sphere_xy_um, sphere_radius_um, sphere_kind, handle_mask, trap_xy_um, path_um=None) -> np.ndarray:
         """One RGB frame (height, width, 3) uint8. Spheres (N, 2), (N,), (N,) kinds
-        (``BodyKind``), handles (N,) bool, traps (T, 2), path (M, 2) or None."""
+        (``BodyKind``; any other value is drawn grey, beneath the rest), handles (N,)
+        bool, traps (T, 2), path (M, 2) or None."""
         frame = self.background.astype(np.float32)
         if path_um is not None and len(path_um) > 1:
             _draw_polyline(frame, self.to_px(path_um), PATH_RGB, LINE_WIDTH_PX)
@@ -74,6 +82,8 @@ class SceneRenderer:
         radii = np.asarray(sphere_radius_um, float).reshape(-1) * self.scale
         kinds = np.asarray(sphere_kind).reshape(-1)
         handles = np.asarray(handle_mask, bool).reshape(-1)
+        for index in np.flatnonzero(~np.isin(kinds, list(KIND_RGB))):
+            _blend_disc(frame, centres[index], radii[index], HANDLE_RGB if handles[index] else UNKNOWN_KIND_RGB)
         for order in (BodyKind.OBSTACLE, BodyKind.CELL, BodyKind.BEAD, BodyKind.ROBOT):
             for index in np.flatnonzero(kinds == order):
                 colour = HANDLE_RGB if handles[index] else KIND_RGB[BodyKind(order)]

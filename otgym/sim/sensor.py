@@ -5,7 +5,7 @@ into a force with the trap law.
 The sensor knows what a real set-up knows: where it put its traps (the handle of
 trap k is near trap k), the handles' radius, the image's pixel size and origin.
 
-Localisation, per handle (vectorised over frames and handles):
+Localisation, per handle (compiled: ``otgym.sim.locate``):
 
 1. Detection: among candidate centres on a one-pixel lattice within
    ``search_radius_um`` of the trap, take the darkest point of the image averaged
@@ -28,13 +28,14 @@ Localisation, per handle (vectorised over frames and handles):
 Forces: ``TrapLaw.force_pn(trap - handle)``, evaluated in numpy by ``trap_force_pn``
 (the same formula).
 
-Cost: the interactive loop senses a few 48 x 48 crops each tick, where the cost is
-per-call overhead, not pixels. So the constant arrays (detection lattice, ray and
-ring offsets) are built once per sensor and pixel size, the bilinear samples, medians
-and the trap law are plain numpy (no ``map_coordinates`` over a frame axis, no
-``numpy.ma``, no eager jax dispatch), and the per-handle work is vectorised over all
-handles: about 1.5-2 ms per call for four handles on this project's CPU, against
-7-8 ms before (same results up to float round-off).
+Cost: the interactive loop senses four 48 x 48 crops each tick, where numpy's cost
+was per call (some 330 calls on small arrays), not per pixel. Steps 1-4 are compiled
+with numba (``otgym.sim.locate``, one call for every handle of a batch; the same
+arithmetic as the numpy implementation it replaced, so the same readings to float
+round-off), the constant arrays (detection lattice, ray and ring offsets) are built
+once per sensor and pixel size, and the trap law is evaluated in numpy: about
+0.1 ms per call for four handles on this project's CPU, against 1.2 ms in numpy
+(benchmarks/README.md).
 """
 
 from __future__ import annotations
@@ -43,24 +44,17 @@ import dataclasses
 import functools
 
 import numpy as np
-from scipy import ndimage
 
 from otgym.physics.traps import TrapLaw
 from otgym.physics.validation import require_positive_scalar
+from otgym.sim.locate import MIN_EDGE_POINTS, locate_handles
 
-OUTLIER_SIGMAS = 3.0
-MIN_CONTRAST = 0.2
-"""A handle must be darker than its surroundings by this fraction of the background."""
-RADIUS_TOLERANCE = 0.25
-"""The fitted outline's radius must be within 25 % of the handle radius (blur and the
-half-way threshold move it by a few per cent)."""
 RAY_REACH = 1.4
 """Rays end at 1.4 handle radii: past the handle's own outline, short of the far side
 of a touching sphere."""
 BLOCKED_MARGIN_DEG = 20.0
 """Rays this close in angle to a ray that found no outline (it ran into a touching
 sphere) are dropped too: there the blurred neck between the spheres moves the edge."""
-MIN_EDGE_POINTS = 8
 RING_POINTS = 48
 """Samples of the background ring."""
 
@@ -101,6 +95,10 @@ class VisionForceSensor:
         traps = np.asarray(trap_xy_um, np.float64)
         traps = traps[None] if traps.ndim == 2 else traps
         require_positive_scalar("pixel_size_um", pixel_size_um)
+        if images.ndim != 3 or 0 in images.shape[1:]:
+            raise ValueError(f"images must have shape (B, h, w) or (h, w) with h, w >= 1, got {np.shape(images)}")
+        if traps.ndim != 3 or traps.shape[-1] != 2:
+            raise ValueError(f"trap_xy_um must have shape (B, K, 2) or (K, 2), got {np.shape(trap_xy_um)}")
         if traps.shape[0] != images.shape[0] or origin.shape[0] != images.shape[0]:
             raise ValueError(f"got {images.shape[0]} images, {origin.shape[0]} origins, {traps.shape[0]} trap sets")
         # everything below works in pixel-index coordinates (col, row) of the frame
@@ -116,57 +114,15 @@ class VisionForceSensor:
 
     def _locate(self, images, traps_px, pixel_size_um):
         frames, k = traps_px.shape[:2]
-        geometry = self._geometry(pixel_size_um)
+        g = self._geometry(pixel_size_um)
         frame_of = np.repeat(np.arange(frames), k)
-        sampler = _Sampler(images, frame_of)
-        smoothed = _Sampler(ndimage.uniform_filter(images, size=(1, geometry.box, geometry.box), mode="nearest"),
-                            frame_of)
-        start, dark = self._detect(smoothed, traps_px.reshape(-1, 2), geometry)
-        bright = _background(sampler, start, geometry)
-        contrast_ok = bright - dark > MIN_CONTRAST * bright
-        threshold = 0.5 * (dark + bright)
-        radius_px = geometry.radius_px
-        centre, valid = start, contrast_ok
-        for _ in range(2):
-            points, ok = self._edges(sampler, centre, threshold, geometry)
-            fitted, radius, fit_ok = _robust_circle(points, ok)
-            shift = fitted - start
-            valid = (contrast_ok & fit_ok & (np.abs(radius - radius_px) < RADIUS_TOLERANCE * radius_px)
-                     & (np.sqrt(shift[:, 0] ** 2 + shift[:, 1] ** 2) < 0.5 * radius_px))
-            centre = np.where(valid[:, None], fitted, centre)
-        return centre.reshape(frames, k, 2), valid.reshape(frames, k)
-
-    def _detect(self, smoothed, traps_px, geometry):
-        """Darkest point of the box-filtered image (box side about the handle radius)
-        on a one-pixel lattice within the search radius of each trap; returns it and
-        the filtered image's value there."""
-        lattice = geometry.lattice
-        values = smoothed(traps_px[:, 0, None] + lattice[:, 0], traps_px[:, 1, None] + lattice[:, 1])  # (M, C)
-        best = np.argmin(values + geometry.lattice_penalty, axis=1)
-        rows = np.arange(len(best))
-        return traps_px + lattice[best], values[rows, best]
-
-    def _edges(self, sampler, centre, threshold, geometry):
-        """Outline points (M, 2, R) along the rays from ``centre`` (M, 2), where the
-        profile first rises through ``threshold`` (M,), and which rays found one
-        away from any ray that did not (M, R)."""
-        steps = len(geometry.ray_s)
-        profile = sampler(centre[:, 0, None, None] + geometry.ray_dx, centre[:, 1, None, None] + geometry.ray_dy)
-        threshold = threshold[:, None, None]  # (M, R, S) profile, (M, 1, 1) threshold
-        rising = (profile[..., :-1] < threshold) & (profile[..., 1:] >= threshold)
-        found = rising.any(axis=-1)
-        first = np.argmax(rising, axis=-1)
-        flat = profile.reshape(-1)
-        at = np.arange(first.size).reshape(first.shape) * steps + first
-        low = flat[at]
-        high = flat[at + 1]
-        fraction = (threshold[..., 0] - low) / np.where(high > low, high - low, 1.0)
-        distance = geometry.ray_s[first] + fraction * self.ray_step_px
-        points = centre[:, :, None] + distance[:, None, :] * geometry.directions.T  # (M, 2, R): columns, rows
-        # drop rays within BLOCKED_MARGIN_DEG of a ray that found no outline (circularly):
-        # the count of blocked rays near each ray, as a product with a 0/1 band matrix
-        blocked_near = np.matmul((~found).astype(float), geometry.near_rays)
-        return points, found & (blocked_near == 0)
+        images = np.ascontiguousarray(images).view()
+        images.flags.writeable = False  # one numba type whatever the caller passed: one compile
+        centres, valid = locate_handles(
+            images, frame_of, np.ascontiguousarray(traps_px.reshape(-1, 2)), g.box, g.lattice,
+            g.lattice_penalty, g.ring, g.ray_s, g.ray_dx, g.ray_dy, g.directions, g.blocked_margin,
+            float(self.ray_step_px), g.radius_px)
+        return centres.reshape(frames, k, 2), valid.reshape(frames, k)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -182,7 +138,7 @@ class _Geometry:
     ray_s: np.ndarray  # (S,) distances along a ray
     ray_dx: np.ndarray  # (R, S) ray sample offsets, col
     ray_dy: np.ndarray  # (R, S) ray sample offsets, row
-    near_rays: np.ndarray  # (R, R) 1.0 where two rays are within BLOCKED_MARGIN_DEG
+    blocked_margin: int  # rays within this many rays of one that found no outline are dropped
 
 
 @functools.lru_cache(maxsize=64)
@@ -196,16 +152,15 @@ def _geometry(handle_radius_um, search_radius_um, n_rays, ray_step_px, pixel_siz
     angles = np.linspace(0.0, 2 * np.pi, n_rays, endpoint=False)
     directions = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
     s = np.arange(0.3 * radius_px, RAY_REACH * radius_px, ray_step_px)
+    if len(s) < 2:
+        raise ValueError(f"ray_step_px {ray_step_px} leaves fewer than two samples per ray on a handle of "
+                         f"{radius_px:g} pixels")
     offsets = s[None, :, None] * directions[:, None, :]
-    margin = int(np.ceil(BLOCKED_MARGIN_DEG / (360.0 / n_rays)))
-    ray = np.arange(n_rays)
-    apart = np.abs(ray[:, None] - ray[None])
-    near = (np.minimum(apart, n_rays - apart) <= margin).astype(float)
     geometry = _Geometry(
         radius_px=radius_px, box=max(int(round(radius_px)) | 1, 1), lattice=lattice,
         lattice_penalty=1e-3 * np.linalg.norm(lattice, axis=-1) / max(reach, 1.0), ring=ring, directions=directions,
         ray_s=s, ray_dx=np.ascontiguousarray(offsets[..., 0]), ray_dy=np.ascontiguousarray(offsets[..., 1]),
-        near_rays=near)
+        blocked_margin=int(np.ceil(BLOCKED_MARGIN_DEG / (360.0 / n_rays))))
     for field in dataclasses.fields(geometry):
         value = getattr(geometry, field.name)
         if isinstance(value, np.ndarray):
@@ -213,119 +168,10 @@ def _geometry(handle_radius_um, search_radius_um, n_rays, ray_step_px, pixel_siz
     return geometry
 
 
-SAMPLER_FLOAT64_PIXELS = 1 << 22
-"""Frames up to this many pixels in all are copied to float64 once (the interpolation
-then needs no conversions); larger batches stay float32 to save memory. The samples
-are the same either way."""
-
-
-class _Sampler:
-    """Bilinear samples of image ``frame_of[m]`` at columns x and rows y (M, ...), as
-    ``scipy.ndimage.map_coordinates(images, order=1, mode="nearest")`` gives them: the
-    same arithmetic in float64, so the same numbers, returned in the images' dtype;
-    without map_coordinates' per-point cost (it interpolates along the frame axis too)."""
-
-    def __init__(self, images, frame_of):
-        frames, self.h, self.w = images.shape
-        # one more row and column repeating the last (mode "nearest"), so that the
-        # neighbours x0 + 1, y0 + 1 of a clamped point stay inside
-        dtype = np.float64 if images.size <= SAMPLER_FLOAT64_PIXELS else images.dtype
-        padded = np.empty((frames, self.h + 1, self.w + 1), dtype)
-        padded[:, :-1, :-1] = images
-        padded[:, -1, :-1] = images[:, -1]
-        padded[:, :, -1] = padded[:, :, -2]
-        self.flat = padded.reshape(-1)
-        self.row = self.w + 1
-        self.base = frame_of * ((self.h + 1) * self.row)
-        self.dtype = images.dtype
-
-    def __call__(self, x, y):
-        """Samples at x, y (M, ...) float64; overwrites x and y."""
-        base = self.base.reshape((-1,) + (1,) * (x.ndim - 1))
-        np.clip(x, 0, self.w - 1, out=x)
-        np.clip(y, 0, self.h - 1, out=y)
-        x0 = np.floor(x)
-        y0 = np.floor(y)
-        x -= x0  # the fractional parts
-        y -= y0
-        index = (y0 * self.row + x0).astype(np.intp)
-        index += base
-        flat = self.flat
-        top_left = flat[index]
-        top_right = flat[index + 1]
-        index += self.row
-        bottom_left = flat[index]
-        bottom_right = flat[index + 1]
-        left = 1 - x
-        values = (1 - y) * (left * top_left + x * top_right) + y * (left * bottom_left + x * bottom_right)
-        return values.astype(self.dtype)
-
-
 def _disc_points(radius_px: float) -> np.ndarray:
     steps = np.arange(-np.floor(radius_px), np.floor(radius_px) + 1)
     grid = np.stack(np.meshgrid(steps, steps), axis=-1).reshape(-1, 2)
     return grid[np.linalg.norm(grid, axis=-1) <= radius_px]
-
-
-def _background(sampler, start, geometry):
-    """The local background: the median over a ring at 1.6 handle radii (the rest of
-    the body covers a minority of it)."""
-    ring = geometry.ring
-    return _row_median(sampler(start[:, 0, None] + ring[:, 0], start[:, 1, None] + ring[:, 1]))
-
-
-def _row_median(values):
-    """np.median(values, axis=1) of a 2-D array (NaN where a row holds a NaN), by sorting."""
-    ordered = np.sort(values, axis=1)
-    n = values.shape[1]
-    median = (ordered[:, (n - 1) // 2] + ordered[:, n // 2]) / 2
-    last = ordered[:, -1]
-    return np.where(np.isnan(last), last, median)
-
-
-def _kept_median(values, keep, count):
-    """Median of ``values`` (M, R) over the entries where ``keep``, per row (as
-    np.nanmedian of the kept values computes it, without numpy.ma's per-call cost);
-    ``count`` (M,) the number kept; 0 for a row that keeps none."""
-    ordered = np.sort(np.where(keep, values, np.inf), axis=1)  # the kept values first
-    rows = np.arange(len(values))
-    median = (ordered[rows, (count - 1) // 2] + ordered[rows, count // 2]) / 2
-    return np.where(count > 0, median, 0.0)
-
-
-_EYE_3 = 1e-9 * np.eye(3)
-
-
-def _circle_fit(points, weights):
-    """Weighted algebraic circle fit x^2 + y^2 + D x + E y + F = 0 per row of points
-    (M, 2, R) (columns, rows) with weights (M, R); returns centres (M, 2) and radii (M,)."""
-    reference = np.matmul(points, weights[:, :, None])[..., 0] / np.maximum(weights.sum(axis=1), 1)[:, None]
-    # rows x, y, 1 (the design) and the target -(x^2 + y^2): one product gives both
-    # the normal matrix (design' W design) and the right-hand side (design' W target)
-    design = np.empty((points.shape[0], 4, points.shape[2]))
-    p = np.subtract(points, reference[:, :, None], out=design[:, :2])
-    square = p * p
-    np.negative(square[:, 0] + square[:, 1], out=design[:, 3])
-    design[:, 2] = 1.0
-    moments = np.matmul(design * weights[:, None, :], design.transpose(0, 2, 1))
-    solution = np.linalg.solve(moments[:, :3, :3] + _EYE_3, moments[:, :3, 3:])[..., 0]  # (M, 3): D, E, F
-    centre = solution[:, :2] / -2
-    radius = np.sqrt(np.maximum(centre[:, 0] ** 2 + centre[:, 1] ** 2 - solution[:, 2], 0.0))
-    return centre + reference, radius
-
-
-def _robust_circle(points, found):
-    """Robust circle fit to edge points (M, 2, R) of the rays that ``found`` one."""
-    keep = found
-    for _ in range(3):
-        centre, radius = _circle_fit(points, keep.astype(float))
-        square = points - centre[:, :, None]
-        square *= square
-        residual = np.abs(np.sqrt(square[:, 0] + square[:, 1]) - radius[:, None])
-        mad = 1.4826 * _kept_median(residual, keep, keep.sum(axis=1))
-        keep = found & (residual <= np.maximum(OUTLIER_SIGMAS * mad, 0.1)[:, None])
-    centre, radius = _circle_fit(points, keep.astype(float))
-    return centre, radius, keep.sum(axis=1) >= MIN_EDGE_POINTS
 
 
 def trap_force_pn(law: TrapLaw, handle_to_trap_um) -> np.ndarray:

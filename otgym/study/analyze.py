@@ -1,7 +1,8 @@
 """``otgym study analyze``: the study's results from one or more session folders, each
 holding a ``trials.csv`` (one row per trial, written by ``otgym experiment shared-control``
 or ``otgym play``) and, where answers were given, a ``questionnaires.csv``
-(``otgym.study.questionnaires``).
+(``otgym.study.questionnaires``), or from ``StudyTable`` s: trials read elsewhere (the
+command line reads them from MCAP recordings, ``otgym.record.trials``).
 
 The folders' tables are concatenated: participant ids must be unique across folders (the
 same id in two folders is read as the same person), and a (participant, mode, trial)
@@ -12,6 +13,7 @@ from recorded answers, never invented), ``questionnaire_scores.csv``, ``summary.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -70,27 +72,52 @@ def _check_trials(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
     return frame
 
 
-def load_study(dirs) -> tuple[pd.DataFrame, pd.DataFrame | None]:
-    """The trials of all ``dirs`` concatenated (with a ``source`` column), and their
-    questionnaire answers (None if no folder has ``questionnaires.csv``). Answers must
-    belong to a trial of their own folder. FileNotFoundError or ValueError, one line."""
+@dataclasses.dataclass(frozen=True)
+class StudyTable:
+    """Trials read elsewhere (e.g. from MCAP recordings, ``otgym.record.trials``): a
+    name for messages, the rows (``TRIALS_COLUMNS`` at least) and the path of their
+    questionnaire answers, if any."""
+
+    source: str
+    trials: pd.DataFrame
+    answers: Path | None = None
+
+
+def _folder_table(folder: Path) -> StudyTable:
+    if not folder.is_dir():
+        raise FileNotFoundError(f"no study folder {folder}")
+    path = folder / "trials.csv"
+    if not path.is_file():
+        raise FileNotFoundError(f"{folder} has no trials.csv (nor session*.mcap recordings)")
+    answers = folder / "questionnaires.csv"
+    return StudyTable(str(path), pd.read_csv(path, dtype={"participant": str, "mode": str}),
+                      answers if answers.is_file() else None)
+
+
+def _name(source) -> str:
+    """A source as messages and ``analysis.json`` name it: a folder, or a table's source."""
+    return source.source if isinstance(source, StudyTable) else str(source)
+
+
+def load_study(sources) -> tuple[pd.DataFrame, pd.DataFrame | None]:
+    """The trials of all ``sources`` (folders holding ``trials.csv`` and maybe
+    ``questionnaires.csv``, or ``StudyTable`` s) concatenated (with a ``source``
+    column), and their questionnaire answers (None if none has any). Answers must
+    belong to a trial of their own source. FileNotFoundError or ValueError, one line."""
     trials, answers = [], []
-    for folder in map(Path, dirs):
-        if not folder.is_dir():
-            raise FileNotFoundError(f"no study folder {folder}")
-        path = folder / "trials.csv"
-        if not path.is_file():
-            raise FileNotFoundError(f"{folder} has no trials.csv")
-        table = _check_trials(pd.read_csv(path, dtype={"participant": str, "mode": str}), path)
-        trials.append(table.assign(source=str(folder)))
-        if (folder / "questionnaires.csv").is_file():
-            given = read_answers(folder / "questionnaires.csv")
-            known = set(zip(table["participant"], table["mode"], table["trial"]))
-            orphans = [key for key in zip(given["participant"], given["mode"], given["trial"]) if key not in known]
+    for given in sources:
+        table = given if isinstance(given, StudyTable) else _folder_table(Path(given))
+        checked = _check_trials(table.trials, table.source)
+        trials.append(checked.assign(source=_name(given)))
+        if table.answers is not None:
+            answered = read_answers(table.answers)
+            known = set(zip(checked["participant"], checked["mode"], checked["trial"]))
+            orphans = [key for key in zip(answered["participant"], answered["mode"], answered["trial"])
+                       if key not in known]
             if orphans:
-                raise ValueError(f"{folder / 'questionnaires.csv'} answers (participant, mode, trial) {orphans[0]} "
-                                 f"that {path} lacks")
-            answers.append(given)
+                raise ValueError(f"{table.answers} answers (participant, mode, trial) {orphans[0]} "
+                                 f"that {table.source} lacks")
+            answers.append(answered)
     trials = pd.concat(trials, ignore_index=True)
     twice = trials[trials.duplicated(["participant", "mode", "trial"], keep=False)]
     if len(twice):
@@ -143,7 +170,8 @@ def questionnaire_markdown(means: pd.DataFrame | None, tests: dict) -> str:
 
 
 def analyze(dirs, out_dir) -> dict:
-    """Read ``dirs`` (``load_study``) and write into ``out_dir``: ``fig8.png``,
+    """Read ``dirs`` (folders or ``StudyTable`` s, ``load_study``) and write into
+    ``out_dir``: ``fig8.png``,
     ``questionnaire_scores.csv`` (``SCORE_COLUMNS``; header only without answers),
     ``summary.md``, ``summary.csv``, ``stats.json`` and ``analysis.json``; return what
     ``analysis.json`` holds."""
@@ -161,7 +189,8 @@ def analyze(dirs, out_dir) -> dict:
         pd.DataFrame(columns=SCORE_COLUMNS).to_csv(out / "questionnaire_scores.csv", index=False)
     stats = write_summary(trials, out, "\n" + questionnaire_markdown(means, tests))
     panels = plot_fig8(trials, out / "fig8.png", stats, {"means": means, **tests} if means is not None else None)
-    result = {"dirs": [str(d) for d in dirs], "trials": len(trials), "participants": int(trials["participant"].nunique()),
+    result = {"dirs": [_name(d) for d in dirs], "trials": len(trials),
+              "participants": int(trials["participant"].nunique()),
               "questionnaire_rows": 0 if answers is None else len(answers), "panels": panels,
               "questionnaire_tests": tests}
     (out / "analysis.json").write_text(json.dumps(json_safe(result), indent=2) + "\n", encoding="utf-8")

@@ -179,6 +179,10 @@ def _posthoc(long: pd.DataFrame, modes: list[str], notes: list[str]) -> list[dic
     return holm(rows)
 
 
+def _no_test() -> dict:
+    return {key: math.nan for key in ("F", "ddof1", "ddof2", "p_unc", "p_gg_corr", "eps", "ng2", "p")}
+
+
 def compare_modes(trials: pd.DataFrame, metric: str) -> dict:
     """Do the modes differ in ``metric`` ('success' or 'time')? The paper's analysis of
     Fig. 8: a one-way repeated-measures ANOVA over modes (pingouin ``rm_anova``) on the
@@ -188,17 +192,18 @@ def compare_modes(trials: pd.DataFrame, metric: str) -> dict:
     p_gg_corr, eps, ng2, p}, "posthoc": [{a, b, T, dof, p_unc, p_holm, stars}], "note"}``;
     T is the t statistic of a minus b. Participants without a value in every mode are
     dropped (listwise, as the design needs every mode) and named in ``note``. Undefined
-    tests (no variance, fewer than 2 complete participants) give NaN and a note.
-    Raises ValueError for missing columns, fewer than 2 modes or 2 participants."""
+    tests give NaN and a note, never an invented statistic: no variance, fewer than 2
+    complete participants (``n_participants`` < 2: one participant, say), or a single
+    mode (nothing to compare; ``posthoc`` empty). Raises ValueError for missing
+    columns or no rows."""
     means = participant_means(trials, metric)
     modes = ordered_modes(means["mode"])
-    if len(modes) < 2:
-        raise ValueError(f"comparing modes needs at least 2 modes, got {modes}")
-    if means["participant"].nunique() < 2:
-        raise ValueError(f"a repeated-measures analysis needs at least 2 participants, got "
-                         f"{means['participant'].nunique()}")
     wide = means.pivot(index="participant", columns="mode", values="value").reindex(columns=modes)
     notes = []
+    if len(modes) < 2:
+        notes.append(f"only one mode ({modes[0]}): nothing to compare, no test.")
+        return {"metric": metric, "modes": modes, "n_participants": int(wide.notna().all(axis=1).sum()),
+                "anova": _no_test(), "posthoc": [], "note": " ".join(notes)}
     incomplete = wide[wide.isna().any(axis=1)]
     if len(incomplete):
         gaps = "; ".join(f"participant {p}: {', '.join(row.index[row.isna()])}" for p, row in incomplete.iterrows())
@@ -207,8 +212,9 @@ def compare_modes(trials: pd.DataFrame, metric: str) -> dict:
     complete = wide.dropna()
     result = {"metric": metric, "modes": modes, "n_participants": len(complete)}
     if len(complete) < 2:
-        notes.append("fewer than 2 participants have a value in every mode: no test; reported as NaN.")
-        result["anova"] = {key: math.nan for key in ("F", "ddof1", "ddof2", "p_unc", "p_gg_corr", "eps", "ng2", "p")}
+        notes.append(f"no test is possible with n < 2 (n = {len(complete)} participant(s) with a value in every "
+                     "mode); reported as NaN.")
+        result["anova"] = _no_test()
         result["posthoc"] = [{"a": a, "b": b, "T": math.nan, "dof": math.nan, "p_unc": math.nan,
                               "p_holm": math.nan, "stars": ""} for i, a in enumerate(modes) for b in modes[i + 1:]]
     else:

@@ -106,6 +106,8 @@ def _table_markdown(table: pd.DataFrame) -> list[str]:
 
 def _stats_markdown(title: str, result: dict) -> list[str]:
     anova = result["anova"]
+    if math.isnan(anova["F"]) and (len(result["modes"]) < 2 or result["n_participants"] < 2):
+        return [f"## {title}", "", f"No test: {result['note']}", ""]
     corrected = "" if math.isnan(anova["p_gg_corr"]) else f", Greenhouse-Geisser p = {_p(anova['p_gg_corr'])}"
     lines = [f"## {title}", "",
              f"Repeated-measures ANOVA over modes (n = {result['n_participants']} participants): "

@@ -6,7 +6,12 @@ tick (target ``caps.rate_hz``, 1 kHz for a Touch) it takes the latest commanded 
 calls the backend's ``servo_step(force_n) -> (position_mm, velocity_mm_s, buttons)``
 and publishes the sample; then it sleeps until the next deadline and busy-waits the
 last ``busy_wait_s``. A tick that falls more than a period behind restarts the
-schedule instead of bursting to catch up.
+schedule instead of bursting to catch up. The loop asks the kernel for real-time
+scheduling (``SCHED_FIFO`` at ``realtime_priority``, as haptic vendors' servo
+schedulers run): a process that runs only about a fifth of each millisecond then
+preempts the simulation's threads the moment its deadline comes, instead of waiting
+for a core they hold. Without the privilege (CAP_SYS_NICE, or root) it runs at normal
+priority; ``ServoDevice.realtime`` says which.
 
 Sharing: one ``RawArray`` of doubles holds two blocks, each guarded by a seqlock (a
 counter that is odd while its single writer writes; a reader retries when it saw an
@@ -209,8 +214,21 @@ def _exit_on_sigterm(signum, frame):
     raise SystemExit(0)
 
 
+def _ask_realtime(priority: int | None) -> bool:
+    """Real-time FIFO scheduling for this process at ``priority`` (1-99); False when
+    not asked (None) or not granted."""
+    if priority is None or not hasattr(os, "sched_setscheduler"):
+        return False
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except OSError:  # no privilege: normal priority
+        return False
+    return True
+
+
 def _servo_main(factory, block, periods, period_count, stop_flag, conn, parent_pid: int,
-                rate_hz: float, busy_wait_s: float, force_timeout_s: float) -> None:
+                rate_hz: float, busy_wait_s: float, force_timeout_s: float, realtime_priority: int | None,
+                realtime_flag) -> None:
     """The child process: build the backend, report readiness (an empty message) or
     the one-line reason it failed, run the loop, and report why it ended if it was
     not asked to. SIGTERM (sent to daemon children when the parent exits normally)
@@ -221,6 +239,7 @@ def _servo_main(factory, block, periods, period_count, stop_flag, conn, parent_p
     except Exception as error:  # any failure to open the backend is reported to the parent
         conn.send(str(error) or type(error).__name__)
         return
+    realtime_flag.value = int(_ask_realtime(realtime_priority))
     conn.send("")
     period_s = 1.0 / rate_hz
     capacity = len(periods)
@@ -260,11 +279,12 @@ class ServoDevice(Device):
     ``process`` is the child (None before ``start``; a daemon, so a daemonic process
     cannot start one); ``loop_periods_s()`` the recorded loop periods, oldest first
     (the last ``period_capacity``). One thread of the parent should call ``set_force``
-    (the force block has a single writer)."""
+    (the force block has a single writer). ``realtime_priority``: the SCHED_FIFO
+    priority the loop asks for (None: normal scheduling); ``realtime`` whether it got it."""
 
     def __init__(self, backend_factory: Callable[[], ServoBackend], caps: DeviceCaps, *,
                  busy_wait_s: float = 2e-4, force_timeout_s: float = 0.25,
-                 period_capacity: int = 4096, start_timeout_s: float = 20.0):
+                 period_capacity: int = 4096, start_timeout_s: float = 20.0, realtime_priority: int | None = 50):
         for name, value in (("force_timeout_s", force_timeout_s), ("start_timeout_s", start_timeout_s)):
             if not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {value!r}")
@@ -272,6 +292,8 @@ class ServoDevice(Device):
             raise ValueError(f"busy_wait_s must be within [0, one period {1.0 / caps.rate_hz} s), got {busy_wait_s!r}")
         if not isinstance(period_capacity, int) or period_capacity < 1:
             raise ValueError(f"period_capacity must be a positive integer, got {period_capacity!r}")
+        if realtime_priority is not None and not (isinstance(realtime_priority, int) and 1 <= realtime_priority <= 99):
+            raise ValueError(f"realtime_priority must be None or an integer in [1, 99], got {realtime_priority!r}")
         self.caps = caps
         self._factory = backend_factory
         self._busy_wait_s = busy_wait_s
@@ -283,6 +305,8 @@ class ServoDevice(Device):
         self._periods = context.RawArray("d", period_capacity)
         self._period_count = context.RawValue("q", 0)
         self._stop_flag = context.RawValue("i", 0)
+        self._realtime_priority = realtime_priority
+        self._realtime_flag = context.RawValue("i", 0)
         self._conn = None
         self._last: Sample | None = None
         self.process = None
@@ -290,6 +314,11 @@ class ServoDevice(Device):
     @property
     def running(self) -> bool:
         return self._conn is not None
+
+    @property
+    def realtime(self) -> bool:
+        """Whether the running servo loop got real-time scheduling."""
+        return self.running and bool(self._realtime_flag.value)
 
     def start(self) -> None:
         if self.running:
@@ -299,7 +328,8 @@ class ServoDevice(Device):
         self.process = self._context.Process(
             target=_servo_main, name=f"otgym-servo ({self.caps.name})", daemon=True,
             args=(self._factory, self._block, self._periods, self._period_count, self._stop_flag, sender,
-                  os.getpid(), self.caps.rate_hz, self._busy_wait_s, self._force_timeout_s))
+                  os.getpid(), self.caps.rate_hz, self._busy_wait_s, self._force_timeout_s, self._realtime_priority,
+                  self._realtime_flag))
         self.process.start()
         sender.close()
         message = None

@@ -1,8 +1,10 @@
 """The MCAP recording of one ``otgym play`` session (``DIR/session.mcap``; a later
 session in the same folder writes ``session-2.mcap`` and so on): every tick's
 messages as the distributed simulator publishes them (``otgym.bus.messages``: traps,
-bodies, alpha, mode, each device's feedback), every new device sample as the device
-node publishes it (twist and buttons), and the trial events, written by
+bodies, alpha, each device's feedback; the mode at a trial's first tick and when it
+changes), the session's description, chip image and route once at its start
+(``describe``), every new device sample as the device node publishes it (twist and
+buttons), and the trial events, written by
 ``otgym.record.McapRecorder`` (zstd chunks flushed at least every second).
 
 Device samples are taken where the loop reads them: each binding's device is wrapped
@@ -18,6 +20,7 @@ from pathlib import Path
 from otgym.bus import messages as msg
 from otgym.record.mcap_file import McapRecorder
 from otgym.runtime.loop import DeviceBinding, TickRecord
+from otgym.runtime.task import InteractiveTask
 from otgym.teleop.device import Device, Sample
 
 
@@ -32,6 +35,7 @@ class SessionRecording:
         self.clock_s = clock_s
         self.active = False
         """False until the first event: samples read before it (the warm-up's) are not recorded."""
+        self._mode_written: str | None = None
 
     def write(self, topic: str, data: bytes, stamp_s: float | None = None) -> None:
         stamp_s = self.clock_s() if stamp_s is None else stamp_s
@@ -47,13 +51,22 @@ class SessionRecording:
             wrapped.append(dataclasses.replace(binding, device=RecordedDevice(binding.device, name, self)))
         return wrapped
 
+    def describe(self, task: InteractiveTask) -> None:
+        """Record the session's description, chip image and route (once, at its start)."""
+        for topic, data in msg.session_messages(task, self.devices, self.clock_s()):
+            self.write(topic, data)
+
     def tick(self, record: TickRecord, sphere_xy_um, mode: str) -> None:
         stamp_s = self.clock_s()
-        for topic, data in msg.tick_messages(record, self.devices, sphere_xy_um, mode, stamp_s):
+        changed = mode if mode != self._mode_written else None  # the mode at a trial's first tick and on change
+        self._mode_written = mode
+        for topic, data in msg.tick_messages(record, self.devices, sphere_xy_um, stamp_s, changed):
             self.write(topic, data, stamp_s)
 
     def event(self, name: str, **fields) -> None:
         self.active = True
+        if name == "trial_start":
+            self._mode_written = None
         self.write(msg.EVENTS, msg.event(name, **fields))
 
     def close(self) -> None:

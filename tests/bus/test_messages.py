@@ -5,10 +5,13 @@ a reason."""
 
 from __future__ import annotations
 
+import io
 import json
+import types
 
 import numpy as np
 import pytest
+from PIL import Image
 from rosbags.typesys import Stores, get_typestore
 
 from otgym.bus import messages as m
@@ -91,7 +94,73 @@ def test_every_schema_names_the_fields_of_the_ros2_definition():
         assert ours == theirs, type_name
 
 
+def stand_in_task():
+    """What ``session_messages`` reads of a task: two robot spheres (the first a handle), a cell."""
+    from otgym.physics.bodies import BodyKind
+    from otgym.sim.chip import load_chip
+
+    model = types.SimpleNamespace(sphere_body=[0, 0, 1], body_kinds=[BodyKind.ROBOT, BodyKind.CELL])
+    return types.SimpleNamespace(chip=load_chip("default"), scene=types.SimpleNamespace(model=model),
+                                 trap_sphere=np.array([0]), route_um=np.array([[15.0, 40.0], [60.0, 40.5]]),
+                                 config=types.SimpleNamespace(goal_tolerance_um=3.0, tick_s=0.02))
+
+
+def test_the_session_description_chip_and_route_decode_with_rosbags():
+    from otgym.sim.chip import load_chip
+
+    task = stand_in_task()
+    messages = dict(m.session_messages(task, ["device0"], STAMP_S))
+    assert list(messages) == [m.SESSION, m.CHIP, m.ROUTE] and set(m.LATCHED) == {m.SESSION, m.CHIP, m.ROUTE, m.MODE}
+    description = json.loads(rosbags(messages[m.SESSION], m.STRING).data)
+    assert description["chip"]["content_hash"] == load_chip("default").content_hash
+    assert description["sphere_kind"] == ["robot", "robot", "cell"] and description["handle_spheres"] == [0]
+    assert (description["tick_s"], description["goal_tolerance_um"], description["devices"]) == (0.02, 3.0, ["device0"])
+    image = rosbags(messages[m.CHIP], m.COMPRESSED_IMAGE)
+    assert image.format == "png" and image.header.frame_id == "chip"
+    with Image.open(io.BytesIO(image.data.tobytes())) as picture:
+        np.testing.assert_array_equal(np.asarray(picture, np.float32) / np.float32(255), load_chip("default").image)
+    route = rosbags(messages[m.ROUTE], m.PATH)
+    assert [(p.pose.position.x, p.pose.position.y) for p in route.poses] == [(15.0, 40.0), (60.0, 40.5)]
+    assert route.header.frame_id == "chip" and route.poses[1].header.stamp.nanosec == 250_000_000
+    for topic, data in messages.items():
+        m.decode(topic, data)  # our checks pass them
+
+
+def test_tick_messages_carry_the_mode_only_when_given():
+    record = types.SimpleNamespace(trap_xy_um=np.zeros((2, 2)), phase=0, alpha=0.5, feedback_n=np.zeros((1, 3)))
+    assert m.MODE not in dict(m.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S))
+    with_mode = m.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S, "shared")
+    assert m.decode(m.MODE, dict(with_mode)[m.MODE]).data == "shared"
+    assert [topic for topic, _ in with_mode][-2:] == [m.BODIES, m.feedback_topic("device0")]
+
+
+def _session(**changes) -> bytes:
+    description = m.session_description(stand_in_task(), [])
+    for key, value in changes.items():
+        if key.startswith("chip_"):
+            description["chip"][key[5:]] = value
+        else:
+            description[key] = value
+    return m.string(json.dumps(description))
+
+
+def _image(format_: str, data: bytes) -> bytes:
+    return m.encode(m.COMPRESSED_IMAGE, {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "chip"},
+                                         "format": format_, "data": data})
+
+
 @pytest.mark.parametrize("topic, data, reason", [
+    (m.SESSION, m.string("{"), "not JSON"),
+    (m.SESSION, _session(chip=None), "\"chip\" object"),
+    (m.SESSION, _session(chip_content_hash="abc"), "content_hash"),
+    (m.SESSION, _session(chip_pixel_size_um=-1), "pixel_size_um must be a positive number"),
+    (m.SESSION, _session(tick_s="fast"), "tick_s must be a positive number"),
+    (m.SESSION, _session(sphere_kind=["robot", "dragon"]), "sphere_kind"),
+    (m.SESSION, _session(handle_spheres=[7]), "handle_spheres"),
+    (m.CHIP, _image("jpeg", m.PNG_SIGNATURE + b"x"), "must be a PNG"),
+    (m.CHIP, _image("png", b"GIF89a.."), "must be a PNG"),
+    (m.ROUTE, m.path([[np.nan, 1.0]], STAMP_S), "not finite"),
+
     (m.TRAPS, m.pose_array([[1.0, 2.0]], STAMP_S)[:20], "does not decode"),
     (m.TRAPS, b"\x01\x00\x00\x00" + m.pose_array([[1.0, 2.0]], STAMP_S)[4:], "not little-endian CDR"),
     (m.TRAPS, b"", "not little-endian CDR"),

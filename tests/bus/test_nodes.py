@@ -238,8 +238,11 @@ def test_sim_node_publishes_every_tick_and_the_trial_events():
         ticks = run_sim_node(sim, shared_task(), ["device0"], "manual", 0, threading.Event(), duration_s=1.0)
         time.sleep(0.5)
     assert ticks == 50
-    for topic in (msg.TRAPS, msg.BODIES, msg.ALPHA, msg.MODE):
-        assert len(seen[topic]) == ticks + (topic == msg.MODE), topic
+    for topic in (msg.TRAPS, msg.BODIES, msg.ALPHA):
+        assert len(seen[topic]) == ticks, topic
+    for topic in (msg.MODE, msg.SESSION, msg.CHIP, msg.ROUTE):  # latched: once (the mode never changed)
+        assert len(seen[topic]) == 1, topic
+    assert seen[msg.MODE][0].data == "manual"
     events = [msg.event_fields(e) for e in seen[msg.EVENTS]]
     assert [e["event"] for e in events] == ["trial_start", "trial_end", "session_end"]
     assert events[1]["ended_by"] == "duration" and events[1]["completion_time_s"] == pytest.approx(1.0, abs=0.011)
@@ -271,7 +274,10 @@ def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_
                                   kwargs={"remote_autonomy": True}, daemon=True)
         worker.start()
         try:
-            wait_until(lambda: sum(m.data == "shared" for _, m in seen.get(msg.MODE, [])) >= 100, 30.0)
+            wait_until(lambda: len(seen.get(msg.BODIES, [])) >= 100, 30.0)
+            # the mode is sent at the trial's start and on change only (manual until the first dP_r), not every tick
+            modes = [m.data for _, m in seen[msg.MODE]]
+            assert modes[-1] == "shared" and all(a != b for a, b in zip(modes, modes[1:]))
             with lock:
                 traps = [msg.xy_um(m) for _, m in seen[msg.TRAPS]]
             moved_um = np.linalg.norm(traps[-1] - traps[0], axis=-1)

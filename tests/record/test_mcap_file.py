@@ -1,7 +1,7 @@
 """MCAP recordings (``otgym.record``): what was written reads back with the mcap
 library's own (indexed) reader, per topic and byte for byte; chunks reach the file by
-time, so a writer killed with SIGKILL leaves a file readable up to its last second;
-``otgym replay`` summarises a recording and draws its frames."""
+time, so a writer killed with SIGKILL leaves a file readable up to its last second
+(``otgym replay``: test_replay.py)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,6 @@ from mcap_ros2.decoder import DecoderFactory
 
 from otgym.bus import messages as m
 from otgym.record.mcap_file import McapRecorder, read_recording
-from otgym.record.replay import render_frames, summary
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -121,32 +120,3 @@ def test_a_writer_killed_with_sigkill_loses_at_most_about_the_last_second(tmp_pa
                                                               lines[:len(recording.messages)]]
     lost_s = (last_sent_ns - recording.messages[-1].log_time_ns) * 1e-9
     assert lost_s <= 1.5  # the flush period (1 s) and a message interval, with room for a loaded machine
-
-
-def test_replay_summary_frames_and_command(tmp_path, capsys):
-    from otgym.cli.app import main
-
-    path = tmp_path / "s.mcap"
-    with McapRecorder(path) as recorder:
-        session(recorder, 60)
-    info = summary(read_recording(path))
-    assert info["duration_s"] == pytest.approx(61 * 0.02)
-    assert info["counts"][m.TRAPS] == 60 and info["trials"] == 1 and info["ended_by"] == ["goal"]
-    (tmp_path / "frames").mkdir()
-    frames = render_frames(read_recording(path), tmp_path / "frames", every=25)
-    assert [f.name for f in frames] == ["frame_00000.png", "frame_00001.png", "frame_00002.png"]
-    from PIL import Image
-
-    first = np.asarray(Image.open(frames[0]).convert("RGB")).astype(int)
-    red = (first[..., 0] > 200) & (first[..., 1] < 60)
-    grey = np.all(np.abs(first - 170) < 3, axis=-1)
-    assert red.sum() > 10 and grey.sum() > 100  # traps and spheres drawn
-    with pytest.raises(SystemExit) as exit_info:
-        main(["replay", str(path), "--out", str(tmp_path / "cli"), "--every", "30"])
-    assert exit_info.value.code in (0, None)
-    printed = capsys.readouterr().out
-    assert "242 messages over 1.22 s, complete" in printed and "/otgym/traps" in printed
-    assert "1 started, 1 finished (goal)" in printed and "wrote 2 frame(s)" in printed
-    with pytest.raises(SystemExit) as exit_info:
-        main(["replay", str(tmp_path / "missing.mcap")])
-    assert exit_info.value.code == 2 and "no recording" in capsys.readouterr().err

@@ -49,3 +49,19 @@ def test_region_zooms_in(default_chip):
     assert np.allclose(renderer.to_px((40.0, 40.0)), (100.0, 100.0))
     with pytest.raises(ValueError, match="region_um"):
         SceneRenderer(default_chip, region_um=(10.0, 0.0, 5.0, 20.0))
+
+
+def test_without_a_chip_a_plain_field_and_unknown_kinds_in_grey():
+    from otgym.sim.render import UNKNOWN_KIND_RGB
+
+    renderer = SceneRenderer(None, (200, 100), region_um=(0.0, 0.0, 100.0, 50.0))
+    xy = np.array([[20.0, 20.0], [50.0, 20.0], [80.0, 20.0]])
+    frame = renderer.render(xy, [3.0, 3.0, 3.0], np.array([-1, BodyKind.ROBOT, -1]), np.array([False, False, True]),
+                            np.zeros((0, 2)))
+    at = lambda xy: frame[int(renderer.to_px(xy)[1]), int(renderer.to_px(xy)[0])].astype(float)  # noqa: E731
+    assert np.allclose(at((90.0, 45.0)), CHANNEL_RGB, atol=1)
+    assert np.allclose(at(xy[0]), UNKNOWN_KIND_RGB, atol=2)
+    assert np.allclose(at(xy[1]), KIND_RGB[BodyKind.ROBOT], atol=2)
+    assert np.allclose(at(xy[2]), HANDLE_RGB, atol=2)  # a handle stays a handle whatever its kind
+    with pytest.raises(ValueError, match="region_um"):
+        SceneRenderer(None, (200, 100))

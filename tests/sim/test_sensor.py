@@ -13,7 +13,8 @@ from otgym.physics.traps import TRAP_LAWS, TrapLaw
 from otgym.runtime.task import interactive_scene
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.scene import SceneConfig
-from otgym.sim.sensor import VisionForceSensor, _kept_median, _Sampler, sensor_errors, trap_force_pn
+from otgym.sim.locate import kept_median, sample
+from otgym.sim.sensor import VisionForceSensor, sensor_errors, trap_force_pn
 
 FRAMES = 1000
 FOV_PX = (140, 140)
@@ -97,6 +98,12 @@ def test_bad_sensor_inputs():
         sensor.measure(np.zeros((10, 10)), (0, 0), 0.0, np.zeros((1, 2)))
     with pytest.raises(ValueError, match="trap sets"):
         sensor.measure(np.zeros((2, 10, 10)), np.zeros((2, 2)), 0.1, np.zeros((3, 1, 2)))
+    with pytest.raises(ValueError, match="images must have shape"):
+        sensor.measure(np.zeros((2, 0, 10)), np.zeros((2, 2)), 0.1, np.zeros((2, 1, 2)))
+    with pytest.raises(ValueError, match="trap_xy_um must have shape"):
+        sensor.measure(np.zeros((10, 10)), (0, 0), 0.1, np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="fewer than two samples"):
+        VisionForceSensor(ray_step_px=20.0).measure(np.zeros((10, 10)), (0, 0), 0.1, np.zeros((1, 2)))
 
 
 def _law_presets():
@@ -152,22 +159,19 @@ def test_numpy_trap_law_agrees_with_trap_law(name):
 
 
 def test_sampler_matches_map_coordinates():
-    """The sensor's bilinear sampler gives map_coordinates' numbers exactly (order 1,
-    mode "nearest"), inside the frames, on their borders and outside them."""
+    """The sensor's bilinear sample gives map_coordinates' numbers exactly (order 1,
+    mode "nearest"), inside the frame, on its borders and outside it."""
     rng = np.random.default_rng(5)
-    images = rng.random((3, 20, 31)).astype(np.float32)
-    frame_of = np.array([2, 0, 1, 2])
-    x = rng.uniform(-5.0, 36.0, (4, 7, 50))
-    y = rng.uniform(-5.0, 25.0, (4, 7, 50))
-    x[:, 0, :4], y[:, 0, :4] = [0.0, 30.0, 0.0, 30.0], [0.0, 0.0, 19.0, 19.0]  # the corners
-    frame = np.broadcast_to(frame_of[:, None, None], x.shape)
-    expected = ndimage.map_coordinates(images, [frame.ravel(), y.ravel(), x.ravel()], order=1, mode="nearest")
-    values = _Sampler(images, frame_of)(x, y)
-    assert values.dtype == np.float32
-    np.testing.assert_array_equal(values, expected.reshape(x.shape))
+    image = rng.random((20, 31)).astype(np.float32)
+    x = np.concatenate([[0.0, 30.0, 0.0, 30.0], rng.uniform(-5.0, 36.0, 300)])  # the corners first
+    y = np.concatenate([[0.0, 0.0, 19.0, 19.0], rng.uniform(-5.0, 25.0, 300)])
+    expected = ndimage.map_coordinates(image, [y, x], order=1, mode="nearest")
+    values = np.array([sample(image, float(column), float(row)) for column, row in zip(x, y)])
+    np.testing.assert_array_equal(values, values.astype(np.float32))  # rounded to float32, as the frame
+    np.testing.assert_array_equal(values, expected)
 
 
-def test_kept_median_matches_nanmedian():
+def test_kept_median_matches_median():
     rng = np.random.default_rng(6)
     values = rng.random((6, 64))
     keep = rng.random((6, 64)) < 0.7
@@ -176,10 +180,8 @@ def test_kept_median_matches_nanmedian():
     keep[2, 5] = True
     keep[3, :] = False
     keep[3, [4, 9]] = True
-    kept = np.where(keep, values, np.nan)
-    kept[1] = 0.0
-    median = _kept_median(values, keep, np.count_nonzero(keep, axis=1))
-    np.testing.assert_array_equal(median, np.nanmedian(kept, axis=1))
+    for row, kept in zip(values, keep):
+        assert kept_median(row, kept) == (np.median(row[kept]) if kept.any() else 0.0)
 
 
 def test_measure_on_one_frame_equals_the_batch():

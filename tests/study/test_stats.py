@@ -177,13 +177,11 @@ def test_too_few_complete_participants_give_nan_not_an_exception():
     trials.loc[0, "reached_goal"] = False
     result = compare_modes(trials, "time")
     assert result["n_participants"] == 1 and math.isnan(result["anova"]["p"])
-    assert "fewer than 2 participants" in result["note"]
+    assert "no test is possible with n < 2 (n = 1 participant(s)" in result["note"]
 
 
 @pytest.mark.parametrize("change, message", [
     (lambda t: t.drop(columns="completion_time_s"), "completion_time_s"),
-    (lambda t: t[t["participant"] == 0], "at least 2 participants"),
-    (lambda t: t[t["mode"] == "manual"], "at least 2 modes"),
     (lambda t: t.iloc[0:0], "no rows"),
     (lambda t: t.assign(obstacles_avoided=t["obstacles_encountered"] + 1), "obstacles_avoided <="),
 ])
@@ -191,6 +189,15 @@ def test_bad_input_raises_a_clear_value_error(change, message):
     metric = "success" if "obstacles" in message else "time"
     with pytest.raises(ValueError, match=message):
         compare_modes(change(_big_effect()), metric)
+
+
+def test_one_participant_or_one_mode_gives_no_test_and_says_why():
+    one_person = compare_modes(_big_effect().query("participant == 0"), "time")
+    assert one_person["n_participants"] == 1 and all(math.isnan(v) for v in one_person["anova"].values())
+    assert all(math.isnan(pair["p_holm"]) for pair in one_person["posthoc"]) and "n < 2" in one_person["note"]
+    one_mode = compare_modes(_big_effect().query("mode == 'manual'"), "time")
+    assert one_mode["modes"] == ["manual"] and one_mode["posthoc"] == [] and math.isnan(one_mode["anova"]["p"])
+    assert "only one mode (manual)" in one_mode["note"]
 
 
 def test_unknown_metric_raises():

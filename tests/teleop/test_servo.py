@@ -151,8 +151,33 @@ def test_velocity_estimator_is_exact_on_a_ramp_with_uneven_steps():
     np.testing.assert_array_equal(estimator(np.array([99.0, 0.0, 0.0]), t), velocity)
 
 
+@pytest.mark.parametrize("priority", [50, None])
+def test_the_servo_loop_reports_the_scheduling_it_runs_under(priority):
+    """Asked for SCHED_FIFO, the servo process runs under the policy its ``realtime``
+    flag reports (FIFO where the kernel grants it, as to root here; normal scheduling
+    where it does not); not asked, it runs under normal scheduling and says so. Catches
+    a flag that is set without the call, or a call that is never made."""
+    hand = SteadyHand(velocity_mm_s=(HAND_SPEED_MM_S, 0.0, 0.0))
+    device = ServoDevice(functools.partial(SimulatedHapticBackend, hand=hand), SIMULATED_HAPTIC_CAPS,
+                         realtime_priority=priority)
+    device.start()
+    try:
+        policy = os.sched_getscheduler(device.process.pid)
+        assert device.realtime == (policy == os.SCHED_FIFO)
+        if priority is None:
+            assert policy != os.SCHED_FIFO
+        elif os.geteuid() == 0:  # root may always ask for it
+            assert device.realtime
+    finally:
+        device.stop()
+    assert not device.realtime
+
+
 def test_servo_options_are_validated():
     factory = functools.partial(SimulatedHapticBackend)
+    for priority in (0, 100, 1.5):
+        with pytest.raises(ValueError, match="realtime_priority"):
+            ServoDevice(factory, SIMULATED_HAPTIC_CAPS, realtime_priority=priority)
     with pytest.raises(ValueError, match="busy_wait_s"):
         ServoDevice(factory, SIMULATED_HAPTIC_CAPS, busy_wait_s=0.01)
     with pytest.raises(ValueError, match="force_timeout_s"):

@@ -183,6 +183,14 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     counts = recorded["counts"]
     assert counts["/otgym/traps"] == counts["/otgym/bodies"] == counts["/otgym/shared/alpha"] == 100
     assert counts["/otgym/device/device0/twist"] >= 90 and counts["/otgym/feedback/device0"] == 100
+    # the global view's scene, once, and the mode at the trial's start only (issue 12: replay draws the chip)
+    assert counts["/otgym/session"] == counts["/otgym/chip"] == counts["/otgym/route"] == counts["/otgym/mode"] == 1
+    from otgym.record.replay import session_scene
+    from otgym.sim.chip import load_chip
+
+    scene = session_scene(read_recording(out / "session.mcap"))
+    assert scene.chip_note is None and scene.chip.content_hash == load_chip("default").content_hash
+    assert list(scene.sphere_kind).count(1) == 1 and len(scene.handle_spheres) == 4 and len(scene.route_um) > 100
     image = pygame.surfarray.array3d(pygame.image.load(str(shot)))
     assert image.shape[:2] == (1280, 720)
     colours = np.unique(image.reshape(-1, 3) // 16, axis=0)
