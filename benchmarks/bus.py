@@ -2,16 +2,20 @@
 simulation runs, liveliness (how soon a killed node is noticed), and message rates,
 against the in-process runtime measured in the same run.
 
-* Round trip: this process is a device node (a ``Node`` of role device); a child
-  process is the sim side: a ``Node`` listening on loopback that answers every twist it
-  receives, in its subscriber callback, with a feedback wrench, while its main thread
-  ticks ``InteractiveLoop`` back to back (the interactive task, shared mode, one
-  environment: the simulation running and loading the CPU). Each twist carries its
-  send time in its header stamp; the wrench echoes it, so the round trip is this
-  process's receive time minus that stamp: encode, zenoh publish, TCP over loopback,
-  receive, decode and check, encode, publish, back, decode and check. 50 Hz, as a
-  device node sends. Reference in the same run: the in-process runtime's device path
-  (``Device.read`` and ``Device.set_force`` around one tick; no bus).
+* Round trip: this process is a device node (a ``Node`` of role device) sending a
+  twist at 50 Hz; each twist carries its send time in its header stamp, the answering
+  wrench echoes it, so the round trip is this process's receive time minus that
+  stamp: encode, zenoh publish, TCP over loopback, receive, decode and check, encode,
+  publish, back, decode and check. Three sim sides, each a child process:
+  - ``node``: ``otgym node sim`` as it runs (``otgym.bus.sim_node.serve_sim_node``):
+    the session ticks in its worker process at 50 Hz, the node's own process answers
+    every twist at once with the latest force;
+  - ``same-process``: the earlier design, a ``Node`` whose subscriber callback answers
+    while the same process's main thread ticks ``InteractiveLoop`` back to back (worst
+    case: the tick holds the interpreter lock the callback waits for);
+  - ``same-process, paced``: as above, ticks paced at 50 Hz (the earlier sim node).
+  Reference in the same run: the in-process runtime's device path (``Device.read`` and
+  ``Device.set_force`` around one tick; no bus).
 * Liveliness: a light child node (no simulation) is started and SIGKILLed ``--kills``
   times; the time from the kill to this process's liveliness DELETE.
 * Rates: encoding, and decoding with the checks, per message type in this process;
@@ -44,7 +48,7 @@ SIM_SIDE = """
 import sys, threading, time
 from otgym.bus import messages as m
 from otgym.bus.transport import Node
-load = sys.argv[2] == "sim"
+load = sys.argv[2] in ("sim", "paced")
 with Node("sim", "sim", listen=[sys.argv[1]]) as node:
     def echo(topic, message, data):
         node.publish(m.feedback_topic("device0"), m.wrench((0.1, 0.0, 0.0), m.stamp_s(message), "device0"))
@@ -57,11 +61,15 @@ with Node("sim", "sim", listen=[sys.argv[1]]) as node:
         for _ in range(5):
             loop.tick()
     print("ready", flush=True)
+    deadline = time.monotonic()
     while True:
         if load:
             loop.tick()
         else:
             time.sleep(0.1)
+        if sys.argv[2] == "paced":
+            deadline += loop.tick_s
+            time.sleep(max(deadline - time.monotonic(), 0.0))
 """
 
 
@@ -72,7 +80,13 @@ def free_endpoint() -> str:
 
 
 def spawn(endpoint: str, load: str) -> subprocess.Popen:
-    child = subprocess.Popen([sys.executable, "-c", SIM_SIDE, endpoint, load], stdout=subprocess.PIPE, text=True,
+    """A sim side (see the module's docstring): ``node``, ``sim`` (same process, back to
+    back), ``paced`` (same process, 50 Hz) or ``idle`` (an echo only)."""
+    if load == "node":
+        command = ["-m", "otgym", "node", "sim", "--name", "device0", "--listen", endpoint]
+    else:
+        command = ["-c", SIM_SIDE, endpoint, load]
+    child = subprocess.Popen([sys.executable, *command], stdout=subprocess.PIPE, text=True,
                              env={**os.environ, "PYTHONPATH": str(ROOT)})
     while not child.stdout.readline().startswith("ready"):
         if child.poll() is not None:
@@ -85,33 +99,45 @@ def percentiles_ms(values_s) -> str:
     return f"p50 {np.percentile(values, 50):.3f} ms, p99 {np.percentile(values, 99):.3f} ms (n={len(values)})"
 
 
-def round_trip(n: int) -> None:
+def round_trip(n: int, side: str) -> None:
     endpoint = free_endpoint()
-    child = spawn(endpoint, "sim")
+    child = spawn(endpoint, side)
     rtts, arrived = [], threading.Event()
+    sent: set[float] = set()
     try:
         with Node("device", "device0", connect=[endpoint]) as node:
             def on_feedback(topic, message, data):
-                rtts.append(time.time() - msg.stamp_s(message))
-                arrived.set()
+                stamp = msg.stamp_s(message)
+                if stamp in sent:  # an answer to a twist (the node also publishes each tick's force)
+                    rtts.append(time.time() - stamp)
+                    arrived.set()
+
+            def send() -> None:
+                data = msg.twist(sample, time.time(), "device0")
+                sent.add(msg.stamp_s(msg.decode(topic, data)))  # the stamp as it travels (nanoseconds)
+                node.publish(topic, data)
+
+            topic = msg.twist_topic("device0")
 
             node.subscribe(msg.feedback_topic("device0"), on_feedback)
             sample = Sample(0.0, 0, np.zeros(3), (1.0, 0.0, 0.0), 1)
             while not rtts:  # the link is up
-                node.publish(msg.twist_topic("device0"), msg.twist(sample, time.time(), "device0"))
+                send()
                 time.sleep(0.05)
             time.sleep(0.5)
             rtts.clear()
             for _ in range(n):
                 arrived.clear()
-                node.publish(msg.twist_topic("device0"), msg.twist(sample, time.time(), "device0"))
+                send()
                 arrived.wait(1.0)
                 time.sleep(0.02)
     finally:
-        os.kill(child.pid, signal.SIGKILL)
+        os.kill(child.pid, signal.SIGTERM if side == "node" else signal.SIGKILL)
         child.wait()
-    print(f"bus round trip device -> sim -> feedback, simulation running: {percentiles_ms(rtts)}; "
-          f"{n - len(rtts)} lost")
+    label = {"node": "otgym node sim (ticks in its worker)", "sim": "same process, ticks back to back",
+             "paced": "same process, ticks at 50 Hz"}[side]
+    print(f"bus round trip device -> sim -> feedback, {label}: {percentiles_ms(rtts)}; {n - len(rtts)} lost; "
+          f"load average {os.getloadavg()[0]:.2f}", flush=True)
 
 
 def in_process_reference(n: int) -> None:
@@ -188,12 +214,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--round-trips", type=int, default=1000)
     parser.add_argument("--kills", type=int, default=5)
+    parser.add_argument("--sides", default="node,sim,paced", help="sim sides to measure the round trip against")
     args = parser.parse_args()
     print(f"machine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}")
     rates()
     liveliness(args.kills)
-    round_trip(args.round_trips)
+    for side in args.sides.split(","):
+        round_trip(args.round_trips, side.strip())
     in_process_reference(args.round_trips)
+    print(f"load average at the end {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

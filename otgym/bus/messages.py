@@ -16,6 +16,7 @@ schema encodings)::
     /otgym/trial/events             std_msgs/msg/String           one JSON object per event
     /otgym/phase                    std_msgs/msg/String           approach, carry or done (every tick)
     /otgym/autonomy/increments      geometry_msgs/msg/PoseArray   the autonomy's dP_r per trap, um
+    /otgym/command                  std_msgs/msg/String           a ui node's command to the sim (JSON)
     /otgym/session                  std_msgs/msg/String           the session's description (JSON), latched
     /otgym/chip                     sensor_msgs/msg/CompressedImage the chip's image (PNG), latched
     /otgym/route                    nav_msgs/msg/Path             the planned route, um, chip frame, latched
@@ -34,7 +35,9 @@ asks, not REP 103's metres: a trap moves by fractions of a micrometre. Velocitie
 forces are SI (m/s, N), so a ROS 2 tool reads a device's twist and feedback as it would
 any robot's. The trial events have no standard type: a ``std_msgs/String`` whose data
 is a JSON object with at least ``"event"`` (e.g. ``{"event": "trial_start", "trial": 1,
-...}``), which every ROS 2 tool can display. Header stamps are UNIX wall time (a
+...}``), which every ROS 2 tool can display. A command is one too: ``{"command":
+NAME}`` with NAME one of ``COMMANDS`` (``mode`` also carries ``"mode"``: manual,
+shared or autonomous), nothing else. Header stamps are UNIX wall time (a
 ``builtin_interfaces/Time``: seconds and nanoseconds); ``frame_id`` names the frame
 (``"chip"`` or the device's name).
 
@@ -115,11 +118,17 @@ MODE = "/otgym/mode"
 EVENTS = "/otgym/trial/events"
 PHASE = "/otgym/phase"
 AUTONOMY = "/otgym/autonomy/increments"
+COMMAND = "/otgym/command"
 SESSION = "/otgym/session"
 CHIP = "/otgym/chip"
 ROUTE = "/otgym/route"
 _FIXED_TOPICS = {TRAPS: POSE_ARRAY, BODIES: POSE_ARRAY, ALPHA: FLOAT64, MODE: STRING, EVENTS: STRING,
-                 PHASE: STRING, AUTONOMY: POSE_ARRAY, SESSION: STRING, CHIP: COMPRESSED_IMAGE, ROUTE: PATH}
+                 PHASE: STRING, AUTONOMY: POSE_ARRAY, COMMAND: STRING, SESSION: STRING, CHIP: COMPRESSED_IMAGE,
+                 ROUTE: PATH}
+COMMANDS = ("mode", "pause", "resume", "reset", "next_trial", "quit")
+"""What a ui node asks of the sim: switch the mode, pause or resume simulated time,
+abandon the trial for the next (R), start the next trial after the questionnaires,
+end the session (the trial under way saved as aborted)."""
 LATCHED = (SESSION, CHIP, ROUTE, MODE)
 """Topics whose latest message a late subscriber still receives (see the module's docstring)."""
 SPHERE_KINDS = ("robot", "cell", "obstacle", "bead")
@@ -271,6 +280,14 @@ def event(name: str, **fields) -> bytes:
     return string(json.dumps({"event": name, **fields}, sort_keys=True))
 
 
+def command(name: str, mode: str | None = None) -> bytes:
+    """A command to the sim: String with ``{"command": name}`` (and ``"mode"`` for ``mode``)."""
+    fields = {"command": name} if mode is None else {"command": name, "mode": mode}
+    data = string(json.dumps(fields, sort_keys=True))
+    decode(COMMAND, data)  # the sender's own check: never send what a receiver drops
+    return data
+
+
 # --- decoding and checks ----------------------------------------------------------------
 def decode(topic: str, data: bytes):
     """The checked message on ``topic`` (an object with the type's fields, as
@@ -382,6 +399,22 @@ def _check_string(message, topic: str) -> None:
             _fail(topic, "event must be a JSON object with an \"event\" string")
         if topic == SESSION:
             _check_session(payload, topic)
+    if topic == COMMAND:
+        _check_command(message.data, topic)
+
+
+def _check_command(text: str, topic: str) -> None:
+    try:
+        payload = json.loads(text)
+    except ValueError:
+        _fail(topic, "command is not JSON")
+    if not isinstance(payload, dict) or payload.get("command") not in COMMANDS:
+        _fail(topic, f"command must be a JSON object with \"command\" one of {', '.join(COMMANDS)}")
+    expected = {"command", "mode"} if payload["command"] == "mode" else {"command"}
+    if set(payload) != expected:
+        _fail(topic, f"command {payload['command']!r} takes the fields {sorted(expected)}, got {sorted(payload)}")
+    if payload["command"] == "mode" and payload["mode"] not in MODES:
+        _fail(topic, f"unknown mode {str(payload['mode'])[:40]!r}")
 
 
 def _check_session(payload, topic: str) -> None:
@@ -435,7 +468,7 @@ def force_n(message) -> np.ndarray:
 
 
 def event_fields(message) -> dict:
-    """The JSON object of a trial event."""
+    """The JSON object of a trial event (or of a command)."""
     return json.loads(message.data)
 
 

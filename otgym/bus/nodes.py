@@ -1,8 +1,8 @@
 """The runtime's parts as bus nodes (DESIGN.md, "The human half"): a device node
 publishes its device's samples and applies the feedback it receives; the simulator
-node runs ``InteractiveLoop`` on ``RemoteDevice`` s and publishes every tick; a
-recorder node passes every checked message to a sink (``otgym.cli.node`` gives it an
-MCAP file).
+node (``otgym.bus.sim_node``) runs a session on ``RemoteDevice`` s and publishes every
+tick; a recorder node passes every checked message to a sink (``otgym.cli.node``
+gives it an MCAP file); the autonomy node answers each tick with dP_r.
 
 Faults (DESIGN.md, "safety first"):
 - a device node dies: its liveliness token goes; the simulator's ``RemoteDevice``
@@ -36,7 +36,6 @@ import numpy as np
 
 from otgym.bus import messages as msg
 from otgym.bus.transport import Node
-from otgym.runtime.loop import DeviceBinding, InteractiveLoop
 from otgym.runtime.navigator import RouteNavigator
 from otgym.runtime.task import InteractiveTask
 from otgym.teleop.device import Device, DeviceCaps, Sample
@@ -52,18 +51,25 @@ each device node saturates again at its own device's limit."""
 class RemoteDevice(Device):
     """A device node's device, seen from the simulator through ``node``: ``read`` gives
     the latest twist and buttons of device ``name`` stamped with this process's
-    ``clock`` on arrival; ``set_force`` publishes the feedback."""
+    ``clock`` on arrival (each new sample, and the rest sample of a lost node, also
+    goes to ``on_sample``); ``set_force`` publishes the feedback. With
+    ``answer_twists`` every twist is answered at once with the latest force, stamped
+    with the twist's own stamp (the device's lowest-latency feedback, and its round
+    trip), besides the force published at each tick."""
 
     def __init__(self, node: Node, name: str, clock: Callable[[], float] = time.monotonic,
-                 force_limit_n: float = REMOTE_FORCE_LIMIT_N):
+                 force_limit_n: float = REMOTE_FORCE_LIMIT_N, *, answer_twists: bool = False,
+                 on_sample: Callable[[Sample], None] | None = None):
         self.node, self.name, self.clock = node, msg.check_name(name), clock
         self.caps = DeviceCaps(f"remote {name}", 3, force_limit_n, (160.0, 120.0, 70.0), 1000.0)
+        self.answer_twists, self.on_sample = answer_twists, on_sample
         self.alive = False
         self.losses = 0
         """Times the device node's liveliness token went away."""
         self._buttons = 0
         self._sequence = 0
         self._sample: Sample | None = None
+        self._force_n = np.zeros(3)
         self._lock = threading.Lock()
         self._subscribed = False
 
@@ -81,18 +87,27 @@ class RemoteDevice(Device):
     def _on_twist(self, topic, message, data) -> None:
         with self._lock:
             self._sequence += 1
-            self._sample = msg.sample_from(message, self._buttons, self.clock(), self._sequence)
+            sample = self._sample = msg.sample_from(message, self._buttons, self.clock(), self._sequence)
+            answer = self._force_n if self.answer_twists and self.alive else None
+        if answer is not None:
+            self.node.publish(msg.feedback_topic(self.name), msg.wrench(answer, msg.stamp_s(message), self.name))
+        if self.on_sample is not None:
+            self.on_sample(sample)
 
     def _on_liveliness(self, name: str, alive: bool) -> None:
         if name != self.name:
             return
+        rest = None
         with self._lock:
             if self.alive and not alive:
                 self.losses += 1
                 self._sequence += 1
                 self._buttons = 0
-                self._sample = Sample(self.clock(), self._sequence, np.zeros(3), np.zeros(3), 0)
+                rest = self._sample = Sample(self.clock(), self._sequence, np.zeros(3), np.zeros(3), 0)
+                self._force_n = np.zeros(3)
             self.alive = alive
+        if rest is not None and self.on_sample is not None:
+            self.on_sample(rest)
 
     def stop(self) -> None:
         self.set_force(np.zeros(3))
@@ -101,7 +116,10 @@ class RemoteDevice(Device):
         return self._sample
 
     def set_force(self, force_n) -> None:
-        if self.alive:
+        with self._lock:
+            self._force_n = np.asarray(force_n, float)
+            alive = self.alive
+        if alive:
             self.node.publish(msg.feedback_topic(self.name), msg.wrench(force_n, time.time(), self.name))
 
 
@@ -112,8 +130,12 @@ class RemoteAutonomy:
     ``autonomy``)."""
 
     def __init__(self, node: Node, n_traps: int, clock: Callable[[], float] = time.monotonic,
-                 timeout_s: float = AUTONOMY_TIMEOUT_S):
+                 timeout_s: float = AUTONOMY_TIMEOUT_S, *,
+                 on_update: Callable[[float, np.ndarray], None] | None = None,
+                 on_alive: Callable[[bool], None] | None = None):
         self.node, self.n_traps, self.clock, self.timeout_s = node, n_traps, clock, timeout_s
+        self.on_update, self.on_alive = on_update, on_alive
+        """Also told of each accepted answer (arrival time, increments) and each change of liveliness."""
         self.alive = False
         self.losses = 0
         """Times the autonomy node's liveliness token went away."""
@@ -131,6 +153,8 @@ class RemoteAutonomy:
             return
         with self._lock:
             self._latest = (self.clock(), increments[None])
+        if self.on_update is not None:
+            self.on_update(*self._latest)
 
     def _on_liveliness(self, name: str, alive: bool) -> None:
         with self._lock:
@@ -138,6 +162,8 @@ class RemoteAutonomy:
                 self.losses += 1
                 self._latest = None
             self.alive = alive
+        if self.on_alive is not None:
+            self.on_alive(alive)
 
     def __call__(self, observation) -> np.ndarray | None:
         with self._lock:
@@ -242,62 +268,6 @@ def run_device_node(node: Node, device: Device, name: str, stop: threading.Event
             running[0] = False
             device.set_force(np.zeros(3))
         device.stop()
-
-
-def run_sim_node(node: Node, task: InteractiveTask, devices: list[str], mode: str, seed: int,
-                 stop: threading.Event, duration_s: float | None = None,
-                 on_tick: Callable[[InteractiveLoop], None] | None = None, remote_autonomy: bool = False) -> int:
-    """Trials one after another (trial t meets scenario ``seed * 10000 + t``), each an
-    ``InteractiveLoop`` paced by the wall clock on ``RemoteDevice`` s named ``devices``
-    (device i drives robot i), publishing the session's description once (latched),
-    every tick's messages (the mode at a trial's first tick and on change) and the
-    trial events;
-    until ``stop`` is set or ``duration_s`` of simulated time is spent. With
-    ``remote_autonomy`` dP_r comes from an autonomy node (``RemoteAutonomy``), else from
-    the loop's own navigator. Returns the ticks run."""
-    remotes = [RemoteDevice(node, name) for name in devices]
-    autonomy = RemoteAutonomy(node, task.n_traps) if remote_autonomy else None
-    autonomy_live = True
-    bindings = [DeviceBinding(remote, robots=(i,)) for i, remote in enumerate(remotes)]
-    ticks, spent_s, trial = 0, 0.0, 0
-    for topic, data in msg.session_messages(task, devices, time.time()):  # latched: once per session
-        node.publish(topic, data)
-    half_tick_s = 0.5 * task.config.tick_s  # simulated time is a float sum of ticks
-    while not stop.is_set() and (duration_s is None or spent_s < duration_s - half_tick_s):
-        trial += 1
-        scenario = seed * 10_000 + trial
-        loop = InteractiveLoop(task, bindings, task.scenario(scenario), mode, seed=scenario, autonomy=autonomy)
-        node.publish(msg.EVENTS, msg.event("trial_start", trial=trial, scenario=scenario, mode=mode,
-                                           sphere_radius_um=loop.sphere_radius_um.tolist()))
-        mode_sent = None  # the mode goes out at a trial's first tick and when it changes
-        with loop:
-            deadline_s = time.monotonic()
-            while not (stop.is_set() or loop.done
-                       or (duration_s is not None and spent_s + loop.time_s >= duration_s - half_tick_s)):
-                record = loop.tick()
-                ticks += 1
-                # no devices: each RemoteDevice publishes its own feedback in set_force
-                if record.autonomy_live != autonomy_live:
-                    autonomy_live = record.autonomy_live
-                    node.publish(msg.EVENTS, msg.event("autonomy_back" if autonomy_live else "autonomy_lost",
-                                                       trial=trial, time_s=record.time_s, mode=record.mode))
-                changed = record.mode if record.mode != mode_sent else None
-                mode_sent = record.mode
-                for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), time.time(), changed):
-                    node.publish(topic, data)
-                if on_tick is not None:
-                    on_tick(loop)
-                deadline_s += loop.tick_s
-                stop.wait(max(0.0, deadline_s - time.monotonic()))
-                if time.monotonic() - deadline_s > loop.tick_s:
-                    deadline_s = time.monotonic()
-        spent_s += loop.time_s
-        row = loop.state.metrics.rows()[0]
-        ended_by = ("goal" if row["reached_goal"] else "trap_lost" if row["trap_losses"] else
-                    "time_limit" if loop.done else "stopped" if stop.is_set() else "duration")
-        node.publish(msg.EVENTS, msg.event("trial_end", trial=trial, ended_by=ended_by,
-                                           completion_time_s=row["completion_time_s"]))
-    return ticks
 
 
 def record_all(node: Node, sink: Callable[[str, bytes], None]) -> None:

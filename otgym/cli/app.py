@@ -26,6 +26,16 @@ def _root() -> None:
 USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
 
 
+def report_worker_error(error: Exception) -> None:
+    """A process of otgym's own failed (no user error): its traceback, if any, then one
+    ``error:`` line last, exit code 1."""
+    lines = str(error).splitlines() or [type(error).__name__]
+    if len(lines) > 1:
+        print("\n".join(lines[1:]), file=sys.stderr)
+    print(f"error: {lines[0]}", file=sys.stderr)
+    raise SystemExit(1)
+
+
 def _register_commands() -> None:
     from otgym.cli import chip, demo, evaluate, experiment, node, plan, play, replay, study, train
 

@@ -1,13 +1,17 @@
 """``otgym node ROLE``: one part of the runtime as a process on the bus
-(``otgym.bus``): ``sim`` (the simulator, listening on tcp/127.0.0.1:7447), ``device``
-(a local device published as ``--name``), ``recorder`` (every message into
-``--out``/session.mcap), ``autonomy`` (the route navigator's dP_r for a simulator
-started with ``--autonomy remote``; without it, shared control runs as manual). Loopback only unless ``--listen``/``--connect`` name other
-endpoints. Prints one ``ready`` line once on the bus; SIGTERM or Ctrl-C ends it
+(``otgym.bus``): ``sim`` (the simulator, listening on tcp/127.0.0.1:7447; its session
+ticks in a worker process), ``device`` (a local device published as ``--name``),
+``recorder`` (every message into ``--out``/session.mcap), ``autonomy`` (the route
+navigator's dP_r for a simulator started with ``--autonomy remote``; without it,
+shared control runs as manual), ``ui`` (the window: draws from the sim's topics, sends
+the keyboard, gamepad or mouse as devices ui0, ui1 and the keys as commands; trials.csv
+and questionnaires.csv into ``--out``). Loopback only unless ``--listen``/``--connect``
+name other endpoints. Prints one ``ready`` line once on the bus; SIGTERM or Ctrl-C ends it
 cleanly (devices at zero force, the recording closed)."""
 
 from __future__ import annotations
 
+import functools
 import signal
 import sys
 import threading
@@ -15,19 +19,32 @@ from pathlib import Path
 
 import typer
 
-BUILT = ("sim", "device", "recorder", "autonomy")
+BUILT = ("sim", "device", "recorder", "autonomy", "ui")
 
 
 def register(app: typer.Typer) -> None:
     @app.command("node")
     def node(
-        role: str = typer.Argument(..., help="sim, device, recorder or autonomy."),
+        role: str = typer.Argument(..., help="sim, device, recorder, autonomy or ui."),
         name: str = typer.Option("device0", "--name", help="device node: its name on the bus; sim node: the device "
-                                                           "names it drives (robot i by the i-th), comma-separated."),
-        device: str = typer.Option("simulated", "--device",
-                                   help="device node: its driver (keyboard, gamepad, touch, simulated, replay)."),
+                                                           "names it drives (robot i by the i-th), comma-separated; "
+                                                           "ui node: the device nodes whose feedback and loss it "
+                                                           "shows (robot i by the i-th; '' for none)."),
+        device: str = typer.Option(None, "--device",
+                                   help="device node: its driver (keyboard, gamepad, touch, simulated, replay; "
+                                        "default simulated); ui node: what the window sends as ui0, ui1 "
+                                        "(keyboard, gamepad, mouse; default keyboard)."),
+        device_name: str = typer.Option(None, "--device-name", help="device node with --device touch: the Touch's "
+                                                                    "name in Touch Setup."),
         replay: Path = typer.Option(None, "--replay", help="device node with --device replay: the CSV to play (looped)."),
+        takeover: str = typer.Option(None, "--takeover", help="sim node: devices (comma-separated, robot i by the "
+                                                               "i-th) that take robot i over while their clutch is "
+                                                               "held: a ui node's mouse (ui0,ui1)."),
         mode: str = typer.Option("shared", "--mode", help="sim node: manual, shared or autonomous."),
+        participant: str = typer.Option("P1", "--participant", help="sim node: the participant ID of its trials."),
+        hold: bool = typer.Option(False, "--hold", help="sim node: after each trial wait for a next_trial command "
+                                                        "(a ui node's questionnaires)."),
+        chip: str = typer.Option("default", "--chip", help="sim, autonomy, ui nodes: chip name or PNG."),
         autonomy: str = typer.Option("local", "--autonomy", help="sim node: dP_r from its own navigator (local) "
                                                                  "or from an autonomy node (remote)."),
         seed: int = typer.Option(0, "--seed", help="sim node: trial t meets scenario seed * 10000 + t."),
@@ -35,7 +52,9 @@ def register(app: typer.Typer) -> None:
         listen: list[str] = typer.Option(None, "--listen", help="zenoh endpoint to listen on (repeatable)."),
         connect: list[str] = typer.Option(None, "--connect", help="zenoh endpoint to connect to (repeatable)."),
         zenoh_config: Path = typer.Option(None, "--zenoh-config", help="zenoh config file (TLS, user/password)."),
-        out: Path = typer.Option(None, "--out", help="recorder node: folder for session.mcap."),
+        out: Path = typer.Option(None, "--out", help="recorder node: folder for session.mcap; ui node: for "
+                                                     "trials.csv and questionnaires.csv."),
+        no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="ui node: no questionnaires."),
     ) -> None:
         """Run one node of the distributed runtime until stopped."""
         from otgym.bus import messages as msg
@@ -43,15 +62,19 @@ def register(app: typer.Typer) -> None:
 
         if role not in BUILT:
             raise ValueError(f"unknown or unbuilt node {role!r}; choose one of {', '.join(BUILT)}")
-        names = [n.strip() for n in name.split(",")] if role == "sim" else [name]
-        for each in names:
+        names = [n.strip() for n in name.split(",") if n.strip()] if role in ("sim", "ui") else [name]
+        takeovers = [n.strip() for n in takeover.split(",")] if takeover else []
+        for each in names + takeovers:
             msg.check_name(each)
+        if not participant.strip() or "," in participant:
+            raise ValueError(f"--participant must be a non-empty ID without commas, got {participant!r}")
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         if autonomy not in ("local", "remote"):
             raise ValueError(f"--autonomy must be local or remote, got {autonomy!r}")
-        if role == "recorder" and out is None:
-            raise ValueError("the recorder node needs --out")
+        if role in ("recorder", "ui") and out is None:
+            raise ValueError(f"the {role} node needs --out")
+        device = device or {"device": "simulated", "ui": "keyboard"}.get(role)
         if zenoh_config is not None and not zenoh_config.is_file():
             raise FileNotFoundError(f"no zenoh config file {zenoh_config}")
         stop = threading.Event()
@@ -59,21 +82,25 @@ def register(app: typer.Typer) -> None:
             signal.signal(signum, lambda *_: stop.set())
         endpoints = dict(listen=list(listen or []), connect=list(connect or []),
                          config_file=str(zenoh_config) if zenoh_config else None)
-        {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy}[role](
+        {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy, "ui": _ui}[role](
             stop, endpoints, name=name, names=names, device=device, replay=replay, mode=mode, seed=seed,
-            duration=duration, out=out, remote_autonomy=autonomy == "remote")
+            duration=duration, out=out, remote_autonomy=autonomy == "remote", takeover=takeovers,
+            participant=participant.strip(), hold=hold, chip=chip, device_name=device_name,
+            questionnaire=not no_questionnaire)
 
 
 def _ready(text: str) -> None:
     print(f"ready: {text}", flush=True)
 
 
-def _device(stop, endpoints, *, name, device, replay, **_):
+def _device(stop, endpoints, *, name, device, replay, device_name, **_):
     from otgym.bus.nodes import run_device_node
     from otgym.bus.transport import Node
     from otgym.teleop.device import DeviceError, open_device
 
     options = {"path": replay, "loop": True} if device == "replay" else {}
+    if device == "touch" and device_name:
+        options["device_name"] = device_name
     if device == "replay" and replay is None:
         raise ValueError("--device replay needs --replay FILE")
     try:
@@ -108,13 +135,36 @@ def _recorder(stop, endpoints, *, out, **_):
           flush=True)
 
 
-def _autonomy(stop, endpoints, **_):
-    from otgym.bus.nodes import run_autonomy_node
+def _ui(stop, endpoints, *, names, device, chip, out, questionnaire, **_):
+    from otgym.bus.sim_node import build_task
     from otgym.bus.transport import Node
-    from otgym.runtime.task import InteractiveTask
+    from otgym.experiments.output_folder import check_out_dir
+    from otgym.runtime.layout import layout_of
+    from otgym.teleop.device import DeviceError
+    from otgym.ui.node import WINDOW_KINDS, run_window
+
+    if device not in WINDOW_KINDS:
+        raise ValueError(f"unknown window device {device!r} for the ui node; choose one of {', '.join(WINDOW_KINDS)}")
+    check_out_dir(out)
+    print("building the task ...", flush=True)
+    layout = layout_of(build_task(chip))
+    with Node("ui", "ui", **endpoints) as node:
+        _ready(f"ui ({device})")
+        try:
+            app = run_window(node, layout, device, names if device == "mouse" else [], out,
+                             questionnaire=questionnaire, stop=stop)
+        except DeviceError as error:
+            raise ValueError(str(error)) from None
+    print(f"ui: wrote {app.trials_written} trial(s) to {out / 'trials.csv'}", flush=True)
+
+
+def _autonomy(stop, endpoints, *, chip, **_):
+    from otgym.bus.nodes import run_autonomy_node
+    from otgym.bus.sim_node import build_task
+    from otgym.bus.transport import Node
 
     print("building the task ...", flush=True)
-    task = InteractiveTask()
+    task = build_task(chip)
     with Node("autonomy", "autonomy", **endpoints) as node:
         _ready("autonomy (route navigator)")
         answered = run_autonomy_node(node, task, stop)
@@ -122,15 +172,29 @@ def _autonomy(stop, endpoints, **_):
               flush=True)
 
 
-def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, **_):
-    from otgym.bus.nodes import run_sim_node
+def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, takeover, participant, hold, chip,
+         **_):
+    from otgym.bus.sim_node import serve_sim_node
     from otgym.bus.transport import Node
-    from otgym.runtime.task import InteractiveTask
+    from otgym.cli.app import report_worker_error
+    from otgym.runtime.worker import WorkerError
+    from otgym.sim.chip import load_chip
+    from otgym.teleop.device import DeviceError
 
-    print("building the task ...", flush=True)
-    task = InteractiveTask()
+    load_chip(chip)  # a bad chip is an error line before anything starts
+    print("starting the simulation in its own process ...", flush=True)
     with Node("sim", "sim", **endpoints) as node:
-        _ready(f"sim for devices {', '.join(names)}" + (" with a remote autonomy" if remote_autonomy else ""))
-        ticks = run_sim_node(node, task, names, mode, seed, stop, duration, remote_autonomy=remote_autonomy)
-        print(f"sim: {ticks} ticks; dropped {sum(node.dropped.values())} malformed messages", flush=True)
+        ready = functools.partial(_ready, f"sim for devices {', '.join(names)}"
+                                  + (f", taken over by {', '.join(takeover)}" if takeover else "")
+                                  + (" with a remote autonomy" if remote_autonomy else ""))
+        try:
+            stats = serve_sim_node(node, names, mode, seed, stop, duration, remote_autonomy, chip=chip,
+                                   takeover=takeover, participant=participant, hold_between_trials=hold,
+                                   on_ready=ready)
+        except DeviceError as error:
+            raise ValueError(str(error)) from None
+        except WorkerError as error:
+            report_worker_error(error)
+        print(f"sim: {stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts; dropped "
+              f"{sum(node.dropped.values())} malformed messages", flush=True)
     sys.stdout.flush()

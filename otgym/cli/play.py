@@ -5,6 +5,7 @@ checked before the window opens; a bad one is one ``error:`` line and exit 2."""
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,11 +24,15 @@ def register(app: typer.Typer) -> None:
         no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="No questionnaires after trials."),
         screenshot: Path = typer.Option(None, "--screenshot", help="Save the last frame as this PNG."),
         headless: bool = typer.Option(False, "--headless", help="No window (SDL dummy drivers); for tests and CI."),
+        distributed: bool = typer.Option(False, "--distributed", help="Run the sim, device, recorder (and autonomy) "
+                                                                      "as local node processes on loopback, the "
+                                                                      "window as the ui node."),
         out: Path = typer.Option(..., "--out", help="Folder for trials.csv, session.mcap (and questionnaires.csv)."),
     ) -> None:
         """The interactive task in a window: global and microscope views, cues, keys 1/2/3
         for the mode, space to pause, R to reset, H for help, Esc to quit; trials.csv and
-        the session's MCAP recording (session.mcap)."""
+        the session's MCAP recording (session.mcap). The simulation runs in a process of
+        its own (with --distributed: as nodes on the bus)."""
         from otgym.shared import MODES
         from otgym.ui.bindings import check_device_name
 
@@ -45,21 +50,28 @@ def register(app: typer.Typer) -> None:
         if headless:
             os.environ["SDL_VIDEODRIVER"] = "dummy"
             os.environ["SDL_AUDIODRIVER"] = "dummy"
-        run_play(chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
+        run = run_distributed if distributed else run_play
+        run(chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
 
 
 def run_play(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
              questionnaire: bool, screenshot: Path | None, out: Path) -> None:
+    """The window in this process, the session in its own (``otgym.runtime.worker``)."""
+    import functools
+
     from otgym.experiments.output_folder import check_out_dir
-    from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
-    from otgym.runtime.trials import TASK_RETARGET, task_feedback
+    from otgym.record.mcap_file import session_path
+    from otgym.cli.app import report_worker_error
+    from otgym.runtime.worker import SessionProcess, WorkerError, WorkerSpec
     from otgym.sim.chip import load_chip
-    from otgym.teleop.device import DeviceError
-    from otgym.ui.bindings import play_bindings, primary_devices
+    from otgym.teleop.device import DeviceError, start_devices
+    from otgym.ui.bindings import robot_primaries, window_devices
+    from otgym.ui.play_worker import play_setup
 
     chip_data = load_chip(chip)
     try:
-        primaries = primary_devices(device)
+        windowed = window_devices(device)
+        robot_primaries(device, windowed)  # the Touch fails here at once without its runtime
     except DeviceError as error:
         raise ValueError(str(error)) from None
     if screenshot is not None and screenshot.parent and not screenshot.parent.is_dir():
@@ -68,41 +80,164 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
     check_out_dir(out)
     import pygame
 
+    from otgym.ui.app import PlayApp
+
+    def remove_empty_out() -> None:
+        if created_out and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()
+
     pygame.display.init()  # no audio: nothing plays sound
     pygame.font.init()
     try:
-        print(f"building the task on chip {chip_data.name!r} ...", flush=True)
-        task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip_data)))
-        feedback = task_feedback(task.config.scene.trap_law, TASK_RETARGET, int((task.trap_robot == task.trap_robot[0]).sum()))
-        from otgym.ui.app import PlayApp
-        from otgym.record.mcap_file import session_path
-        from otgym.ui.recording import SessionRecording
-        from otgym.ui.simulation import Simulation
-
-        recording = SessionRecording(session_path(out))
-        bindings = recording.wrap(play_bindings(primaries, keyboard=device == "keyboard", feedback=feedback))
-        simulation = Simulation(task, bindings, participant, mode, seed, duration_s, recording=recording)
         try:
-            simulation.start()
-        except DeviceError as error:  # e.g. no gamepad plugged in: leave no recording or empty --out behind
-            recording.close()
-            recording.path.unlink(missing_ok=True)
-            if created_out and not any(out.iterdir()):
-                out.rmdir()
+            start_devices(windowed)  # e.g. no gamepad plugged in: nothing written
+        except DeviceError as error:
+            remove_empty_out()
+            raise ValueError(str(error)) from None
+        recording_path = session_path(out)
+        spec = WorkerSpec(functools.partial(play_setup, chip, device, recording_path), participant, mode, seed,
+                          duration_s, forwarded_caps=tuple(d.caps for d in windowed))
+        session = SessionProcess(spec)
+        print(f"starting the simulation on chip {chip_data.name!r} in its own process ...", flush=True)
+        try:
+            session.start()
+        except DeviceError as error:  # a Touch that would not open: the worker left no recording behind
+            remove_empty_out()
             raise ValueError(str(error)) from None
         try:
-            app = PlayApp(simulation, out, keyboard=primaries[0] if device == "keyboard" else None,
-                          questionnaire=questionnaire)
+            app = PlayApp(session, out, window_devices=windowed, questionnaire=questionnaire)
             app.run()
             if screenshot is not None:
                 app.save_screenshot(screenshot)
+        except WorkerError as error:
+            report_worker_error(error)
         finally:
-            simulation.close()
+            session.finish()
         frames = np.asarray(app.frame_times_s[1:]) if len(app.frame_times_s) > 1 else None
+        stats = session.stats or {}
         if frames is not None:
-            print(f"{len(frames)} frames, median {1 / np.median(frames):.0f} fps; "
-                  f"{simulation.ticks} ticks, {simulation.late_ticks} schedule restarts")
-        print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {recording.path}"
+            print(f"{len(frames)} frames, median {1 / np.median(frames):.0f} fps "
+                  f"({app.frames_with_new_state} with a new simulation state); "
+                  f"{stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts")
+        print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {recording_path}"
               + (f"; screenshot {screenshot}" if screenshot is not None else ""))
     finally:
+        for each in windowed:
+            each.stop()
         pygame.quit()
+
+
+def node_plan(device: str, endpoint: str) -> tuple[list[tuple[str, list[str]]], list[str], str, list[str]]:
+    """For ``--device``: the device nodes (label, arguments), the sim's device
+    arguments, what the window sends (keyboard, gamepad or mouse) and the device nodes
+    whose feedback it shows. The keyboard and the gamepad are the window's own (sent as
+    ui0, ui1); the simulated stylus and the Touches are device nodes, which the
+    window's mouse takes over while it drags."""
+    from otgym.ui.bindings import TOUCH_NAMES
+
+    connect = ["--connect", endpoint]
+    if device in ("keyboard", "gamepad"):
+        return [], ["--name", "ui0,ui1"], device, []
+    if device == "simulated":
+        return ([("device0", ["device", "--device", "simulated", "--name", "device0", *connect])],
+                ["--name", "device0", "--takeover", "ui0,ui1"], "mouse", ["device0"])
+    nodes = [(f"device{i}", ["device", "--device", "touch", "--device-name", touch, "--name", f"device{i}",
+                             *connect]) for i, touch in enumerate(TOUCH_NAMES)]
+    return nodes, ["--name", "device0,device1", "--takeover", "ui0,ui1"], "mouse", ["device0", "device1"]
+
+
+def _window_over_nodes(nodes, endpoint: str, layout, window_kind: str, shown: list[str], out: Path,
+                       questionnaire: bool, screenshot: Path | None, failed: list[str]):
+    """The window as the ui node until it closes, a node fails (its line appended to
+    ``failed``) or the sim ends; then the sim's own end is awaited."""
+    import threading
+    import time
+
+    from otgym.bus.transport import Node
+    from otgym.teleop.device import DeviceError
+    from otgym.ui.node import run_window
+
+    stop, done = threading.Event(), threading.Event()
+
+    def watch() -> None:  # a failed node, or the sim gone without a word, closes the window
+        while not done.wait(0.1):
+            failure = nodes.failure()
+            if failure:
+                failed.append(failure)
+                stop.set()
+                return
+            if nodes.ended("sim") and not done.wait(1.0):
+                stop.set()
+                return
+
+    threading.Thread(target=watch, name="otgym-nodes-watch", daemon=True).start()
+    with Node("ui", "ui", connect=[endpoint]) as node:
+        try:
+            app = run_window(node, layout, window_kind, shown, out, questionnaire=questionnaire,
+                             screenshot=screenshot, stop=stop)
+        except DeviceError as error:  # e.g. no gamepad: the nodes stop all the same
+            raise ValueError(str(error)) from None
+        finally:
+            done.set()
+    if not nodes.wait_exit("sim", 30.0) and not failed:
+        failed.append("the sim node did not end within 30 s of the session's end")
+    time.sleep(0.5)  # the session's last messages reach the recorder
+    return app
+
+
+def run_distributed(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
+                    questionnaire: bool, screenshot: Path | None, out: Path) -> None:
+    """The sim, device, recorder (and, in shared or autonomous mode, autonomy) nodes as
+    local processes on a loopback port; this process is the ui node (the window).
+    All stop when the window closes or when one of them fails (one ``error:`` line,
+    exit code 1)."""
+    from otgym.bus.sim_node import build_task
+    from otgym.cli.launch import NodeProcesses, free_loopback_endpoint
+    from otgym.experiments.output_folder import check_out_dir
+    from otgym.runtime.layout import layout_of
+    from otgym.sim.chip import load_chip
+    from otgym.teleop.device import DeviceError
+    from otgym.ui.bindings import robot_primaries, window_devices
+
+    load_chip(chip)
+    try:
+        robot_primaries(device, window_devices(device))  # the Touch fails here at once without its runtime
+    except DeviceError as error:
+        raise ValueError(str(error)) from None
+    if screenshot is not None and screenshot.parent and not screenshot.parent.is_dir():
+        raise ValueError(f"--screenshot {screenshot}: folder {screenshot.parent} does not exist")
+    check_out_dir(out)
+    endpoint = free_loopback_endpoint()
+    device_nodes, sim_devices, window_kind, shown = node_plan(device, endpoint)
+    remote_autonomy = mode in ("shared", "autonomous")
+    sim = ["sim", "--listen", endpoint, "--mode", mode, "--seed", str(seed), "--participant", participant,
+           "--chip", chip, *sim_devices]
+    sim += (["--duration", repr(duration_s)] if duration_s is not None else []) + (["--hold"] if questionnaire else [])
+    sim += ["--autonomy", "remote"] if remote_autonomy else []
+    nodes = NodeProcesses()
+    failed: list[str] = []
+    app = None
+    try:
+        nodes.start("sim", sim)
+        for label, arguments in device_nodes:
+            nodes.start(label, arguments)
+        nodes.start("recorder", ["recorder", "--out", str(out), "--connect", endpoint])
+        if remote_autonomy:
+            nodes.start("autonomy", ["autonomy", "--chip", chip, "--connect", endpoint])
+        print(f"starting {len(nodes.children)} nodes on {endpoint} ({', '.join(nodes.children)}) ...", flush=True)
+        layout = layout_of(build_task(chip))
+        try:
+            nodes.wait_ready(900.0)
+        except RuntimeError as error:
+            failed.append(str(error))
+        if not failed:
+            print("nodes ready; the window opens", flush=True)
+            app = _window_over_nodes(nodes, endpoint, layout, window_kind, shown, out, questionnaire, screenshot,
+                                     failed)
+    finally:
+        nodes.stop_all(order=["sim", "autonomy", *[label for label, _ in device_nodes], "recorder"])
+    if failed:
+        print(f"error: {failed[0]}", file=sys.stderr)
+        raise SystemExit(1)
+    print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {out}/session*.mcap"
+          + (f"; screenshot {screenshot}" if screenshot is not None else ""))

@@ -229,6 +229,11 @@ class InteractiveLoop:
     def done(self) -> bool:
         return bool(self.state.phase[0] == DONE)
 
+    @property
+    def lost_devices(self) -> tuple[int, ...]:
+        """The bindings (by index) whose device's link is lost."""
+        return tuple(index for index, channel in enumerate(self._channels) if channel.lost)
+
     def start(self) -> None:
         """Start every device; if one fails, stop those already started and re-raise."""
         start_devices([channel.device for channel in self._channels])

@@ -82,6 +82,12 @@ def arbitration_modes(modes) -> np.ndarray:
     return np.where(modes == "mpc", "autonomous", modes)
 
 
+def stylus_feedback(task) -> FeedbackConfig:
+    """``task_feedback`` for a person's styluses on ``task`` (``TASK_RETARGET``, the
+    task's handles per robot): what ``otgym play`` and the sim node give each device."""
+    return task_feedback(task.config.scene.trap_law, TASK_RETARGET, int(np.sum(task.trap_robot == task.trap_robot[0])))
+
+
 def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig) -> np.ndarray:
     """alpha (E,) for each environment's mode at its obstacle gap (``mpc``: autonomous)."""
     modes = arbitration_modes(modes)

@@ -4,8 +4,10 @@
 Modules, each with one job: ``device`` (the protocol every device speaks,
 ``open_device``), ``retarget`` (samples -> the human's trap increment dP_h),
 ``feedback`` (the vision force sensor's reading -> a stylus force), ``servo`` (a haptic
-servo loop in its own process), and the drivers ``touch``, ``pygame_devices``,
-and ``replay``. The simulated participants that drive the interactive task closed
+servo loop in its own process), the drivers ``touch``, ``pygame_devices`` and
+``replay``, and two devices made of others: ``mouse_drag`` (the mouse dragging one
+robot, over that robot's device) and ``forwarded`` (samples that another process or
+a bus subscription feeds in). The simulated participants that drive the interactive task closed
 loop are task-level agents and live in ``otgym.runtime.participants``.
 
 Only the device protocol is imported here: this package is imported by every servo

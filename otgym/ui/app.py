@@ -1,20 +1,29 @@
 """The window of ``otgym play``: 1280 x 720 at 60 frames per second, the global view
-(left), the local microscope view (right, top) and the cues (right, below), over the
-real-time simulation (``otgym.ui.simulation``).
+(left), the local microscope view (right, top) and the cues (right, below), over a
+session of the interactive task (``otgym.runtime.session``).
 
-Frames and ticks. The window draws at ``FPS`` (pygame's ``Clock.tick``); the
-simulation ticks at 50 Hz by the wall clock. By default the simulation runs in a
-thread of its own (``threaded=True``). Measured with ``benchmarks/ui_fps.py`` on this
-project's 2-core machine with other jobs beside it (load average 4-5), headless: a
-tick takes 12-17 ms of its 20 ms and a frame's drawing about 2-3 ms (plus a 3.4 ms
-microscope render at 25 Hz). A frame loop that also ran the ticks (a fixed-step
-accumulator: run the ticks due, then draw) gave 16 fps p50 and a real-time factor of
-0.57, since each frame with a tick in it waits for the whole tick; with the ticks in
-their own thread, whose XLA and numpy work releases the interpreter lock, the window
-drew 59 fps p50 at a real-time factor of 0.80 (the simulation alone, nothing drawn:
-0.90 under the same load). Under Xvfb the flip itself costs about 9 ms (a software X
-server on the same two cores), and the threaded window fell to 22 fps: see
-benchmarks/README.md.
+Processes. The window only draws and forwards input; the session (its ticks, the
+devices' retargeting and feedback, the recording) runs elsewhere, behind a driver with
+one interface: a ``SessionProcess`` (``otgym.runtime.worker``: its own process, what
+``otgym play`` runs), a ``BusSession`` (``otgym.ui.node``: a sim node on the bus, what
+``otgym play --distributed`` and ``otgym node ui`` run), or a ``Session`` in this
+process (tests step it frame by frame; ``benchmarks/ui_fps.py`` also ticks it in a
+thread, the earlier design). In a thread the ticks and the drawing shared one
+interpreter lock: 54-60 fps with the simulation at 0.88-0.94 of real time on a quiet
+2-core machine; in two processes each has a core (benchmarks/README.md).
+
+What the window forwards: the mode keys, pause, reset, the next trial after the
+questionnaires, quitting, the mouse dragging a robot (``drag``), and the samples of the
+devices that live here (``window_devices``: the keyboard and the gamepad, whose events
+only this window's SDL queue receives), read every frame and fed to the session.
+
+Drawing. Each frame draws only what changed and presents only those rectangles
+(``pygame.display.update(rects)``): a new snapshot redraws the moving bodies of the
+global view (where they are and where they were), the local view, the cue panel and
+the status line; a frame without a new snapshot redraws nothing but the frame-rate
+counter twice a second. Presenting goes through the platform's framebuffer
+(``SDL_FRAMEBUFFER_ACCELERATION=0``, below), not SDL's OpenGL path, which without a
+GPU costs 3-4 ms of CPU per present (Mesa's software renderer) whatever changed.
 
 Keys (also in the help overlay, H):
 
@@ -32,24 +41,30 @@ arrows / WASD  keyboard device: move both robots (the formation) while held
 After each trial its row is appended to ``out_dir/trials.csv`` (``otgym.ui.records``),
 then, unless ``questionnaire=False``, the questionnaires are shown in the window and
 their answers appended to ``out_dir/questionnaires.csv`` (a questionnaire left with
-Esc ends the session), then the next trial starts, until Esc or the simulation's
-duration is spent.
+Esc ends the session), then the next trial starts, until Esc, the window closing, or
+the session's duration spent. Quitting mid-trial saves that trial's row with
+``ended_by`` ``aborted`` (no questionnaire).
 """
 
 from __future__ import annotations
 
-import functools
+import os
 import time
 from pathlib import Path
 
 import numpy as np
-import pygame
 
+os.environ.setdefault("SDL_FRAMEBUFFER_ACCELERATION", "0")
+"""The window's surface is presented by the platform's own framebuffer (X11: shared
+memory), not through an OpenGL renderer: without a GPU (Xvfb, remote X, most VMs) SDL's
+default renders each present with Mesa's software GL, about 3.5 ms of CPU whatever
+the size of the rectangles (measured under Xvfb: 0.01 ms with this setting)."""
+import pygame  # noqa: E402
+
+from otgym.teleop.device import DeviceError
 from otgym.teleop.pygame_devices import KEYBOARD_EVENTS
 from otgym.ui import cues, views
-from otgym.ui.mouse_device import MouseDragDevice
 from otgym.ui.records import append_trial
-from otgym.ui.simulation import Simulation
 from otgym.ui.views import DIM_TEXT_RGB, TEXT_RGB, BACKGROUND_RGB, CuePanel, GlobalView, LocalView, fonts
 
 WINDOW_SIZE = (1280, 720)
@@ -69,57 +84,78 @@ HELP_LINES = (
 GLOBAL_RECT = pygame.Rect(12, 52, 856, 620)
 LOCAL_RECT = pygame.Rect(896, 52, 360, 360)
 CUE_RECT = pygame.Rect(896, 428, 360, 284)
+STATUS_RECT = pygame.Rect(0, 0, WINDOW_SIZE[0], 50)
+FPS_TEXT_PERIOD_S = 0.5
+DANGER_RGB = cues.DANGER_RGB
 
 
 class PlayApp:
-    """The window over ``simulation`` (already started); ``keyboard``: the keyboard
-    device to feed key events to (None: no keyboard device)."""
+    """The window over ``session`` (a driver: see the module's docstring), already
+    started. ``window_devices``: devices read here and fed to the session by index
+    (the keyboard gets the key events); ``step``: advance an in-process ``Session`` in
+    each frame (tests); ``dirty_rects``: present only what changed (False: the whole
+    frame every frame)."""
 
-    def __init__(self, simulation: Simulation, out_dir: Path, *, keyboard=None, questionnaire: bool = True,
-                 threaded: bool = True, fps: int = FPS, screen: pygame.Surface | None = None):
-        self.simulation = simulation
-        self.task = simulation.task
+    def __init__(self, session, out_dir: Path, *, window_devices=(), questionnaire: bool = True,
+                 step: bool = False, fps: int = FPS, screen: pygame.Surface | None = None,
+                 dirty_rects: bool = True):
+        self.session = session
         self.out_dir = Path(out_dir)
-        self.keyboard = keyboard
+        self.window_devices = list(window_devices)
+        self.keyboards = [d for d in self.window_devices if hasattr(d, "handle_event")]
         self.questionnaire = questionnaire
-        self.threaded = threaded
+        self.step = step
         self.fps = fps
+        self.dirty_rects = dirty_rects
         self.screen = screen if screen is not None else pygame.display.set_mode(WINDOW_SIZE)
         pygame.display.set_caption("otgym play")
         self.clock = pygame.time.Clock()
         self.type = fonts()
-        self.global_view = GlobalView(self.task, GLOBAL_RECT)
-        self.local_view = LocalView(self.task, LOCAL_RECT, simulation.loop.sphere_radius_um)
-        self.drag_devices = [b.device for b in simulation.bindings if isinstance(b.device, MouseDragDevice)]
-        self.cue_panel = CuePanel(self.task, CUE_RECT, [b.device.caps.force_limit_n for b in simulation.bindings])
+        layout = session.layout
+        self.global_view = GlobalView(layout, GLOBAL_RECT)
+        self.local_view = LocalView(layout, LOCAL_RECT)
+        self.cue_panel = CuePanel(layout, CUE_RECT, session.force_limits_n)
         self.running = True
         self.show_help = False
         self.drag: tuple[int, np.ndarray] | None = None
         self.frame_times_s: list[float] = []
         self.trials_written = 0
+        self.frames_with_new_state = 0
+        self._window_sequences: list[int | None] = [None] * len(self.window_devices)
+        self._window_lost: set[int] = set()
+        self._drawn_snapshot = None
+        self._full_redraw = True
+        self._fps_text_at_s = -np.inf
+        self._fps_rect = pygame.Rect(GLOBAL_RECT.right - 150, self.global_view.rect.bottom + 10, 150, 20)
 
     # --- events ---------------------------------------------------------------------
     def handle_event(self, event) -> None:
         if event.type == pygame.QUIT:
             self.running = False
             return
+        if event.type in (pygame.WINDOWEXPOSED, pygame.WINDOWRESTORED, pygame.WINDOWSIZECHANGED):
+            self._full_redraw = True
         if event.type == pygame.KEYDOWN:
             if event.key == pygame.K_ESCAPE:
                 self.running = False
             elif event.key in MODE_KEYS:
-                self.simulation.set_mode(MODE_KEYS[event.key])
+                self.session.set_mode(MODE_KEYS[event.key])
             elif event.key == pygame.K_SPACE:
-                self.simulation.toggle_pause()
+                self.session.toggle_pause()
             elif event.key == pygame.K_r:
                 self._release_drag()
-                self.simulation.reset()
+                self.session.reset()
             elif event.key == pygame.K_h:
                 self.show_help = not self.show_help
-        if self.keyboard is not None and event.type in KEYBOARD_EVENTS and event.type not in (
+                self._full_redraw = True
+        if event.type in KEYBOARD_EVENTS and event.type not in (
                 pygame.MOUSEBUTTONDOWN, pygame.MOUSEBUTTONUP, pygame.MOUSEMOTION):
-            self.simulation.post(functools.partial(self.keyboard.handle_event, event))
-        if event.type == pygame.MOUSEBUTTONDOWN and event.button == 1 and self.global_view.rect.collidepoint(event.pos):
-            robot = self.global_view.robot_at(self.simulation.snapshot, event.pos)
+            for keyboard in self.keyboards:
+                keyboard.handle_event(event)
+        snapshot = self.session.snapshot
+        if (event.type == pygame.MOUSEBUTTONDOWN and event.button == 1 and snapshot is not None
+                and self.global_view.rect.collidepoint(event.pos)):
+            robot = self.global_view.robot_at(snapshot, event.pos)
             if robot is not None:
                 self.drag = (robot, self.global_view.to_um(event.pos))
         elif event.type == pygame.MOUSEMOTION and self.drag is not None:
@@ -128,36 +164,56 @@ class PlayApp:
             self._release_drag()
 
     def _release_drag(self) -> None:
-        self.drag = None
-        for device in self.drag_devices:
-            device.release()
+        if self.drag is not None:
+            self.drag = None
+            self.session.release_drag()
 
     def _update_drag(self) -> None:
-        if self.drag is None:
+        snapshot = self.session.snapshot
+        if self.drag is None or snapshot is None:
             return
         robot, pointer_um = self.drag
-        for device in self.drag_devices:
-            if device.robot == robot:
-                device.drag_to(pointer_um, self.global_view.trap_centre_um(self.simulation.snapshot, robot))
+        self.session.drag(robot, pointer_um, self.global_view.trap_centre_um(snapshot, robot))
+
+    def _forward_window_devices(self) -> None:
+        """Each window device's new sample to the session (a lost one once, with the reason)."""
+        for index, device in enumerate(self.window_devices):
+            if index in self._window_lost:
+                continue
+            try:
+                sample = device.read()
+            except DeviceError as error:
+                self._window_lost.add(index)
+                self.session.lose(index, str(error))
+                continue
+            if sample is not None and sample.sequence != self._window_sequences[index]:
+                self._window_sequences[index] = sample.sequence
+                self.session.feed(index, sample)
 
     # --- frames ---------------------------------------------------------------------
     def frame(self) -> None:
-        """One frame: events, (ticks when not threaded), finished trials, drawing."""
+        """One frame: events, input forwarded, (ticks when stepping), finished trials, drawing."""
         for event in pygame.event.get():
             self.handle_event(event)
         self._update_drag()
-        if not self.threaded:
-            self.simulation.advance()
+        self._forward_window_devices()
+        if self.step:
+            self.session.advance()
+        poll = getattr(self.session, "poll", None)
+        if poll is not None:
+            poll()
         self._finish_trials()
-        if self.simulation.over and self.running:
+        if self.session.over and self.running:
             self.running = False
-        self.draw()
-        pygame.display.flip()
+        rects = self.draw()
+        if rects is None or not self.dirty_rects:
+            pygame.display.flip()
+        elif rects:
+            pygame.display.update(rects)
 
     def run(self) -> None:
-        """Frames until Esc, the window closing, or the session's duration spent."""
-        if self.threaded:
-            self.simulation.start_thread()
+        """Frames until Esc, the window closing, or the session's duration spent; then
+        the session is finished (a trial under way saved as aborted)."""
         try:
             last = time.perf_counter()
             while self.running:
@@ -167,18 +223,20 @@ class PlayApp:
                 self.frame_times_s.append(now - last)
                 last = now
         finally:
-            self.simulation.stop_thread()
+            self.session.finish()
+            self._finish_trials(ask=False)
 
-    def _finish_trials(self) -> None:
-        row = self.simulation.take_finished()
-        if row is None:
-            return
-        append_trial(self.out_dir / "trials.csv", row)
-        self.trials_written += 1
-        if self.questionnaire and not self._ask(row):
-            self.running = False
-            return
-        self.simulation.next_trial()
+    def _finish_trials(self, ask: bool = True) -> None:
+        while (row := self.session.take_finished()) is not None:
+            append_trial(self.out_dir / "trials.csv", row)
+            self.trials_written += 1
+            if not ask or row["ended_by"] == "aborted":
+                continue
+            if self.questionnaire and not self._ask(row):
+                self.running = False
+                return
+            self._full_redraw = True  # the form covered the window
+            self.session.next_trial()
 
     def _ask(self, row: dict) -> bool:
         """The questionnaires in this window; False when the person left them with Esc."""
@@ -193,29 +251,68 @@ class PlayApp:
         return True
 
     # --- drawing --------------------------------------------------------------------
-    def draw(self) -> None:
-        snapshot = self.simulation.snapshot
-        screen = self.screen
-        screen.fill(BACKGROUND_RGB)
-        self.global_view.draw(screen, snapshot, self.drag)
-        self.local_view.update(snapshot, time.monotonic())
-        self.local_view.draw(screen, snapshot, self.type["small"])
-        self.cue_panel.draw(screen, snapshot, self.type)
-        self._draw_status(snapshot)
+    def draw(self) -> list[pygame.Rect] | None:
+        """Draw what changed since the last frame; the rectangles to present (None: the
+        whole window)."""
+        snapshot = self.session.snapshot
+        if snapshot is None:  # the whole window says so until the first snapshot, which redraws it all
+            self.screen.fill(BACKGROUND_RGB)
+            self._text("waiting for the simulator ...", (40, 40), TEXT_RGB, "title")
+            self._full_redraw = True
+            return None
+        now = time.monotonic()
+        rendered = self.local_view.update(snapshot, now)
+        fresh = snapshot is not self._drawn_snapshot
+        self.frames_with_new_state += fresh
+        full = self._full_redraw or self.show_help
+        rects: list[pygame.Rect] = []
+        if full:
+            self.screen.fill(BACKGROUND_RGB)
+            self._draw_legend()
+        if full or fresh or self.drag is not None:
+            rects += self.global_view.draw(self.screen, snapshot, self.drag)
+        if full or fresh or rendered:
+            rects += self.local_view.draw(self.screen, snapshot, self.type["small"])
+        if full or fresh:
+            rects += self.cue_panel.draw(self.screen, snapshot, self.type)
+            rects.append(self._draw_status(snapshot))
+        if full or now - self._fps_text_at_s >= FPS_TEXT_PERIOD_S:
+            self._fps_text_at_s = now
+            rects.append(self._draw_fps())
+        self._drawn_snapshot = snapshot
         if self.show_help:
             self._draw_help()
+        if full:
+            self._full_redraw = False
+            return None
+        return rects
 
-    def _draw_status(self, snapshot) -> None:
-        text = lambda s, pos, rgb=TEXT_RGB, size="body": self.screen.blit(  # noqa: E731
-            self.type[size].render(s, True, rgb), pos)
-        sim = self.simulation
+    def _text(self, s: str, pos, rgb=TEXT_RGB, size: str = "body") -> pygame.Rect:
+        return self.screen.blit(self.type[size].render(s, True, rgb), pos)
+
+    def _draw_status(self, snapshot) -> pygame.Rect:
+        """The status line (participant, trial, time, obstacles; pause; a lost device or
+        autonomy) and the local view's caption, over a cleared strip."""
+        self.screen.fill(BACKGROUND_RGB, STATUS_RECT)
         avoided, encountered = cues.obstacle_tally(snapshot.encountered, snapshot.collided)
-        text("otgym play", (12, 12), TEXT_RGB, "title")
-        text(f"participant {sim.participant}    trial {snapshot.trial}    time {cues.format_elapsed(snapshot.time_s)}"
-             f"    obstacles avoided {avoided} / {encountered}", (150, 16))
+        self._text("otgym play", (12, 12), TEXT_RGB, "title")
+        self._text(f"participant {self.session.participant}    trial {snapshot.trial}    "
+                   f"time {cues.format_elapsed(snapshot.time_s)}    obstacles avoided {avoided} / {encountered}",
+                   (150, 16))
         if snapshot.paused:
-            text("PAUSED (space)", (700, 14), (250, 180, 30), "title")
-        text("microscope, around the cell", (LOCAL_RECT.left, LOCAL_RECT.top - 20), DIM_TEXT_RGB, "small")
+            self._text("PAUSED (space)", (700, 14), (250, 180, 30), "title")
+        warnings = cues.loss_warnings(self._lost_devices(snapshot), snapshot.autonomy_live, snapshot.mode,
+                                      getattr(self.session, "simulator_live", True))
+        if warnings:
+            self._text("    ".join(warnings), (880, 8), DANGER_RGB, "body")
+        self._text("microscope, around the cell", (LOCAL_RECT.left, LOCAL_RECT.top - 20), DIM_TEXT_RGB, "small")
+        return STATUS_RECT
+
+    def _lost_devices(self, snapshot) -> tuple[str, ...]:
+        lost = getattr(self.session, "lost_devices", None)
+        return tuple(lost) if lost is not None else snapshot.lost_devices
+
+    def _draw_legend(self) -> None:
         legend = ("route", "robots", "traps +", "cell", "obstacles (arrow: next 3 s)", "flow")
         colours = (views.ROUTE_RGB, views.ROBOT_RGB, views.TRAP_RGB, views.CELL_RGB, views.OBSTACLE_RGB,
                    views.FLOW_RGB)
@@ -226,8 +323,11 @@ class PlayApp:
             label = self.type["small"].render(name, True, DIM_TEXT_RGB)
             self.screen.blit(label, (x + 16, y + 1))
             x += label.get_width() + 34
-        fps = self.clock.get_fps()
-        text(f"{fps:4.0f} fps    H: help", (GLOBAL_RECT.right - 150, y), DIM_TEXT_RGB, "small")
+
+    def _draw_fps(self) -> pygame.Rect:
+        self.screen.fill(BACKGROUND_RGB, self._fps_rect)
+        self._text(f"{self.clock.get_fps():4.0f} fps    H: help", self._fps_rect.topleft, DIM_TEXT_RGB, "small")
+        return self._fps_rect
 
     def _draw_help(self) -> None:
         box = pygame.Rect(0, 0, 700, 60 + 30 * len(HELP_LINES))

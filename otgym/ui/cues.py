@@ -18,6 +18,7 @@ keeping them here makes each one testable without a window.
 * Trap-loss warning: a handle lagging its trap by at least half the trap law's escape
   distance (where the feedback's bend stiffening starts, ``teleop.feedback``), rising
   to 1 at the escape distance, where the trap loses it.
+* Loss banner: a device or the autonomy lost (a driver's link gone, a bus node dead).
 """
 
 from __future__ import annotations
@@ -126,3 +127,17 @@ def format_elapsed(time_s: float) -> str:
     """"m:ss.s" of simulated time."""
     minutes, seconds = divmod(max(float(time_s), 0.0), 60.0)
     return f"{int(minutes)}:{seconds:04.1f}"
+
+
+def loss_warnings(lost_devices, autonomy_live: bool, mode: str, simulator_live: bool = True) -> list[str]:
+    """The lines of the loss banner: the simulator gone (a window on the bus), each
+    device whose link was lost (by name; its robot's input is zero, the traps hold),
+    and the autonomy when its dP_r stopped in a mode that uses it (shared control then
+    runs as manual, autonomous holds the traps: ``InteractiveLoop``'s fallback)."""
+    lines = [] if simulator_live else ["SIMULATOR LOST: waiting for it"]
+    lines += [f"{name} LOST: its robot holds" for name in lost_devices]
+    if not autonomy_live and mode == "shared":
+        lines.append("AUTONOMY LOST: manual control")
+    elif not autonomy_live and mode == "autonomous":
+        lines.append("AUTONOMY LOST: the traps hold")
+    return lines

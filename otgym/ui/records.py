@@ -9,7 +9,7 @@ import csv
 from pathlib import Path
 
 from otgym.runtime.trials import TRIAL_COLUMNS
-from otgym.ui.simulation import EXTRA_COLUMNS
+from otgym.runtime.session import EXTRA_COLUMNS
 
 PLAY_COLUMNS = TRIAL_COLUMNS + EXTRA_COLUMNS
 

@@ -71,6 +71,14 @@ def test_alpha_mode_and_events_decode_with_rosbags():
     assert m.event_fields(m.decode(m.EVENTS, data))["trial"] == 2
 
 
+def test_commands_decode_with_rosbags_and_a_bad_one_is_never_sent():
+    for data in (m.command("mode", "autonomous"), m.command("pause"), m.command("next_trial")):
+        assert json.loads(rosbags(data, m.STRING).data) == m.event_fields(m.decode(m.COMMAND, data))
+    assert m.event_fields(m.decode(m.COMMAND, m.command("mode", "manual"))) == {"command": "mode", "mode": "manual"}
+    with pytest.raises(m.MessageError, match="unknown mode"):
+        m.command("mode", "telepathic")
+
+
 def test_sample_rebuilt_from_twist_and_buttons_on_the_receivers_clock():
     message = m.decode(m.twist_topic("left"), m.twist(SAMPLE, STAMP_S, "left"))
     sample = m.sample_from(message, 0b101, 55.0, 9)
@@ -168,6 +176,11 @@ def _image(format_: str, data: bytes) -> bytes:
     (m.MODE, m.string("telepathic"), "unknown mode"),
     (m.EVENTS, m.string("not json"), "not JSON"),
     (m.EVENTS, m.string("[1, 2]"), "JSON object"),
+    (m.COMMAND, m.string("pause"), "not JSON"),
+    (m.COMMAND, m.string(json.dumps({"command": "selfdestruct"})), "one of mode, pause"),
+    (m.COMMAND, m.string(json.dumps({"command": "mode", "mode": "telepathic"})), "unknown mode"),
+    (m.COMMAND, m.string(json.dumps({"command": "mode"})), "takes the fields"),
+    (m.COMMAND, m.string(json.dumps({"command": "reset", "trial": 3})), "takes the fields"),
     (m.twist_topic("left"), m.float64(0.5), "does not decode"),
     ("/otgym/elsewhere", m.float64(0.5), "unknown topic"),
     ("/otgym/device/../twist", m.float64(0.5), "unknown topic"),

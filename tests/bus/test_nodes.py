@@ -227,7 +227,7 @@ def test_malformed_messages_are_dropped_and_counted_never_applied():
 
 
 def test_sim_node_publishes_every_tick_and_the_trial_events():
-    from otgym.bus.nodes import run_sim_node
+    from otgym.bus.sim_node import run_sim_node
     from tests.runtime import shared_task
 
     endpoint = free_endpoint()
@@ -244,7 +244,8 @@ def test_sim_node_publishes_every_tick_and_the_trial_events():
         assert len(seen[topic]) == 1, topic
     assert seen[msg.MODE][0].data == "manual"
     events = [msg.event_fields(e) for e in seen[msg.EVENTS]]
-    assert [e["event"] for e in events] == ["trial_start", "trial_end"] and events[1]["ended_by"] == "duration"
+    assert [e["event"] for e in events] == ["trial_start", "trial_end", "session_end"]
+    assert events[1]["ended_by"] == "duration" and events[1]["completion_time_s"] == pytest.approx(1.0, abs=0.011)
     assert len(msg.xy_um(seen[msg.TRAPS][-1])) == shared_task().n_traps
 
 
@@ -253,7 +254,7 @@ def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_
     process: the traps move as the in-process navigator would move them. Killed by its
     pid, the sim runs as manual (mode message and an ``autonomy_lost`` event) within the
     detection bound, and with no device the traps then hold."""
-    from otgym.bus.nodes import run_sim_node
+    from otgym.bus.sim_node import run_sim_node
     from tests.runtime import shared_task
 
     endpoint = free_endpoint()
@@ -330,3 +331,25 @@ def test_remote_autonomy_gives_only_fresh_increments_from_a_live_node():
     np.testing.assert_allclose(autonomy(None), increments[None])
     wiring.callbacks["autonomy"]("autonomy", False)
     assert autonomy(None) is None and autonomy.losses == 1
+
+
+def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_its_stamp():
+    """With ``answer_twists`` (the sim node's bus side) every twist is answered with the
+    force last set, stamped with the twist's own stamp; each sample, and the rest sample
+    of a device node that went away, goes to ``on_sample`` (the sim's worker)."""
+    endpoint = free_endpoint()
+    answers, samples = [], []
+    with Node("sim", "sim", listen=[endpoint]) as sim, Node("device", "device0", connect=[endpoint]) as device:
+        remote = RemoteDevice(sim, "device0", answer_twists=True, on_sample=samples.append)
+        remote.start()
+        device.subscribe(msg.feedback_topic("device0"), lambda topic, message, data: answers.append(message))
+        wait_until(lambda: remote.alive, 10.0)
+        wait_until(lambda: (remote.set_force([0.25, 0.0, 0.0]), answers)[1], 10.0)  # the subscription is up
+        stamp = 1_700_000_123.5
+        twist = msg.twist(Sample(0, 0, np.zeros(3), (1.0, 0, 0), 1), stamp, "device0")
+        wait_until(lambda: (device.publish(msg.twist_topic("device0"), twist),
+                            [a for a in answers if msg.stamp_s(a) == stamp])[1], 5.0)
+        answer = next(a for a in answers if msg.stamp_s(a) == stamp)
+    assert msg.force_n(answer)[0] == 0.25
+    assert samples[0].velocity_mm_s[0] == pytest.approx(1.0)
+    wait_until(lambda: not samples[-1].velocity_mm_s.any(), DETECTION_BOUND_S)  # the device node closed: at rest

@@ -23,7 +23,7 @@ from otgym.runtime.trials import TRIAL_COLUMNS  # noqa: E402
 from otgym.teleop.device import Device, DeviceCaps, Sample  # noqa: E402
 from otgym.ui.app import PlayApp  # noqa: E402
 from otgym.ui.bindings import play_bindings  # noqa: E402
-from otgym.ui.simulation import Simulation  # noqa: E402
+from otgym.runtime.session import Session  # noqa: E402
 from otgym.ui.views import ROUTE_RGB  # noqa: E402
 from tests.runtime import shared_task  # noqa: E402
 
@@ -56,13 +56,13 @@ def task():
 
 @pytest.fixture
 def session(task, tmp_path):
-    """A started simulation (shared mode) with a spy stylus on robot 0, under a headless
-    window whose frames also run the ticks (not threaded: the test steps frames)."""
+    """A started session in this process (shared mode) with a spy stylus on robot 0,
+    under a headless window whose frames also run the ticks (the test steps frames)."""
     pygame.init()
     spy = SpyStylus()
-    simulation = Simulation(task, play_bindings([spy, None], keyboard=False), "T1", "shared", seed=3)
+    simulation = Session(task, play_bindings([spy, None], keyboard=False), "T1", "shared", seed=3)
     simulation.start()
-    app = PlayApp(simulation, tmp_path, questionnaire=False, threaded=False)
+    app = PlayApp(simulation, tmp_path, questionnaire=False, step=True)
     yield app, simulation, spy
     simulation.close()
     pygame.quit()
@@ -126,6 +126,20 @@ def test_escape_ends_the_session_and_the_devices_get_zero_force(session):
     assert spy.stops == 1 and np.all(spy.forces[-1] == 0.0)
 
 
+def test_closing_the_window_mid_trial_saves_it_as_aborted(session, tmp_path):
+    """The window closed mid-trial: the trial's row is written with ended_by aborted,
+    its completion time the simulated time it ran, not a goal."""
+    app, simulation, _ = session
+    run_frames(app, 4)
+    pygame.event.post(pygame.event.Event(pygame.QUIT))
+    app.run()
+    ran_s = simulation.loop.time_s
+    with open(tmp_path / "trials.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert ran_s > 0 and len(rows) == 1 and rows[0]["ended_by"] == "aborted" and rows[0]["trial"] == "1"
+    assert float(rows[0]["completion_time_s"]) == pytest.approx(ran_s) and rows[0]["reached_goal"] == "False"
+
+
 def test_mouse_drag_moves_the_robots_traps_toward_the_pointer(session, task):
     app, simulation, _ = session
     press(app, pygame.K_1, frames=2)  # manual: only the person moves the traps
@@ -158,6 +172,9 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     assert list(rows[0])[:len(TRIAL_COLUMNS)] == TRIAL_COLUMNS
     assert len(rows) == 1 and rows[0]["participant"] == "P7" and rows[0]["trial"] == "1"
     assert rows[0]["scenario"] == "20001" and rows[0]["ended_by"] == "duration"
+    # cut off by --duration: the time it ran, not an empty cell, and not a goal
+    assert float(rows[0]["completion_time_s"]) == pytest.approx(2.0, abs=0.011)
+    assert rows[0]["reached_goal"] == "False"
     from otgym.record.mcap_file import read_recording
     from otgym.record.replay import summary
 
@@ -180,6 +197,12 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     assert len(colours) > 50  # views, text and cues, not a blank frame
     route_pixels = np.all(np.abs(image.astype(int) - ROUTE_RGB) <= 8, axis=-1).sum()
     assert route_pixels > 1000
+    # the study's analysis reads the session and counts the cut trial as one that did not reach the goal
+    from otgym.study.analyze import load_study
+    from otgym.study.summary import summarize
+
+    shared = summarize(load_study([out])[0]).set_index("mode").loc["shared"]
+    assert shared["trials"] == 1 and shared["goals_reached"] == 0 and np.isnan(shared["completion_time_mean_s"])
 
 
 @pytest.mark.parametrize("arguments, message", [
@@ -220,11 +243,11 @@ def test_a_finished_trial_asks_the_questionnaires_and_saves_the_answers(task, tm
     from otgym.study.questionnaires import read_answers, score
 
     pygame.init()
-    simulation = Simulation(task, play_bindings([SpyStylus(), None], keyboard=False), "Q1", "manual", seed=3,
-                            duration_s=0.2)
+    simulation = Session(task, play_bindings([SpyStylus(), None], keyboard=False), "Q1", "manual", seed=3,
+                         duration_s=0.2)
     simulation.start()
     try:
-        app = PlayApp(simulation, tmp_path, questionnaire=True, threaded=False)
+        app = PlayApp(simulation, tmp_path, questionnaire=True, step=True)
         while not simulation.over:
             time.sleep(0.03)
             simulation.advance()
@@ -254,7 +277,7 @@ def test_the_keyboard_moves_both_robots_as_a_formation(task):
 
     pygame.init()
     primaries = primary_devices("keyboard")
-    simulation = Simulation(task, play_bindings(primaries, keyboard=True), "K1", "manual", seed=3)
+    simulation = Session(task, play_bindings(primaries, keyboard=True), "K1", "manual", seed=3)
     simulation.start()
     try:
         simulation.advance()
@@ -272,3 +295,44 @@ def test_the_keyboard_moves_both_robots_as_a_formation(task):
     first, second = moved[robot == robot[0]].mean(axis=0), moved[robot != robot[0]].mean(axis=0)
     assert first[0] > 0.5 and second[0] > 0.5, moved
     assert abs(first[0] - second[0]) < 0.1 * first[0] and abs(first[1]) < 0.1 * first[0], moved
+
+
+def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_path):
+    """``otgym play``'s arrangement: the session in a worker process, the keyboard read
+    by the window and its samples forwarded. Holding the right arrow moves both robots'
+    traps along +x (manual mode: nothing else moves them); closing the window mid-trial
+    saves the trial as aborted, and its recording ends with it."""
+    import functools
+
+    from otgym.record.mcap_file import read_recording
+    from otgym.record.replay import summary
+    from otgym.runtime.worker import SessionProcess, WorkerSpec
+    from otgym.teleop.device import start_devices
+    from otgym.ui.bindings import window_devices
+    from otgym.ui.play_worker import play_setup
+
+    pygame.init()
+    windowed = window_devices("keyboard")
+    start_devices(windowed)
+    session = SessionProcess(WorkerSpec(functools.partial(play_setup, "default", "keyboard",
+                                                          tmp_path / "session.mcap"),
+                                        "K2", "manual", 3, forwarded_caps=tuple(d.caps for d in windowed)))
+    session.start()
+    try:
+        app = PlayApp(session, tmp_path, window_devices=windowed, questionnaire=False)
+        run_frames(app, 10, 0.02)
+        before = np.array(session.snapshot.observation.trap_xy_um[0])
+        pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RIGHT, mod=0, unicode="", scancode=0))
+        run_frames(app, 40, 0.02)
+        moved = np.array(session.snapshot.observation.trap_xy_um[0]) - before
+        pygame.event.post(pygame.event.Event(pygame.QUIT))
+        app.run()
+    finally:
+        session.finish()
+        pygame.quit()
+    assert np.all(moved[:, 0] > 0.5) and np.all(np.abs(moved[:, 1]) < 0.1 * moved[:, 0]), moved
+    with open(tmp_path / "trials.csv", newline="") as handle:
+        assert [row["ended_by"] for row in csv.DictReader(handle)] == ["aborted"]
+    recorded = summary(read_recording(tmp_path / "session.mcap"))
+    assert recorded["complete"] and recorded["ended_by"] == ["aborted"]
+    assert recorded["counts"]["/otgym/device/device0/twist"] > 20  # the forwarded samples are recorded

@@ -1,0 +1,30 @@
+"""What the session's process of ``otgym play`` builds (``otgym.runtime.worker``'s
+``WorkerSpec.setup``, called there): the interactive task on the chip, each robot's
+device (the haptic ones opened there, the window's forwarded), the feedback at the
+scale where the hand-trap loop is stable, and the session's MCAP recording."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from otgym.runtime.worker import WorkerParts
+
+
+def play_setup(chip: str, device: str, recording_path: Path, forwarded, outbox) -> WorkerParts:
+    from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
+    from otgym.runtime.trials import stylus_feedback
+    from otgym.sim.chip import load_chip
+    from otgym.ui.bindings import play_bindings, robot_primaries
+    from otgym.ui.recording import SessionRecording
+
+    task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=load_chip(chip))))
+    feedback = stylus_feedback(task)
+    primaries = robot_primaries(device, list(forwarded))
+    recording = SessionRecording(recording_path)
+    bindings = recording.wrap(play_bindings(primaries, keyboard=device == "keyboard", feedback=feedback))
+
+    def discard() -> None:  # the session never started: leave no recording behind
+        recording.close()
+        recording.path.unlink(missing_ok=True)
+
+    return WorkerParts(task, bindings, sink=recording, on_failure=discard)

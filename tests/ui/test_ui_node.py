@@ -1,0 +1,91 @@
+"""The window as a node on the bus (``otgym.ui.node.BusSession``), over loopback zenoh
+nodes in this process: the snapshot it rebuilds from a tick's messages matches the
+simulator's own observation (traps, cell, handles, obstacle gaps); the mode, pause
+and reset keys go out as checked commands; a device node or the autonomy lost shows
+in the loss banner; a finished trial's row comes from its ``trial_end``."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from otgym.bus import messages as msg
+from otgym.bus.transport import Node
+from otgym.ui import cues
+
+
+def free_endpoint() -> str:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return f"tcp/127.0.0.1:{probe.getsockname()[1]}"
+
+
+def wait_until(condition, timeout_s: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, "not within the time allowed"
+        time.sleep(0.005)
+
+
+@pytest.fixture(scope="module")
+def layout_and_loop():
+    from otgym.runtime.layout import layout_of
+    from otgym.runtime.loop import InteractiveLoop
+    from tests.runtime import fast_scenario, shared_task
+
+    task = shared_task()
+    loop = InteractiveLoop(task, [], fast_scenario(7), "shared")
+    return layout_of(task), loop
+
+
+def test_the_window_on_the_bus_draws_what_the_sim_sees_and_sends_checked_commands(layout_and_loop):
+    from otgym.ui.node import BusSession
+
+    layout, loop = layout_and_loop
+    endpoint = free_endpoint()
+    commands, lock = [], threading.Lock()
+    with Node("sim", "sim", listen=[endpoint]) as sim, Node("ui", "ui", connect=[endpoint]) as ui:
+        sim.subscribe(msg.COMMAND, lambda topic, message, data: commands.append(msg.event_fields(message)))
+        session = BusSession(ui, layout, [], "mouse", ["device0"])
+        wait_until(lambda: session.simulator_live)
+        time.sleep(0.3)  # subscriptions meet
+        sim.publish(msg.EVENTS, msg.event("trial_start", trial=4, scenario=7, mode="shared", participant="P9"))
+
+        def publish_tick(record) -> None:
+            for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), mode="shared", stamp_s=time.time()):
+                sim.publish(topic, data)
+            time.sleep(0.02)
+        for _ in range(3):  # the tick's messages, again until they arrive (the bus may drop one under load)
+            record = loop.tick()
+            wait_until(lambda: (publish_tick(record), session.snapshot is not None and np.array_equal(
+                session.snapshot.observation.trap_xy_um[0], record.trap_xy_um))[1])
+        assert session.snapshot.time_s >= 3 * layout.tick_s  # its clock counts the ticks it saw
+        seen, truth = session.snapshot.observation, loop.observation
+        np.testing.assert_allclose(seen.trap_xy_um, truth.trap_xy_um)
+        np.testing.assert_allclose(seen.cell_xy_um, truth.cell_xy_um, atol=1e-4)
+        np.testing.assert_allclose(seen.handle_xy_um, truth.handle_xy_um, atol=1e-4)
+        np.testing.assert_allclose(seen.obstacle_gap_um, truth.obstacle_gap_um, atol=1e-3)
+        assert session.snapshot.trial == 4 and session.participant == "P9" and session.snapshot.mode == "shared"
+        # the keys go out as commands the sim accepts
+        session.set_mode("manual")
+        session.toggle_pause()
+        session.reset()
+        wait_until(lambda: len(commands) == 3)
+        assert commands == [{"command": "mode", "mode": "manual"}, {"command": "pause"}, {"command": "reset"}]
+        # a device node that goes, and the autonomy lost: the banner says so
+        with Node("device", "device0", connect=[endpoint]):
+            wait_until(lambda: "device0" in session._alive_devices)
+        wait_until(lambda: session.lost_devices == ("device0",))
+        sim.publish(msg.EVENTS, msg.event("autonomy_lost", trial=4, time_s=0.06, mode="manual"))
+        wait_until(lambda: not session.snapshot.autonomy_live)
+        lines = cues.loss_warnings(session.lost_devices, session.snapshot.autonomy_live, session.snapshot.mode)
+        assert lines == ["device0 LOST: its robot holds", "AUTONOMY LOST: manual control"]
+        # the trial's row from its trial_end; the session's end
+        sim.publish(msg.EVENTS, msg.event("trial_end", trial=4, participant="P9", ended_by="goal"))
+        sim.publish(msg.EVENTS, msg.event("session_end", trials=4, ticks=3))
+        wait_until(lambda: session.over)
+        assert session.take_finished()["ended_by"] == "goal" and session.take_finished() is None
