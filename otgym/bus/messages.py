@@ -14,6 +14,7 @@ schema encodings)::
     /otgym/shared/alpha             std_msgs/msg/Float64          the arbitration weight
     /otgym/mode                     std_msgs/msg/String           manual, shared or autonomous
     /otgym/trial/events             std_msgs/msg/String           one JSON object per event
+    /otgym/trial/current            std_msgs/msg/String           the trial under way: its trial_start event, latched
     /otgym/phase                    std_msgs/msg/String           approach, carry or done (every tick)
     /otgym/autonomy/increments      geometry_msgs/msg/PoseArray   the autonomy's dP_r per trap, um
     /otgym/command                  std_msgs/msg/String           a ui node's command to the sim (JSON)
@@ -21,8 +22,9 @@ schema encodings)::
     /otgym/chip                     sensor_msgs/msg/CompressedImage the chip's image (PNG), latched
     /otgym/route                    nav_msgs/msg/Path             the planned route, um, chip frame, latched
 
-Latched topics (``LATCHED``: the three above and ``/otgym/mode``) are sent once (per
-session, or when the mode changes and at each trial's start) and kept by their
+Latched topics (``LATCHED``: the session, chip and route, sent once per session; the
+mode, sent at each trial's start and when it changes; the current trial, sent at each
+trial's start: a window that joins mid-trial knows which trial it shows) are kept by their
 publisher for subscribers that join later, as ROS 2's transient-local durability does
 (``otgym.bus.transport``). ``session_messages`` builds the first three from the task:
 the description holds the chip's name, content hash (``Chip.content_hash``) and JSON
@@ -116,20 +118,21 @@ BODIES = "/otgym/bodies"
 ALPHA = "/otgym/shared/alpha"
 MODE = "/otgym/mode"
 EVENTS = "/otgym/trial/events"
+TRIAL = "/otgym/trial/current"
 PHASE = "/otgym/phase"
 AUTONOMY = "/otgym/autonomy/increments"
 COMMAND = "/otgym/command"
 SESSION = "/otgym/session"
 CHIP = "/otgym/chip"
 ROUTE = "/otgym/route"
-_FIXED_TOPICS = {TRAPS: POSE_ARRAY, BODIES: POSE_ARRAY, ALPHA: FLOAT64, MODE: STRING, EVENTS: STRING,
+_FIXED_TOPICS = {TRAPS: POSE_ARRAY, BODIES: POSE_ARRAY, ALPHA: FLOAT64, MODE: STRING, EVENTS: STRING, TRIAL: STRING,
                  PHASE: STRING, AUTONOMY: POSE_ARRAY, COMMAND: STRING, SESSION: STRING, CHIP: COMPRESSED_IMAGE,
                  ROUTE: PATH}
 COMMANDS = ("mode", "pause", "resume", "reset", "next_trial", "quit")
 """What a ui node asks of the sim: switch the mode, pause or resume simulated time,
 abandon the trial for the next (R), start the next trial after the questionnaires,
 end the session (the trial under way saved as aborted)."""
-LATCHED = (SESSION, CHIP, ROUTE, MODE)
+LATCHED = (SESSION, CHIP, ROUTE, MODE, TRIAL)
 """Topics whose latest message a late subscriber still receives (see the module's docstring)."""
 SPHERE_KINDS = ("robot", "cell", "obstacle", "bead")
 """Names of ``otgym.physics.bodies.BodyKind`` by value, as the session description gives them."""
@@ -390,13 +393,16 @@ def _check_string(message, topic: str) -> None:
         _fail(topic, f"unknown mode {message.data[:40]!r}")
     if topic == PHASE and message.data not in PHASES:
         _fail(topic, f"unknown phase {message.data[:40]!r}")
-    if topic in (EVENTS, SESSION):
+    if topic in (EVENTS, SESSION, TRIAL):
         try:
             payload = json.loads(message.data)
         except ValueError:
             _fail(topic, "not JSON")
         if topic == EVENTS and (not isinstance(payload, dict) or not isinstance(payload.get("event"), str)):
             _fail(topic, "event must be a JSON object with an \"event\" string")
+        if topic == TRIAL and (not isinstance(payload, dict) or payload.get("event") != "trial_start"
+                               or not isinstance(payload.get("trial"), int)):
+            _fail(topic, "the current trial must be a trial_start event with an integer \"trial\"")
         if topic == SESSION:
             _check_session(payload, topic)
     if topic == COMMAND:

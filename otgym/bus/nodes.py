@@ -40,8 +40,12 @@ from otgym.runtime.navigator import RouteNavigator
 from otgym.runtime.task import InteractiveTask
 from otgym.teleop.device import Device, DeviceCaps, Sample
 
-AUTONOMY_TIMEOUT_S = 0.1
-"""dP_r older than this (five ticks) counts as none, as a silent device does."""
+AUTONOMY_TIMEOUT_S = 0.25
+"""dP_r older than this (12 ticks) counts as none. A killed autonomy node is noticed
+at once by its liveliness token; this bound is for one that hangs. At 0.1 s (five
+ticks) a distributed run on a loaded 2-core machine (window, five node processes)
+flapped between shared and manual six times in 10 s as the autonomy node waited for a
+core 60-200 ms."""
 
 REMOTE_FORCE_LIMIT_N = 3.3
 """The simulator's cap on a remote device's feedback (a Geomagic Touch's peak force);

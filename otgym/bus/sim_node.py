@@ -44,7 +44,8 @@ class BusSink:
     lists of (topic, CDR): the session's description, chip and route once at its start
     (latched topics), every tick's traps, phase, alpha and bodies, the mode at a trial's
     first tick and when it changes (``messages.tick_messages``; each device's feedback
-    is its ``RemoteDevice`` 's to publish), every event on ``/otgym/trial/events``."""
+    is its ``RemoteDevice`` 's to publish), every event on ``/otgym/trial/events``, and
+each ``trial_start`` also on the latched ``/otgym/trial/current``."""
 
     def __init__(self, send: Callable[[list[tuple[str, bytes]]], None]):
         self.send = send
@@ -59,9 +60,12 @@ class BusSink:
         self.send(msg.tick_messages(record, [], sphere_xy_um, stamp_s=time.time(), mode=changed))
 
     def event(self, name: str, **fields) -> None:
+        data = msg.event(name, **fields)
         if name == "trial_start":
             self._mode_sent = None
-        self.send([(msg.EVENTS, msg.event(name, **fields))])
+            self.send([(msg.EVENTS, data), (msg.TRIAL, data)])  # and latched, for a window that joins later
+        else:
+            self.send([(msg.EVENTS, data)])
 
     def close(self) -> None:
         pass

@@ -54,6 +54,13 @@ def register(app: typer.Typer) -> None:
         run(chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
 
 
+def _check_screenshot_folder(screenshot: Path | None, out: Path) -> None:
+    """The screenshot's folder must exist, or be ``out`` (created before the window opens)."""
+    if screenshot is None or screenshot.parent.is_dir() or screenshot.parent.resolve() == out.resolve():
+        return
+    raise ValueError(f"--screenshot {screenshot}: folder {screenshot.parent} does not exist")
+
+
 def run_play(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
              questionnaire: bool, screenshot: Path | None, out: Path) -> None:
     """The window in this process, the session in its own (``otgym.runtime.worker``)."""
@@ -74,8 +81,7 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         robot_primaries(device, windowed)  # the Touch fails here at once without its runtime
     except DeviceError as error:
         raise ValueError(str(error)) from None
-    if screenshot is not None and screenshot.parent and not screenshot.parent.is_dir():
-        raise ValueError(f"--screenshot {screenshot}: folder {screenshot.parent} does not exist")
+    _check_screenshot_folder(screenshot, out)
     created_out = not out.exists()
     check_out_dir(out)
     import pygame
@@ -204,8 +210,7 @@ def run_distributed(chip: str, mode: str, device: str, participant: str, seed: i
         robot_primaries(device, window_devices(device))  # the Touch fails here at once without its runtime
     except DeviceError as error:
         raise ValueError(str(error)) from None
-    if screenshot is not None and screenshot.parent and not screenshot.parent.is_dir():
-        raise ValueError(f"--screenshot {screenshot}: folder {screenshot.parent} does not exist")
+    _check_screenshot_folder(screenshot, out)
     check_out_dir(out)
     endpoint = free_loopback_endpoint()
     device_nodes, sim_devices, window_kind, shown = node_plan(device, endpoint)

@@ -8,7 +8,8 @@ the questionnaires and quitting as commands (``/otgym/command``).
 - what it draws: a ``Snapshot`` rebuilt at each ``/otgym/bodies`` (the last of a tick's
   messages) from the latest traps, phase and alpha, the bodies, each device's feedback
   (``/otgym/feedback/<name>`` for the device nodes named), and the events
-  (``trial_start`` resets the trial's clock, which counts ticks; ``mode``, ``paused``,
+  (``trial_start`` resets the trial's clock, which counts ticks, also read from the
+  latched ``/otgym/trial/current`` when the window joins mid-trial; ``mode``, ``paused``,
   ``autonomy_lost``, ``trial_end`` with the trial's row, ``session_end``). What the
   bus does not carry is derived or left out: obstacle gaps, encounters and collisions
   from the spheres (``TaskLayout``'s radii), the handle lag from the handles' true
@@ -97,6 +98,7 @@ class BusSession:
         node.subscribe(msg.MODE, self._keep("_tick_mode", lambda m: m.data))
         node.subscribe(msg.BODIES, self._on_bodies)
         node.subscribe(msg.EVENTS, self._on_event)
+        node.subscribe(msg.TRIAL, self._on_event)  # latched: the trial under way when this node joined
         for robot, name in enumerate(self.device_names):
             node.subscribe(msg.feedback_topic(name), self._feedback_of(robot))
         node.watch("device", self._on_device)
@@ -126,6 +128,8 @@ class BusSession:
         name = fields["event"]
         with self._lock:
             if name == "trial_start":
+                if int(fields.get("trial", self._trial + 1)) == self._trial:
+                    return  # the same trial_start from /otgym/trial/current and the events
                 self._trial, self._mode = int(fields.get("trial", self._trial + 1)), fields.get("mode", self._mode)
                 self.participant = str(fields.get("participant", self.participant))
                 self._paused = False

@@ -110,7 +110,7 @@ def test_the_session_description_chip_and_route_decode_with_rosbags():
 
     task = stand_in_task()
     messages = dict(m.session_messages(task, ["device0"], STAMP_S))
-    assert list(messages) == [m.SESSION, m.CHIP, m.ROUTE] and set(m.LATCHED) == {m.SESSION, m.CHIP, m.ROUTE, m.MODE}
+    assert list(messages) == [m.SESSION, m.CHIP, m.ROUTE] and set(m.LATCHED) == {m.SESSION, m.CHIP, m.ROUTE, m.MODE, m.TRIAL}
     description = json.loads(rosbags(messages[m.SESSION], m.STRING).data)
     assert description["chip"]["content_hash"] == load_chip("default").content_hash
     assert description["sphere_kind"] == ["robot", "robot", "cell"] and description["handle_spheres"] == [0]

@@ -162,7 +162,8 @@ def test_mouse_drag_moves_the_robots_traps_toward_the_pointer(session, task):
 def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     from otgym.cli.app import main
 
-    out, shot = tmp_path / "out", tmp_path / "play.png"
+    out = tmp_path / "out"
+    shot = out / "play.png"  # into --out, which the command creates
     with pytest.raises(SystemExit) as exit_info:
         main(["play", "--headless", "--device", "simulated", "--duration", "2", "--no-questionnaire",
               "--participant", "P7", "--seed", "2", "--screenshot", str(shot), "--out", str(out)])

@@ -89,3 +89,26 @@ def test_the_window_on_the_bus_draws_what_the_sim_sees_and_sends_checked_command
         sim.publish(msg.EVENTS, msg.event("session_end", trials=4, ticks=3))
         wait_until(lambda: session.over)
         assert session.take_finished()["ended_by"] == "goal" and session.take_finished() is None
+
+
+def test_a_window_that_joins_mid_trial_knows_the_trial_and_the_participant(layout_and_loop):
+    """The sim's bus sink sends each trial_start also on the latched /otgym/trial/current:
+    a ui node that connects after it still shows trial 2 of P5 (on the events alone it
+    showed trial 0 of '?')."""
+    from otgym.bus.sim_node import BusSink
+    from otgym.ui.node import BusSession
+
+    layout, _ = layout_and_loop
+    endpoint = free_endpoint()
+    with Node("sim", "sim", listen=[endpoint]) as sim:
+        sink = BusSink(lambda messages: [sim.publish(topic, data) for topic, data in messages])
+        for trial in (1, 2):
+            sink.event("trial_start", trial=trial, scenario=trial, mode="autonomous", participant="P5")
+        with Node("ui", "ui", connect=[endpoint]) as ui:
+            session = BusSession(ui, layout, [], "mouse", [])
+            wait_until(lambda: session._trial == 2)
+            assert session.participant == "P5" and session._mode == "autonomous"
+            sink.event("trial_start", trial=3, scenario=3, mode="shared", participant="P5")
+            wait_until(lambda: session._trial == 3)
+            time.sleep(0.3)  # a second copy (events and the latched topic) would have arrived
+            assert session._trial == 3 and session._ticks == 0
