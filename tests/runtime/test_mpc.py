@@ -314,3 +314,21 @@ def test_config_rejects_bad_sizes():
         MPCConfig(n_rollouts=3)
     with pytest.raises(ValueError, match="cruise_speed_um_s"):
         MPCConfig(cruise_speed_um_s=12.0, max_speed_um_s=10.0)
+
+
+def test_shared_control_takes_the_mpc_as_its_autonomy():
+    """run_trials with ``shared_autonomy="mpc"``: the shared trial's dP_r comes from the
+    MPC (it is among the environments replanned, and its row says so) beside an mpc
+    trial, while an autonomous trial keeps the route navigator. 2 s trials, two
+    replanned environments once both carry; fails if shared control ignores the flag."""
+    from otgym.planning.human import sample_population
+    from otgym.runtime.task import InteractiveConfig
+    from otgym.runtime.trials import TrialSpec, run_trials
+
+    short = InteractiveTask(InteractiveConfig(time_limit_s=2.0))
+    specs = [TrialSpec(0, mode, 0, scenario=900000) for mode in ("shared", "mpc", "autonomous")]
+    stats = {}
+    rows = run_trials(short, specs, dict(enumerate(sample_population(1, seed=4242))), seed=0, shared_autonomy="mpc",
+                      mpc_config=SMALL, mpc_stats=stats)
+    assert [row["autonomy"] for row in rows] == ["mpc", "mpc", "route"]
+    assert stats["replans"] > 0 and max(stats["environments_planned"]) == 2
