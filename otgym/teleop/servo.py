@@ -226,6 +226,16 @@ def _ask_realtime(priority: int | None) -> bool:
     return True
 
 
+def _widen_affinity() -> None:
+    """Run on any core the machine allows: a servo started by a session worker inherits
+    the one core the worker pinned itself to (``otgym.runtime.worker.pin_to_one_core``)."""
+    if hasattr(os, "sched_setaffinity"):
+        try:
+            os.sched_setaffinity(0, range(os.cpu_count() or 1))
+        except OSError:
+            pass  # a cpuset that allows none of them: keep the inherited core
+
+
 def _servo_main(factory, block, periods, period_count, stop_flag, conn, parent_pid: int,
                 rate_hz: float, busy_wait_s: float, force_timeout_s: float, realtime_priority: int | None,
                 realtime_flag) -> None:
@@ -234,6 +244,7 @@ def _servo_main(factory, block, periods, period_count, stop_flag, conn, parent_p
     not asked to. SIGTERM (sent to daemon children when the parent exits normally)
     ends the loop through the same ``finally``, so the force is zeroed."""
     on_signal(SIGTERM, _exit_on_sigterm)
+    _widen_affinity()
     try:
         backend = factory()
     except Exception as error:  # any failure to open the backend is reported to the parent

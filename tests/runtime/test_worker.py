@@ -60,6 +60,15 @@ while True:
 """
 
 
+def allowed_cpus(status: Path) -> int:
+    """How many CPUs a process or thread may run on (its /proc status file)."""
+    cpus = 0
+    for part in status.read_text().split("Cpus_allowed_list:")[1].split()[0].split(","):
+        low, _, high = part.partition("-")
+        cpus += int(high or low) - int(low) + 1
+    return cpus
+
+
 def gone(pid: int) -> bool:
     """The process has exited (a zombie nobody reaps counts as gone)."""
     try:
@@ -80,6 +89,11 @@ def test_a_worker_whose_parent_is_killed_saves_its_trial_as_aborted_and_exits(tm
         assert line.startswith("worker"), f"the parent printed {line!r} (exit {parent.poll()})"
         worker = int(line.split()[1])
         time.sleep(2.0)  # about 100 ticks of trial 1
+        if len(os.sched_getaffinity(0)) > 1:  # the worker's threads on one core, its servo child on all
+            threads = list(Path(f"/proc/{worker}/task").iterdir())
+            assert len(threads) > 1 and {allowed_cpus(t / "status") for t in threads} == {1}
+            servo = int(Path(f"/proc/{worker}/task/{worker}/children").read_text().split()[0])
+            assert allowed_cpus(Path(f"/proc/{servo}/status")) == len(os.sched_getaffinity(0))
     finally:
         os.kill(parent.pid, signal.SIGKILL)
         parent.wait()
