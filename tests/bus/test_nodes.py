@@ -339,17 +339,19 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
     of a device node that went away, goes to ``on_sample`` (the sim's worker)."""
     endpoint = free_endpoint()
     answers, samples = [], []
-    with Node("sim", "sim", listen=[endpoint]) as sim, Node("device", "device0", connect=[endpoint]) as device:
-        remote = RemoteDevice(sim, "device0", answer_twists=True, on_sample=samples.append)
-        remote.start()
-        device.subscribe(msg.feedback_topic("device0"), lambda topic, message, data: answers.append(message))
-        wait_until(lambda: remote.alive, 10.0)
-        wait_until(lambda: (remote.set_force([0.25, 0.0, 0.0]), answers)[1], 10.0)  # the subscription is up
-        stamp = 1_700_000_123.5
-        twist = msg.twist(Sample(0, 0, np.zeros(3), (1.0, 0, 0), 1), stamp, "device0")
-        wait_until(lambda: (device.publish(msg.twist_topic("device0"), twist),
-                            [a for a in answers if msg.stamp_s(a) == stamp])[1], 5.0)
-        answer = next(a for a in answers if msg.stamp_s(a) == stamp)
+    with Node("sim", "sim", listen=[endpoint]) as sim:
+        with Node("device", "device0", connect=[endpoint]) as device:
+            remote = RemoteDevice(sim, "device0", answer_twists=True, on_sample=samples.append)
+            remote.start()
+            device.subscribe(msg.feedback_topic("device0"), lambda topic, message, data: answers.append(message))
+            wait_until(lambda: remote.alive, 10.0)
+            wait_until(lambda: (remote.set_force([0.25, 0.0, 0.0]), answers)[1], 10.0)  # the subscription is up
+            stamp = 1_700_000_123.5
+            twist = msg.twist(Sample(0, 0, np.zeros(3), (1.0, 0, 0), 1), stamp, "device0")
+            wait_until(lambda: (device.publish(msg.twist_topic("device0"), twist),
+                                [a for a in answers if msg.stamp_s(a) == stamp])[1], 5.0)
+            answer = next(a for a in answers if msg.stamp_s(a) == stamp)
+        # the device node closed while the sim still listens: its rest sample arrives
+        wait_until(lambda: not samples[-1].velocity_mm_s.any(), DETECTION_BOUND_S)
     assert msg.force_n(answer)[0] == 0.25
     assert samples[0].velocity_mm_s[0] == pytest.approx(1.0)
-    wait_until(lambda: not samples[-1].velocity_mm_s.any(), DETECTION_BOUND_S)  # the device node closed: at rest
