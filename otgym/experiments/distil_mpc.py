@@ -15,8 +15,10 @@ import sys
 import time
 
 import numpy as np
+import pandas as pd
 
 from otgym.runtime.mpc_policy import ClonedPolicy, PolicyNavigator, RecordingMPCNavigator, train
+from otgym.study.summary import summarize
 from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
 from otgym.runtime.trials import TrialSpec, run_trials
 from otgym.planning.human import sample_population
@@ -80,9 +82,8 @@ def main(argv=None) -> int:
         navigator = None if args.mpc else functools.partial(PolicyNavigator, policy=ClonedPolicy.load(args.policy))
         began = time.perf_counter()
         rows = _trials(task, scenarios, args.seed, navigator, stats)
-        import pandas as pd
         frame = pd.DataFrame(rows)
-        print(frame.describe().T.to_string())
+        print(summarize(frame).T.to_string())
         seconds = np.asarray(stats["replan_seconds"]); sizes = np.asarray(stats["environments_planned"])
         print(f"decision time per environment {1e3 * seconds.sum() / sizes.sum():.3f} ms; wall {time.perf_counter() - began:.0f} s")
         frame.to_csv(args.policy + (".mpc" if args.mpc else "") + f".seed{args.seed}.csv", index=False)
