@@ -104,12 +104,14 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
                participant_task: ParticipantTask = ParticipantTask(), cruise_speed_um_s: float = 5.0,
                progress: Callable[[float], None] | None = None, shared_autonomy: str = "route",
                mpc_config: MPCConfig = MPCConfig(), mpc_costs: MPCCosts = MPCCosts(),
-               mpc_stats: dict | None = None) -> list[dict]:
+               mpc_stats: dict | None = None, mpc_navigator: Callable | None = None) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The
     model-predictive navigator gives dP_r to ``mpc`` trials and, with
     ``shared_autonomy="mpc"``, to shared ones; ``mpc_stats`` (a dict) receives its
-    replan count and wall times."""
+    replan count and wall times; ``mpc_navigator`` (default ``MPCNavigator``) builds
+    the navigator from ``(task, config, costs, seed=...)``, e.g. a recording or
+    distilled one (``otgym.runtime.mpc_policy``)."""
     if not specs:
         raise ValueError("no trials to run")
     if shared_autonomy not in AUTONOMIES:
@@ -125,7 +127,7 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
     navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, tick, cruise_speed_um_s,
                                max_speed_um_s=retarget.max_trap_speed_um_s)
     navigator.reset(len(specs))
-    mpc = MPCNavigator(task, mpc_config, mpc_costs, seed=seed) if len(mpc_rows) else None
+    mpc = (mpc_navigator or MPCNavigator)(task, mpc_config, mpc_costs, seed=seed) if len(mpc_rows) else None
     if mpc is not None:
         mpc.reset(len(mpc_rows))
     law = task.config.scene.trap_law
