@@ -13,6 +13,7 @@ import argparse
 import functools
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -41,19 +42,49 @@ def _trials(task, scenarios, seed, navigator, stats):
     return run_trials(task, specs, people, seed=seed, progress=progress, mpc_stats=stats, mpc_navigator=navigator)
 
 
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive whole number, got {text}")
+    return value
+
+
+def _check(args) -> None:
+    """Bad input as one line before any work: ValueError with the reason."""
+    if args.command == "collect" and args.first < 900000:
+        raise ValueError("collect only from development scenarios (--first >= 900000)")
+    for name in ("data", "policy"):
+        path = getattr(args, name, None)
+        if path is not None and not Path(path).is_file():
+            raise ValueError(f"{path} is not a file")
+    out = getattr(args, "out", None)
+    if out is not None and not Path(out).resolve().parent.is_dir():
+        raise ValueError(f"the folder of {out} does not exist")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="distil_mpc")
     sub = parser.add_subparsers(dest="command", required=True)
-    c = sub.add_parser("collect"); c.add_argument("out"); c.add_argument("--scenarios", type=int, default=32)
-    c.add_argument("--first", type=int, default=900000)
-    t = sub.add_parser("train"); t.add_argument("data"); t.add_argument("out"); t.add_argument("--epochs", type=int, default=200)
-    e = sub.add_parser("evaluate"); e.add_argument("policy"); e.add_argument("--trials", type=int, default=64)
-    e.add_argument("--seed", type=int, default=14); e.add_argument("--mpc", action="store_true")
+    collect = sub.add_parser("collect")
+    collect.add_argument("out")
+    collect.add_argument("--scenarios", type=_positive, default=32)
+    collect.add_argument("--first", type=int, default=900000)
+    fit = sub.add_parser("train")
+    fit.add_argument("data")
+    fit.add_argument("out")
+    fit.add_argument("--epochs", type=_positive, default=200)
+    evaluate = sub.add_parser("evaluate")
+    evaluate.add_argument("policy")
+    evaluate.add_argument("--trials", type=_positive, default=64)
+    evaluate.add_argument("--seed", type=int, default=14)
+    evaluate.add_argument("--mpc", action="store_true")
     args = parser.parse_args(argv)
+    try:
+        _check(args)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
     if args.command == "collect":
-        if args.first < 900000:
-            print("error: collect only from development scenarios (--first >= 900000)", file=sys.stderr)
-            return 2
         holder = {}
 
         def factory(*a, **k):
@@ -84,7 +115,7 @@ def main(argv=None) -> int:
         rows = _trials(task, scenarios, args.seed, navigator, stats)
         frame = pd.DataFrame(rows)
         print(summarize(frame).T.to_string())
-        seconds = np.asarray(stats["replan_seconds"]); sizes = np.asarray(stats["environments_planned"])
+        seconds, sizes = np.asarray(stats["replan_seconds"]), np.asarray(stats["environments_planned"])
         print(f"decision time per environment {1e3 * seconds.sum() / sizes.sum():.3f} ms; wall {time.perf_counter() - began:.0f} s")
         frame.to_csv(args.policy + (".mpc" if args.mpc else "") + f".seed{args.seed}.csv", index=False)
     return 0

@@ -1,5 +1,6 @@
 """The distilled MPC policy: route-frame features and the clone's fit."""
 
+import pytest
 import numpy as np
 import jax.numpy as jnp
 
@@ -50,3 +51,19 @@ def test_the_clone_beats_the_mean_predictor_on_held_out_states(tmp_path):
     assert held < 0.3 * mean
     policy.save(tmp_path / "p.npz")
     np.testing.assert_allclose(ClonedPolicy.load(tmp_path / "p.npz")(x[600:]), policy(x[600:]), rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("argv, reason", [
+    (["collect", "x.npz", "--first", "130000"], "development scenarios"),
+    (["train", "missing.npz", "out.npz"], "is not a file"),
+    (["evaluate", "missing.npz"], "is not a file"),
+    (["collect", "no/such/folder/x.npz"], "does not exist"),
+])
+def test_distil_script_refuses_bad_input_in_one_line_before_any_work(argv, reason, tmp_path, monkeypatch, capsys):
+    from otgym.experiments.distil_mpc import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and reason in err and err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []  # nothing written
