@@ -59,3 +59,33 @@ def register(app: typer.Typer) -> None:
             print(f"{'PASS' if passed else 'FAIL'}  {name}")
         print(f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
               + (", mpc.json" if stats else ""))
+
+    @experiment.command("route-bound")
+    def route_bound(
+        trials: int = typer.Option(8, "--trials", help="Scenarios: those of trials 0..N-1 of the study's seed."),
+        seed: int = typer.Option(0, "--seed", help="The study's seed (scenarios seed * 10000 + trial)."),
+        speeds_um_s: str = typer.Option("5,8", "--speeds-um-s",
+                                        help="Comma-separated speed limits in um/s (5: the autonomy's cruise; "
+                                             "8: a person's hurried pace)."),
+        chip: str = typer.Option("default", "--chip", help="Chip name or PNG."),
+        out: Path = typer.Option(..., "--out", help="Folder for route_bound.csv, .json and .md."),
+    ) -> None:
+        """The earliest a controller that keeps the assembly on the planned route could
+        reach the goal past the obstacles of shared-control's scenarios (perfect
+        foresight): a lower bound on manual and shared control's completion time."""
+        from otgym.experiments.output_folder import check_out_dir
+        from otgym.experiments.route_bound import run_route_bound, write_route_bound
+        from otgym.experiments.shared_control import check_arguments
+
+        try:
+            speeds = [float(v) for v in speeds_um_s.split(",") if v.strip()]
+        except ValueError:
+            raise ValueError(f"--speeds-um-s must be comma-separated numbers, got {speeds_um_s!r}") from None
+        check_arguments(2, trials, seed)
+        if not speeds or not all(0 < v <= 20 for v in speeds):
+            raise ValueError(f"--speeds-um-s must be speeds in (0, 20] um/s, got {speeds_um_s!r}")
+        check_out_dir(out)
+        frame = run_route_bound(trials, seed, speeds, chip, report=lambda line: print(line, flush=True))
+        write_route_bound(frame, out)
+        print((out / "route_bound.md").read_text())
+        print(f"wrote {out}/route_bound.csv, route_bound.json, route_bound.md")

@@ -85,16 +85,18 @@ class Passage:
 
 def earliest_passage(scenario: Scenario, route_um, route_arc_um, shape: AssemblyShape, obstacle_radius_um: float,
                      start_arc_um: float, start_time_s: float, max_speed_um_s: float, margin_um: float = 0.0,
-                     goal_arc_um: float | None = None, time_step_s: float = 0.05, arc_step_um: float = 0.25,
+                     goal_arc_um: float | None = None, arc_step_um: float = 0.25,
                      time_limit_s: float = 300.0) -> Passage:
     """The earliest time the assembly, starting at ``start_arc_um`` at
     ``start_time_s`` and moving along the route (M, 2; cumulative arc (M,)) at speeds up
     to ``max_speed_um_s`` either way, reaches ``goal_arc_um`` (default: the route's
     end) without coming within ``margin_um`` of an obstacle of ``scenario`` (module
-    docstring). Grid: ``arc_step_um`` by ``time_step_s``; the time is exact to about
-    one time step plus one arc step over the speed."""
-    if not (max_speed_um_s > 0 and time_step_s > 0 and arc_step_um > 0 and time_limit_s > start_time_s):
-        raise ValueError("need positive max_speed_um_s, time_step_s, arc_step_um and time_limit_s > start_time_s")
+    docstring). Grid: ``arc_step_um`` by the time the speed limit takes for it (one
+    arc step a time step at most, so the speed limit is exact); the time is exact to
+    about two time steps."""
+    if not (max_speed_um_s > 0 and arc_step_um > 0 and time_limit_s > start_time_s):
+        raise ValueError("need positive max_speed_um_s and arc_step_um, and time_limit_s > start_time_s")
+    time_step_s = arc_step_um / max_speed_um_s
     route_um, route_arc_um = np.asarray(route_um, float), np.asarray(route_arc_um, float)
     goal_arc_um = float(route_arc_um[-1] if goal_arc_um is None else goal_arc_um)
     arcs = np.arange(start_arc_um, goal_arc_um + arc_step_um, arc_step_um)
@@ -104,9 +106,6 @@ def earliest_passage(scenario: Scenario, route_um, route_arc_um, shape: Assembly
     spheres = points[:, None] + np.stack([c[:, None] * offsets[:, 0] - s[:, None] * offsets[:, 1],
                                           s[:, None] * offsets[:, 0] + c[:, None] * offsets[:, 1]], axis=-1)  # (A, P, 2)
     reach_limit = np.asarray(shape.radii_um, float)[None, :, None] + obstacle_radius_um + margin_um  # (1, P, 1)
-    window = int(np.floor(max_speed_um_s * time_step_s / arc_step_um + 1e-9))
-    if window < 1:
-        raise ValueError("the grid's time step must let the assembly move at least one arc step at max_speed_um_s")
     free_s = start_time_s + (goal_arc_um - start_arc_um) / max_speed_um_s
     reached = np.zeros(len(arcs), bool)
     reached[0] = True
@@ -118,9 +117,6 @@ def earliest_passage(scenario: Scenario, route_um, route_arc_um, shape: Assembly
         reached &= ~blocked
         if reached[-1]:
             return Passage(float(time_s), float(free_s))
-        # one step of motion: any arc within `window` steps of a reached one
-        counts = np.concatenate([[0], np.cumsum(reached)])
-        low = np.clip(np.arange(len(arcs)) - window, 0, len(arcs))
-        high = np.clip(np.arange(len(arcs)) + window + 1, 0, len(arcs))
-        reached = (counts[high] - counts[low]) > 0
+        # one time step of motion: an arc step either way, or none
+        reached = reached | np.concatenate([[False], reached[:-1]]) | np.concatenate([reached[1:], [False]])
     return Passage(float("inf"), float(free_s))

@@ -1,0 +1,46 @@
+"""``otgym experiment route-bound`` from the command line: two scenarios of the
+shared-control study, two speed limits; bad input ends in one line and exit 2."""
+
+import json
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+COMMAND = [sys.executable, "-c", "from otgym.cli.app import main; main()", "experiment", "route-bound"]
+GRID_S = 2 * 0.25 / 5.0  # two arc steps of 0.25 um at the slower limit
+
+
+def test_route_bound_writes_its_files_and_a_faster_limit_never_arrives_later(tmp_path):
+    """Fails if a file or row is missing, if the unobstructed time is not the route's
+    length to the goal tolerance over the speed (the autonomous mode's 60.7 s at
+    5 um/s), if an arrival beats it, or if allowing 8 um/s makes any arrival later
+    (every 5 um/s passage is also an 8 um/s one)."""
+    out = tmp_path / "bound"
+    run = subprocess.run(COMMAND + ["--seed", "10", "--trials", "2", "--speeds-um-s", "5,8", "--out", str(out)],
+                         capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr
+    rows = pd.read_csv(out / "route_bound.csv")
+    assert sorted(rows.scenario.unique()) == [100000, 100001] and len(rows) == 4
+    slow, fast = (rows[rows.max_speed_um_s == v].set_index("scenario") for v in (5.0, 8.0))
+    assert slow.free_s.iloc[0] == pytest.approx(60.7, abs=0.1)
+    assert fast.free_s.iloc[0] == pytest.approx(slow.free_s.iloc[0] * 5 / 8)
+    assert (rows.earliest_s >= rows.free_s - 1e-6).all()
+    assert (fast.earliest_s <= slow.earliest_s + GRID_S).all()
+    summary = json.loads((out / "route_bound.json").read_text())
+    assert summary["5"]["scenarios"] == 2
+    assert "scenario 100001" in run.stdout and "earliest" in (out / "route_bound.md").read_text()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--speeds-um-s", "0"], "(0, 20]"),
+    (["--speeds-um-s", "fast"], "comma-separated numbers"),
+    (["--trials", "0"], "--trials"),
+    (["--seed", "-1"], "--seed"),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, args, message):
+    run = subprocess.run(COMMAND + args + ["--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 2
+    assert message in run.stderr and "Traceback" not in run.stderr
+    assert not (tmp_path / "x").exists()
