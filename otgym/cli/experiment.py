@@ -57,8 +57,19 @@ def register(app: typer.Typer) -> None:
         print((out / "summary.md").read_text())
         for name, passed in checks.items():
             print(f"{'PASS' if passed else 'FAIL'}  {name}")
+        bound = ""
+        if "shared" in chosen and "autonomous" in chosen:
+            from otgym.experiments.route_bound import ROUTE_SPEED_UM_S, run_route_bound, write_route_bound
+
+            print("route-keeping bound (the earliest passage on these scenarios, perfect foresight):", flush=True)
+            summary = write_route_bound(run_route_bound(trials, seed, [ROUTE_SPEED_UM_S], chip,
+                                                        report=lambda line: print(line, flush=True)), out)
+            best = summary[f"{ROUTE_SPEED_UM_S:g}"]
+            print(f"      at {ROUTE_SPEED_UM_S:g} um/s: {best['earliest_mean_s']:.1f} s on average, "
+                  f"{best['earliest_over_free']:.3f}x the unobstructed route (see route_bound.md)")
+            bound = ", route_bound.csv/.json/.md"
         print(f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
-              + (", mpc.json" if stats else ""))
+              + (", mpc.json" if stats else "") + bound)
 
     @experiment.command("route-bound")
     def route_bound(

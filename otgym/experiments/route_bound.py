@@ -20,7 +20,11 @@ import pandas as pd
 from otgym.experiments.shared_control import check_arguments
 from otgym.runtime.route_timing import earliest_passage, task_assembly_shape
 from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
+from otgym.runtime.trials import CRUISE_SPEED_UM_S
 
+ROUTE_SPEED_UM_S = CRUISE_SPEED_UM_S
+"""The route navigator's cruise speed in trials: the autonomous mode's pace, and
+shared control's when nothing is in the way."""
 COLUMNS = ["scenario", "max_speed_um_s", "free_s", "earliest_s", "lost_s"]
 SHARED_TIME_TOLERANCE = 0.15
 """The issue's acceptance: shared control's mean time within 15 % of the autonomous mode's."""

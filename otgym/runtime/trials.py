@@ -41,6 +41,9 @@ trap, below the 2 um/s manual pace); trap speeds up to 20 um/s, enough to chase 
 cell drifting in the chip's 8 um/s flow and far below the assembly's escape speed."""
 
 
+CRUISE_SPEED_UM_S = 5.0
+"""The route navigator's speed along the route in trials: the autonomous mode's pace."""
+
 TRIAL_MODES = MODES + ("mpc",)
 """The arbitration modes, and ``mpc``: autonomous (alpha 0) with the model-predictive
 navigator's dP_r (``otgym.runtime.mpc``) instead of the route navigator's."""
@@ -101,7 +104,7 @@ def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig)
 
 def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict[int, HumanParams], seed: int,
                arbitration: ArbitrationConfig = ArbitrationConfig(), retarget: RetargetConfig = TASK_RETARGET,
-               participant_task: ParticipantTask = ParticipantTask(), cruise_speed_um_s: float = 5.0,
+               participant_task: ParticipantTask = ParticipantTask(), cruise_speed_um_s: float = CRUISE_SPEED_UM_S,
                progress: Callable[[float], None] | None = None, shared_autonomy: str = "route",
                mpc_config: MPCConfig = MPCConfig(), mpc_costs: MPCCosts = MPCCosts(),
                mpc_stats: dict | None = None, mpc_navigator: Callable | None = None) -> list[dict]:

@@ -22,9 +22,12 @@ def test_small_experiment_writes_every_file(tmp_path):
     run = subprocess.run(COMMAND + ["--participants", "2", "--trials", "1", "--time-limit-s", "6", "--out", str(out)],
                          capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stderr
-    for name in ("trials.csv", "summary.csv", "summary.md", "stats.json", "fig8.png", "acceptance.json"):
+    for name in ("trials.csv", "summary.csv", "summary.md", "stats.json", "fig8.png", "acceptance.json",
+                 "route_bound.csv", "route_bound.md"):
         assert (out / name).stat().st_size > 0, name
     trials = pd.read_csv(out / "trials.csv")
+    bound = pd.read_csv(out / "route_bound.csv")  # the route-keeping bound on the trials' own scenarios
+    assert list(bound.scenario) == sorted(set(trials.scenario)) and (bound.earliest_s >= bound.free_s - 1e-6).all()
     assert list(trials.columns[:len(TRIAL_COLUMNS)]) == TRIAL_COLUMNS
     assert len(trials) == 6 and set(trials["mode"]) == {"manual", "autonomous", "shared"}
     assert trials.groupby("mode")["scenario"].apply(tuple).nunique() == 1
@@ -46,6 +49,7 @@ def test_mpc_mode_alone_with_one_participant(tmp_path):
     assert run.returncode == 0, run.stderr
     trials = pd.read_csv(out / "trials.csv")
     assert list(trials["mode"]) == ["mpc"] and list(trials["autonomy"]) == ["mpc"]
+    assert not (out / "route_bound.csv").exists()  # only beside shared and autonomous modes
     assert (trials["grip_time_s"] < 0.5).all() and not trials["reached_goal"].any()
     size = json.loads((out / "mpc.json").read_text())
     assert size["rollouts"] == 12 and size["modes"]["mpc"]["replans"] > 0
