@@ -29,13 +29,13 @@ from __future__ import annotations
 
 import threading
 import time
-import types
 from typing import Callable
 
 import numpy as np
 
 from otgym.bus import messages as msg
 from otgym.bus.transport import Node
+from otgym.runtime.layout import layout_of, observation_from_spheres
 from otgym.runtime.navigator import RouteNavigator
 from otgym.runtime.task import InteractiveTask
 from otgym.teleop.device import Device, DeviceCaps, Sample
@@ -177,17 +177,24 @@ class RemoteAutonomy:
 
 
 def run_autonomy_node(node: Node, task: InteractiveTask, stop: threading.Event, cruise_speed_um_s: float = 5.0,
-                      max_speed_um_s: float = 20.0) -> int:
-    """The route navigator (``otgym.runtime.navigator``) as a node: on each
-    ``/otgym/bodies`` from the simulator, dP_r from the latest traps, phase and cell,
-    published on ``/otgym/autonomy/increments`` with the bodies' stamp; reset at each
-    ``trial_start``. Until ``stop`` is set; returns the answers published."""
-    navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, task.config.tick_s,
-                               cruise_speed_um_s, max_speed_um_s=max_speed_um_s)
-    cell_sphere = int(np.flatnonzero(np.asarray(task.scene.model.sphere_body) == task.scene.payload)[0])
+                      max_speed_um_s: float = 20.0, navigator=None) -> int:
+    """An autonomy as a node: on each ``/otgym/bodies`` from the simulator, the task's
+    observation rebuilt from the latest bodies, traps and phase
+    (``otgym.runtime.layout.observation_from_spheres``; time from the bodies' stamps
+    since the trial began), and the navigator's dP_r published on
+    ``/otgym/autonomy/increments`` with the bodies' stamp; the navigator is reset at
+    each ``trial_start``. ``navigator``: anything with ``reset(n_env)`` and
+    ``increments(observation) -> (1, T, 2)`` um, by default the route navigator
+    (``otgym.runtime.navigator``); the model-predictive one
+    (``otgym.runtime.mpc_navigator.MPCNavigator``) answers a replan tick late, the others
+    at once. A navigator slower than the ticks answers the newest bodies only. Until
+    ``stop`` is set; returns the answers published."""
+    if navigator is None:
+        navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, task.config.tick_s,
+                                   cruise_speed_um_s, max_speed_um_s=max_speed_um_s)
+    layout = layout_of(task)
     latest: dict[str, object] = {}
     fresh = threading.Condition()
-    route_index = np.zeros(1, int)
 
     def keep(name):
         def on_message(topic, message, data) -> None:
@@ -207,7 +214,7 @@ def run_autonomy_node(node: Node, task: InteractiveTask, stop: threading.Event, 
     node.subscribe(msg.BODIES, keep("bodies"))
     node.subscribe(msg.EVENTS, on_event)
     navigator.reset(1)
-    answered = 0
+    answered, route_index, trial_began_s = 0, 0, None
     while not stop.is_set():
         with fresh:
             if not fresh.wait_for(lambda: "bodies" in latest or stop.is_set(), timeout=0.1) or stop.is_set():
@@ -218,17 +225,16 @@ def run_autonomy_node(node: Node, task: InteractiveTask, stop: threading.Event, 
             continue
         if restart:
             navigator.reset(1)
-            route_index[:] = 0
-        spheres = msg.xy_um(bodies)
-        trap_xy = msg.xy_um(traps)
-        if cell_sphere >= len(spheres) or len(trap_xy) != task.n_traps:
+            route_index, trial_began_s = 0, None
+        spheres, trap_xy = msg.xy_um(bodies), msg.xy_um(traps)
+        if len(spheres) != len(layout.sphere_body) or len(trap_xy) != layout.n_traps:
             continue  # not this task's simulator
-        cell = spheres[cell_sphere][None]
-        route_index[:] = task.route_index(cell, route_index)
-        seen = types.SimpleNamespace(phase=np.array([msg.PHASES.index(phase.data)]), cell_xy_um=cell,
-                                     cell_arc_um=task.route_arc_um[route_index], trap_xy_um=trap_xy[None])
-        increments = navigator.increments(seen)[0]
-        node.publish(msg.AUTONOMY, msg.pose_array(increments, msg.stamp_s(bodies), "chip"))
+        stamp_s = msg.stamp_s(bodies)
+        trial_began_s = stamp_s if trial_began_s is None else trial_began_s
+        seen, route_index = observation_from_spheres(layout, spheres, trap_xy, msg.PHASES.index(phase.data),
+                                                     stamp_s - trial_began_s, route_index)
+        increments = np.asarray(navigator.increments(seen), float)[0]
+        node.publish(msg.AUTONOMY, msg.pose_array(increments, stamp_s, "chip"))
         answered += 1
     return answered
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import typer
 
 BUILT = ("sim", "device", "recorder", "autonomy", "ui")
+NAVIGATORS = ("route", "mpc")
 
 
 def register(app: typer.Typer) -> None:
@@ -55,6 +56,8 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(None, "--out", help="recorder node: folder for session.mcap; ui node: for "
                                                      "trials.csv and questionnaires.csv."),
         no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="ui node: no questionnaires."),
+        navigator: str = typer.Option("route", "--navigator", help="autonomy node: route (the route navigator) or "
+                                                                   "mpc (the model-predictive navigator)."),
     ) -> None:
         """Run one node of the distributed runtime until stopped."""
         from otgym.bus import messages as msg
@@ -72,6 +75,8 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         if autonomy not in ("local", "remote"):
             raise ValueError(f"--autonomy must be local or remote, got {autonomy!r}")
+        if navigator not in NAVIGATORS:
+            raise ValueError(f"--navigator must be one of {', '.join(NAVIGATORS)}, got {navigator!r}")
         if role in ("recorder", "ui") and out is None:
             raise ValueError(f"the {role} node needs --out")
         device = device or {"device": "simulated", "ui": "keyboard"}.get(role)
@@ -86,7 +91,7 @@ def register(app: typer.Typer) -> None:
             stop, endpoints, name=name, names=names, device=device, replay=replay, mode=mode, seed=seed,
             duration=duration, out=out, remote_autonomy=autonomy == "remote", takeover=takeovers,
             participant=participant.strip(), hold=hold, chip=chip, device_name=device_name,
-            questionnaire=not no_questionnaire)
+            questionnaire=not no_questionnaire, navigator=navigator)
 
 
 def _ready(text: str) -> None:
@@ -158,16 +163,24 @@ def _ui(stop, endpoints, *, names, device, chip, out, questionnaire, **_):
     print(f"ui: wrote {app.trials_written} trial(s) to {out / 'trials.csv'}", flush=True)
 
 
-def _autonomy(stop, endpoints, *, chip, **_):
+def _autonomy(stop, endpoints, *, chip, navigator, **_):
     from otgym.bus.nodes import run_autonomy_node
     from otgym.bus.sim_node import build_task
     from otgym.bus.transport import Node
 
     print("building the task ...", flush=True)
     task = build_task(chip)
+    planner = None
+    if navigator == "mpc":
+        from otgym.runtime.mpc_navigator import MPCNavigator
+
+        print("building the model-predictive navigator (its model, grip calibration and first compile take about "
+              "a minute on 2 cores) ...", flush=True)
+        planner = MPCNavigator(task)
+        planner.warm_up()
     with Node("autonomy", "autonomy", **endpoints) as node:
-        _ready("autonomy (route navigator)")
-        answered = run_autonomy_node(node, task, stop)
+        _ready(f"autonomy ({'model-predictive' if planner else 'route'} navigator)")
+        answered = run_autonomy_node(node, task, stop, navigator=planner)
         print(f"autonomy: {answered} ticks answered; dropped {sum(node.dropped.values())} malformed messages",
               flush=True)
 

@@ -12,7 +12,7 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-from otgym.runtime.task import ROUTE_SEARCH_POINTS, InteractiveTask
+from otgym.runtime.task import ROUTE_SEARCH_POINTS, InteractiveTask, Observation
 from otgym.sim.chip import Chip
 
 
@@ -74,3 +74,34 @@ def layout_of(task: InteractiveTask) -> TaskLayout:
         robots=tuple(int(r) for r in task.scene.robots), payload=int(task.scene.payload),
         obstacles=tuple(int(o) for o in task.scene.obstacles), trap_sphere=np.asarray(task.trap_sphere, int),
         trap_robot=np.asarray(task.trap_robot, int))
+
+
+def observation_from_spheres(layout: TaskLayout, sphere_xy_um, trap_xy_um, phase: int, time_s: float,
+                             route_index: int) -> tuple[Observation, int]:
+    """One environment's ``Observation`` rebuilt from what a simulator publishes
+    (every sphere's centre (S, 2) in ``layout.sphere_body`` order, the traps (T, 2), the
+    phase, the time in the trial) and the new route index: the cell, robots and
+    obstacles at their spheres' mean, handles at the trapped spheres, each obstacle's
+    gap to the assembly's spheres as the task measures it. The robot-cell contact force
+    and gripper gap, which are not published, are NaN."""
+    spheres = np.asarray(sphere_xy_um, float)
+    traps = np.asarray(trap_xy_um, float)
+    bodies, radius = layout.sphere_body, layout.sphere_radius_um
+    cell = spheres[bodies == layout.payload].mean(axis=0)
+    route_index = layout.route_index(cell, route_index)
+    obstacle_spheres = [np.flatnonzero(bodies == obstacle) for obstacle in layout.obstacles]
+    obstacles = np.array([spheres[s].mean(axis=0) for s in obstacle_spheres]).reshape(-1, 2)
+    obstacle_radius = np.array([radius[s].max() for s in obstacle_spheres])
+    assembly = np.isin(bodies, (*layout.robots, layout.payload))
+    between = np.linalg.norm(spheres[assembly][:, None] - obstacles[None], axis=-1)
+    gaps = (between - radius[assembly][:, None] - obstacle_radius[None]).min(axis=0, initial=np.inf)
+    handles = spheres[layout.trap_sphere]
+    n_robots = len(layout.robots)
+    observation = Observation(
+        time_s=np.array([time_s], float), phase=np.array([phase]), cell_xy_um=cell[None],
+        cell_arc_um=np.array([layout.route_arc_um[route_index]]), trap_xy_um=traps[None], handle_xy_um=handles[None],
+        robot_xy_um=np.array([spheres[bodies == robot].mean(axis=0) for robot in layout.robots])[None],
+        obstacle_xy_um=obstacles[None], obstacle_gap_um=gaps[None],
+        contact_force_pn=np.full((1, n_robots), np.nan), cell_gap_um=np.full((1, n_robots), np.nan),
+        trap_distance_um=np.linalg.norm(handles - traps, axis=-1)[None])
+    return observation, route_index

@@ -36,10 +36,9 @@ import numpy as np
 from otgym.bus import messages as msg
 from otgym.bus.nodes import REMOTE_FORCE_LIMIT_N
 from otgym.bus.transport import Node
-from otgym.runtime.layout import TaskLayout
+from otgym.runtime.layout import TaskLayout, observation_from_spheres
 from otgym.runtime.loop import TickRecord
 from otgym.runtime.session import Snapshot, smoothed_velocity
-from otgym.runtime.task import Observation
 from otgym.runtime.trials import TASK_RETARGET
 from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 from otgym.teleop.forwarded import ForwardedDevice
@@ -86,11 +85,6 @@ class BusSession:
         self._new_trial()
         self._traps = self._phase = self._alpha = self._tick_mode = None
         self._feedback_n = np.zeros((len(layout.robots), 3))
-        bodies = layout.sphere_body
-        self._cell = np.flatnonzero(bodies == layout.payload)
-        self._robot_spheres = [np.flatnonzero(bodies == robot) for robot in layout.robots]
-        self._obstacle_spheres = [np.flatnonzero(bodies == obstacle) for obstacle in layout.obstacles]
-        self._assembly = np.flatnonzero(np.isin(bodies, (*layout.robots, layout.payload)))
         self._tokens = [node.session.liveliness().declare_token(f"otgym/node/device/{name}") for name in UI_DEVICES]
         node.subscribe(msg.TRAPS, self._keep("_traps", msg.xy_um))
         node.subscribe(msg.PHASE, self._keep("_phase", lambda m: msg.PHASES.index(m.data)))
@@ -168,30 +162,18 @@ class BusSession:
             if self._traps is None or len(spheres) != len(layout.sphere_body) or len(self._traps) != layout.n_traps:
                 return  # not this task's simulator, or its first messages still on their way
             self._ticks += 1
-            radius = layout.sphere_radius_um
-            cell = spheres[self._cell].mean(axis=0)
-            self._route_index = layout.route_index(cell, self._route_index)
-            obstacles = np.array([spheres[s].mean(axis=0) for s in self._obstacle_spheres]).reshape(-1, 2)
-            obstacle_radius = np.array([radius[s].max() for s in self._obstacle_spheres])
-            between = np.linalg.norm(spheres[self._assembly][:, None] - obstacles[None], axis=-1)
-            gaps = (between - radius[self._assembly][:, None] - obstacle_radius[None]).min(axis=0, initial=np.inf)
+            time_s, phase, alpha = self._ticks * layout.tick_s, self._phase or 0, self._alpha or 0.0
+            observation, self._route_index = observation_from_spheres(layout, spheres, self._traps, phase, time_s,
+                                                                      self._route_index)
+            obstacles, gaps = observation.obstacle_xy_um[0], observation.obstacle_gap_um[0]
             self._encountered |= gaps < layout.encounter_gap_um
             self._collided |= gaps <= 0.0
             if self._obstacle_xy is not None:
                 self._obstacle_velocity = smoothed_velocity(self._obstacle_velocity, self._obstacle_xy, obstacles,
                                                             layout.tick_s)
             self._obstacle_xy = obstacles
-            traps, handles = self._traps, spheres[layout.trap_sphere]
-            time_s, phase, alpha = self._ticks * layout.tick_s, self._phase or 0, self._alpha or 0.0
+            traps, handles = self._traps, observation.handle_xy_um[0]
             n_robots, n_traps = len(layout.robots), layout.n_traps
-            observation = Observation(
-                time_s=np.array([time_s]), phase=np.array([phase]), cell_xy_um=cell[None],
-                cell_arc_um=np.array([layout.route_arc_um[self._route_index]]), trap_xy_um=traps[None],
-                handle_xy_um=handles[None],
-                robot_xy_um=np.array([spheres[s].mean(axis=0) for s in self._robot_spheres])[None],
-                obstacle_xy_um=obstacles[None], obstacle_gap_um=gaps[None],
-                contact_force_pn=np.full((1, n_robots), np.nan), cell_gap_um=np.full((1, n_robots), np.nan),
-                trap_distance_um=np.linalg.norm(handles - traps, axis=-1)[None])
             zeros = np.zeros((n_traps, 2))
             record = TickRecord(
                 time_s=time_s, phase=phase, alpha=alpha, human_um=zeros, robot_um=zeros, shared_um=zeros,

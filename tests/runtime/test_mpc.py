@@ -332,3 +332,29 @@ def test_shared_control_takes_the_mpc_as_its_autonomy():
                       mpc_config=SMALL, mpc_stats=stats)
     assert [row["autonomy"] for row in rows] == ["mpc", "mpc", "route"]
     assert stats["replans"] > 0 and max(stats["environments_planned"]) == 2
+
+
+def test_warm_up_leaves_it_fresh_and_it_plans_alike_from_a_rebuilt_observation(task, navigator, gripped):
+    """An autonomy node drives the MPC with the observation it rebuilds from the
+    simulator's published spheres (``otgym.runtime.layout.observation_from_spheres``).
+    After ``warm_up`` (compiles, then resets), the dP_r of the first two replan periods
+    from the rebuilt observation equals that from the task's own to 1e-4 um, and moves
+    the traps. Fails if warm_up leaves a replan count behind (the replan key changes),
+    or if the rebuilt observation misplaces the cell, a handle or an obstacle."""
+    from otgym import physics as ph
+    from otgym.runtime.layout import layout_of, observation_from_spheres
+
+    state, obs = gripped
+    spheres = np.asarray(ph.sphere_positions_um(task.scene.model, state.scene.physics.pose[0]), float)
+    rebuilt, _ = observation_from_spheres(layout_of(task), spheres, obs.trap_xy_um[0], int(obs.phase[0]),
+                                          float(obs.time_s[0]), 0)
+
+    def drive(observation):
+        return [navigator.increments(observation) for _ in range(2 * navigator.ticks_per_step)]
+
+    navigator.warm_up()
+    from_task = drive(obs)
+    navigator.reset(1)
+    from_rebuilt = drive(rebuilt)
+    np.testing.assert_allclose(np.array(from_rebuilt), np.array(from_task), atol=1e-4)
+    assert np.abs(from_task[-1]).max() > 1e-3
