@@ -355,3 +355,13 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
         wait_until(lambda: not samples[-1].velocity_mm_s.any(), DETECTION_BOUND_S)
     assert msg.force_n(answer)[0] == 0.25
     assert samples[0].velocity_mm_s[0] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["autonomy", "--navigator", "astar"], "--navigator must be one of route, mpc"),
+    (["pilot"], "unknown or unbuilt node 'pilot'"),
+    (["sim", "--autonomy", "cloud"], "--autonomy must be local or remote"),
+])
+def test_bad_node_arguments_end_in_one_line_and_exit_2(args, message):
+    run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr
