@@ -27,6 +27,8 @@ def register(app: typer.Typer) -> None:
         distributed: bool = typer.Option(False, "--distributed", help="Run the sim, device, recorder (and autonomy) "
                                                                       "as local node processes on loopback, the "
                                                                       "window as the ui node."),
+        navigator: str = typer.Option("route", "--navigator", help="With --distributed: the autonomy node's "
+                                                                   "navigator, route or mpc (model-predictive)."),
         out: Path = typer.Option(..., "--out", help="Folder for trials.csv, session.mcap (and questionnaires.csv)."),
     ) -> None:
         """The interactive task in a window: global and microscope views, cues, keys 1/2/3
@@ -47,11 +49,19 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--screenshot must name a .png file, got {screenshot}")
         if not participant.strip() or "," in participant:
             raise ValueError(f"--participant must be a non-empty ID without commas, got {participant!r}")
+        if navigator not in ("route", "mpc"):
+            raise ValueError(f"--navigator must be route or mpc, got {navigator!r}")
+        if navigator == "mpc" and not distributed:
+            raise ValueError("--navigator mpc needs --distributed: its replans (about 74 ms each) run in the "
+                             "autonomy node's own process, not in the simulation's")
         if headless:
             os.environ["SDL_VIDEODRIVER"] = "dummy"
             os.environ["SDL_AUDIODRIVER"] = "dummy"
-        run = run_distributed if distributed else run_play
-        run(chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
+        arguments = (chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
+        if distributed:
+            run_distributed(*arguments, navigator=navigator)
+        else:
+            run_play(*arguments)
 
 
 def _check_screenshot_folder(screenshot: Path | None, out: Path) -> None:
@@ -192,7 +202,7 @@ def _window_over_nodes(nodes, endpoint: str, layout, window_kind: str, shown: li
 
 
 def run_distributed(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
-                    questionnaire: bool, screenshot: Path | None, out: Path) -> None:
+                    questionnaire: bool, screenshot: Path | None, out: Path, navigator: str = "route") -> None:
     """The sim, device, recorder (and, in shared or autonomous mode, autonomy) nodes as
     local processes on a loopback port; this process is the ui node (the window).
     All stop when the window closes or when one of them fails (one ``error:`` line,
@@ -228,7 +238,7 @@ def run_distributed(chip: str, mode: str, device: str, participant: str, seed: i
             nodes.start(label, arguments)
         nodes.start("recorder", ["recorder", "--out", str(out), "--connect", endpoint])
         if remote_autonomy:
-            nodes.start("autonomy", ["autonomy", "--chip", chip, "--connect", endpoint])
+            nodes.start("autonomy", ["autonomy", "--chip", chip, "--navigator", navigator, "--connect", endpoint])
         print(f"starting {len(nodes.children)} nodes on {endpoint} ({', '.join(nodes.children)}) ...", flush=True)
         layout = layout_of(build_task(chip))
         try:
