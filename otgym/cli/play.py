@@ -232,19 +232,28 @@ def run_distributed(chip: str, mode: str, device: str, participant: str, seed: i
     nodes = NodeProcesses()
     failed: list[str] = []
     app = None
+    autonomy = ["autonomy", "--chip", chip, "--navigator", navigator, "--connect", endpoint]
     try:
-        nodes.start("sim", sim)
-        for label, arguments in device_nodes:
-            nodes.start(label, arguments)
-        nodes.start("recorder", ["recorder", "--out", str(out), "--connect", endpoint])
-        if remote_autonomy:
-            nodes.start("autonomy", ["autonomy", "--chip", chip, "--navigator", navigator, "--connect", endpoint])
-        print(f"starting {len(nodes.children)} nodes on {endpoint} ({', '.join(nodes.children)}) ...", flush=True)
-        layout = layout_of(build_task(chip))
-        try:
-            nodes.wait_ready(900.0)
-        except RuntimeError as error:
-            failed.append(str(error))
+        if remote_autonomy and navigator == "mpc":  # ready before the sim starts its first trial
+            print("starting the model-predictive autonomy node first (it compiles for about a minute) ...", flush=True)
+            nodes.start("autonomy", autonomy)
+            try:
+                nodes.wait_ready(900.0)
+            except RuntimeError as error:
+                failed.append(str(error))
+        if not failed:
+            nodes.start("sim", sim)
+            for label, arguments in device_nodes:
+                nodes.start(label, arguments)
+            nodes.start("recorder", ["recorder", "--out", str(out), "--connect", endpoint])
+            if remote_autonomy and "autonomy" not in nodes.children:
+                nodes.start("autonomy", autonomy)
+            print(f"starting {len(nodes.children)} nodes on {endpoint} ({', '.join(nodes.children)}) ...", flush=True)
+            layout = layout_of(build_task(chip))
+            try:
+                nodes.wait_ready(900.0)
+            except RuntimeError as error:
+                failed.append(str(error))
         if not failed:
             print("nodes ready; the window opens", flush=True)
             app = _window_over_nodes(nodes, endpoint, layout, window_kind, shown, out, questionnaire, screenshot,
