@@ -4,11 +4,13 @@ with the clone as navigator.
 
     python -m otgym.experiments.distil_mpc collect OUT.npz --scenarios 32 --first 900000
     python -m otgym.experiments.distil_mpc train DATA.npz POLICY.npz
-    python -m otgym.experiments.distil_mpc dagger DATA.npz POLICY.npz OUT_DIR --iterations 2 --scenarios 8 --first 900100
+    python -m otgym.experiments.distil_mpc dagger DATA.npz POLICY.npz OUT_DIR --iterations 3 --scenarios 8 \
+        --first 900100 --beta 0.5 --decay 0 --time-limit 90
     python -m otgym.experiments.distil_mpc evaluate POLICY.npz --trials 64 --seed 14 [--mpc]
 
 ``dagger`` (Ross, Gordon & Bagnell 2011): each round drives the current clone (mixed
-with the MPC by ``--beta``) on the next ``--scenarios`` development scenarios, labels
+with the MPC by ``--beta``, times ``--decay`` each round) on the next ``--scenarios``
+development scenarios (simulation seed 0, trials cut at ``--time-limit`` s), labels
 the states it visits with the MPC's decisions, aggregates them with all data so far and
 retrains; it writes OUT_DIR/dagger<round>.data.npz and OUT_DIR/dagger<round>.policy.npz
 after every round (rounds use scenarios first, first + scenarios, ...).
@@ -108,16 +110,17 @@ def _dagger(args) -> None:
 
     def collect(policy, round_):
         first = args.first + round_ * args.scenarios
+        beta = args.beta * args.decay ** round_
         holder = {}
 
         def factory(*a, **k):
-            holder["nav"] = DAggerNavigator(*a, policy=policy, beta=args.beta, label_every=args.label_every, **k)
+            holder["nav"] = DAggerNavigator(*a, policy=policy, beta=beta, label_every=args.label_every, **k)
             return holder["nav"]
 
         began = time.perf_counter()
-        print(f"round {round_ + 1}: the clone on scenarios {first}-{first + args.scenarios - 1} (beta {args.beta})",
+        print(f"round {round_ + 1}: the clone on scenarios {first}-{first + args.scenarios - 1} (beta {beta:g})",
               flush=True)
-        rows = pd.DataFrame(_trials(task, range(first, first + args.scenarios), round_, factory, {},
+        rows = pd.DataFrame(_trials(task, range(first, first + args.scenarios), 0, factory, {},
                                     pairs=lambda: sum(len(f) for f in holder["nav"].features) if "nav" in holder else 0))
         nav = holder["nav"]
         taken = np.concatenate(nav.taken) if nav.taken else np.zeros(0, bool)
@@ -153,7 +156,10 @@ def main(argv=None) -> int:
     aggregate.add_argument("--iterations", type=_positive, default=1)
     aggregate.add_argument("--scenarios", type=_positive, default=8)
     aggregate.add_argument("--first", type=int, default=900100)
-    aggregate.add_argument("--beta", type=_fraction, default=0.0)
+    aggregate.add_argument("--beta", type=_fraction, default=0.0,
+                           help="probability that a labelled decision executes the MPC's action in round 1")
+    aggregate.add_argument("--decay", type=_fraction, default=1.0,
+                           help="beta of round i is beta * decay ** (i - 1) (Ross et al.'s beta_i = p ** (i - 1))")
     aggregate.add_argument("--label-every", type=_positive, default=5)
     aggregate.add_argument("--epochs", type=_positive, default=200)
     aggregate.add_argument("--time-limit", type=float, default=300.0)
