@@ -28,7 +28,8 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from otgym.runtime.mpc_policy import ClonedPolicy, DAggerNavigator, PolicyNavigator, RecordingMPCNavigator, dagger, train
+from otgym.runtime.mpc_policy import (ClonedPolicy, DAggerNavigator, PolicyNavigator, RecordingMPCNavigator, dagger,
+                                      train)
 from otgym.study.summary import summarize
 from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
 from otgym.runtime.trials import TrialSpec, run_trials
@@ -56,6 +57,11 @@ def _trials(task, scenarios, seed, navigator, stats, pairs: Callable[[], int] | 
             print(f"  {fraction:.0%} of trials done, wall {now - began:.0f} s{kept}", flush=True)
 
     return run_trials(task, specs, people, seed=seed, progress=progress, mpc_stats=stats, mpc_navigator=navigator)
+
+
+def _kept(holder: dict) -> int:
+    """Pairs kept so far by the recording navigator in ``holder`` (0 before it is built)."""
+    return sum(len(f) for f in holder["nav"].features) if "nav" in holder else 0
 
 
 def _positive(text: str) -> int:
@@ -121,10 +127,11 @@ def _dagger(args) -> None:
         print(f"round {round_ + 1}: the clone on scenarios {first}-{first + args.scenarios - 1} (beta {beta:g})",
               flush=True)
         rows = pd.DataFrame(_trials(task, range(first, first + args.scenarios), 0, factory, {},
-                                    pairs=lambda: sum(len(f) for f in holder["nav"].features) if "nav" in holder else 0))
+                                    pairs=lambda: _kept(holder)))
         nav = holder["nav"]
         taken = np.concatenate(nav.taken) if nav.taken else np.zeros(0, bool)
-        print(f"round {round_ + 1}: {len(taken)} states labelled by the MPC ({taken.mean() if len(taken) else 0:.0%} "
+        share = taken.mean() if len(taken) else 0.0
+        print(f"round {round_ + 1}: {len(taken)} states labelled by the MPC ({share:.0%} "
               f"executed its action); the rollouts: goal {int(rows['reached_goal'].sum())} of {len(rows)}, "
               f"wall {time.perf_counter() - began:.0f} s", flush=True)
         return np.concatenate(nav.features), np.concatenate(nav.actions)
@@ -182,7 +189,7 @@ def main(argv=None) -> int:
             return holder["nav"]
 
         _trials(_task(), range(args.first, args.first + args.scenarios), 0, factory, {},
-                pairs=lambda: sum(len(f) for f in holder["nav"].features) if "nav" in holder else 0)
+                pairs=lambda: _kept(holder))
         nav = holder["nav"]
         np.savez(args.out, features=np.concatenate(nav.features), actions=np.concatenate(nav.actions))
         print(f"{sum(len(f) for f in nav.features)} pairs -> {args.out}")

@@ -89,7 +89,8 @@ def test_dagger_step_labels_every_queried_row_with_the_teacher_and_executes_the_
         np.testing.assert_array_equal(executed[~taken], 7.0)
         np.testing.assert_array_equal(executed[taken], labels[taken[query]])
     # a half mixture takes the teacher's action about half the time
-    taken = [dagger_step(features, learner, teacher, query, 0.5, np.random.default_rng(s))[1][query] for s in range(200)]
+    taken = [dagger_step(features, learner, teacher, query, 0.5, np.random.default_rng(s))[1][query]
+             for s in range(200)]
     assert 0.4 < np.mean(taken) < 0.6
     # nothing queried: the learner acts, no labels
     executed, taken, labels = dagger_step(features, learner, teacher, np.zeros(6, bool), 1.0, np.random.default_rng(0))
