@@ -11,12 +11,20 @@ Target: the MPC's chosen next action (speed, lateral offset, rotation) at a repl
 ``RecordingMPCNavigator`` runs the MPC and keeps (features, action) pairs;
 ``PolicyNavigator`` replaces each replan by one forward pass of a small MLP
 (trained by MSE on normalised features and actions, ``train``), saved as .npz.
+
+DAgger (Ross, Gordon & Bagnell, "A Reduction of Imitation Learning and Structured
+Prediction to No-Regret Online Learning", AISTATS 2011) against the covariate shift of
+plain cloning: ``DAggerNavigator`` drives with the clone (or, per decision, the MPC
+with probability ``beta``), asks the MPC what it would do in the states the clone
+visits (``dagger_step``), and keeps those (features, MPC action) pairs; ``dagger``
+aggregates them with the data so far and retrains, round after round.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
+from typing import Callable, Iterator
 
 import jax
 import jax.numpy as jnp
@@ -171,3 +179,90 @@ class PolicyNavigator(_FeatureMixin, MPCNavigator):
         self.replan_seconds.append(time.perf_counter() - began)
         self.replan_sizes.append(len(rows))
         return np.repeat(action[:, None], self.config.plan_steps, axis=1)
+
+
+def dagger_step(features, learner: Callable, teacher: Callable, query, beta: float, rng: np.random.Generator):
+    """One DAgger decision for a batch of environments: the learner's action for every
+    row, the teacher's (``teacher(indices)`` -> (Q, A)) for the rows where ``query`` is
+    true, which are the labels; each queried row executes the teacher's action with
+    probability ``beta`` and the learner's otherwise (the mixture policy
+    beta * teacher + (1 - beta) * learner; rows not queried always execute the learner's).
+    Returns (executed (E, A), teacher_taken (E,) bool, labels (Q, A))."""
+    query = np.asarray(query, bool)
+    executed = np.array(learner(features), np.float32, copy=True)
+    taken = np.zeros(len(executed), bool)
+    labels = np.zeros((0, executed.shape[1]), np.float32)
+    if query.any():
+        labels = np.asarray(teacher(np.flatnonzero(query)), np.float32)
+        taken[query] = rng.random(int(query.sum())) < beta
+        executed[taken] = labels[taken[query]]
+    return executed, taken, labels
+
+
+def dagger(policy, features, actions, collect: Callable, iterations: int, fit: Callable = train) -> Iterator:
+    """DAgger's rounds from a first ``policy`` trained on (``features``, ``actions``):
+    each round ``collect(policy, round)`` -> (features, teacher's actions) on the states
+    that the policy (mixed with the teacher) visits, aggregated with all data so far, and
+    ``fit(features, actions)`` retrains on the aggregate. Yields (round, policy,
+    features, actions) after each round."""
+    features, actions = np.asarray(features, np.float32), np.asarray(actions, np.float32)
+    for round_ in range(iterations):
+        new_features, new_actions = collect(policy, round_)
+        features = np.concatenate([features, np.asarray(new_features, np.float32)])
+        actions = np.concatenate([actions, np.asarray(new_actions, np.float32)])
+        policy = fit(features, actions)
+        yield round_, policy, features, actions
+
+
+class DAggerNavigator(PolicyNavigator):
+    """``PolicyNavigator`` whose decisions are DAgger's (``dagger_step``): the MPC
+    labels the clone's states, within ``far_gap_um`` of an obstacle at every decision
+    and farther only every ``label_every`` decisions (the MPC's own sampling schedule,
+    which bounds the labelling cost); with probability ``beta`` a labelled decision
+    executes the MPC's plan. The MPC is warm-started from its own last plan for the
+    environment where it labelled the decision before, else from the executed one.
+    Keeps ``features`` and ``actions`` (the MPC's) and ``taken`` (decisions it executed)."""
+
+    def __init__(self, task, config, costs, seed: int = 0, policy: ClonedPolicy | None = None, beta: float = 0.0,
+                 label_every: int = 5, **kwargs):
+        if not 0.0 <= beta <= 1.0:
+            raise ValueError(f"beta must be in [0, 1], got {beta}")
+        if not (isinstance(label_every, int) and label_every >= 1):
+            raise ValueError(f"label_every must be a positive integer, got {label_every!r}")
+        self.beta, self.label_every = beta, label_every
+        self.rng = np.random.default_rng(seed)
+        self.features, self.actions, self.taken = [], [], []
+        super().__init__(task, config, costs, seed=seed, policy=policy, **kwargs)
+
+    def reset(self, n_env: int) -> None:
+        super().reset(n_env)
+        self.expert_plan = np.zeros((n_env, self.config.plan_steps, 3), np.float32)
+        self.expert_fresh = np.zeros(n_env, bool)
+        self.since_label = np.full(n_env, 10 ** 6)
+
+    def _plan(self, obs, rows, start, committed, nominal) -> np.ndarray:
+        self.since_label[rows] += 1
+        near = obs.nearest_obstacle_gap_um[rows] < self.config.far_gap_um
+        query = near | (self.since_label[rows] >= self.label_every)
+        fresh = self.expert_fresh[rows]
+        shifted = np.concatenate([self.expert_plan[rows, 1:], self.expert_plan[rows, -1:]], axis=1)
+        warm = np.where(fresh[:, None, None], shifted, nominal).astype(np.float32)
+        plans = {}
+
+        def teacher(index):
+            plans["mpc"] = MPCNavigator._plan(self, obs, rows[index], start[index], committed[index], warm[index])
+            return plans["mpc"][:, 0]
+
+        features = self._features(obs, rows, start, committed)
+        executed, taken, labels = dagger_step(features, self.policy, teacher, query, self.beta, self.rng)
+        plan = np.repeat(executed[:, None], self.config.plan_steps, axis=1).astype(np.float32)
+        self.expert_fresh[rows] = query
+        if query.any():
+            labelled = rows[query]
+            self.expert_plan[labelled] = plans["mpc"]
+            self.since_label[labelled] = 0
+            plan[taken] = plans["mpc"][taken[query]]
+            self.features.append(features[query])
+            self.actions.append(labels)
+            self.taken.append(taken[query])
+        return plan
