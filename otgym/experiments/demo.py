@@ -227,8 +227,10 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
 
     Most of the demo's work runs on one core (compiling, and Python between small
     XLA calls), so with ``config.background_study`` the study runs in a thread beside
-    the speed control and the transport, after the plan stage has made what they share
-    (the chip's fields on disk, numba's planner). Its results do not depend on it."""
+    the planning, the speed control and the transport, started once the chip's fields
+    are on disk (what every stage reads; numba compiles the planner both threads use
+    once, under its compiler lock). It is the demo's longest stage, so it starts first.
+    Its results do not depend on it."""
     from otgym.envs import speed_control as spc
     from otgym.envs import transport as tr
     from otgym.envs.presets import preset
@@ -250,35 +252,35 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
     began = time.perf_counter()
     timings = {}
 
+    study, stop = None, threading.Event()
+
+    def study_work():
+        start = time.perf_counter()
+
+        def report_line(text: str) -> None:
+            if stop.is_set():
+                raise _Cancelled("the demo stopped")
+            detail(text)
+
+        result = run_study(config.study, config.seed, out_dir / "shared_control", report_line)
+        return result, time.perf_counter() - start
+
     announce(1)
     start = time.perf_counter()
     chip = load_chip("default")
     chip_fields(chip)  # walls and flow, solved once into the disk cache for every later stage
-    transport = config.transport
-    metrics = write_plan(chip.image, chip.pixel_size_um, transport.start_um, transport.goal_um, out_dir / "plan",
-                         robot_radius_um=PLAN_ROBOT_RADIUS_UM, threshold=0.5)
-    timings["plan_s"] = time.perf_counter() - start
-
-    study, stop = None, threading.Event()
-    if config.study is not None:
-        announce(2)
-
-        def study_work():
-            start = time.perf_counter()
-
-            def report_line(text: str) -> None:
-                if stop.is_set():
-                    raise _Cancelled("the demo stopped")
-                detail(text)
-
-            result = run_study(config.study, config.seed, out_dir / "shared_control", report_line)
-            return result, time.perf_counter() - start
-
-        if config.background_study:
-            study = _Background(study_work)
-        else:
-            study_result = study_work()
+    if config.study is not None and config.background_study:
+        announce(2)  # the study, the demo's longest stage, needs only the fields: it starts beside the planning
+        study = _Background(study_work)
     try:
+        transport = config.transport
+        metrics = write_plan(chip.image, chip.pixel_size_um, transport.start_um, transport.goal_um, out_dir / "plan",
+                             robot_radius_um=PLAN_ROBOT_RADIUS_UM, threshold=0.5)
+        timings["plan_s"] = time.perf_counter() - start
+        if config.study is not None and not config.background_study:
+            announce(2)
+            study_result = study_work()
+
         announce(count - 1)
         start = time.perf_counter()
         evaluation = evaluate(spc.make_params(task), q_params, meta["hidden"], config.episodes, config.seed)
@@ -311,7 +313,7 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
         study_summary, timings["shared_control_s"] = study_result
         sections.append(report.shared_control_section(study_summary["modes"], study_summary["size"]))
     total = time.perf_counter() - began
-    beside = " (the study ran beside the speed control and the transport)" if study is not None else ""
+    beside = " (the study ran beside the planning, the speed control and the transport)" if study is not None else ""
     header = (f"Policy `{policy_path.name}` (preset `{task.name}`, trained {meta.get('env_steps', '?')} steps), "
               f"seed {config.seed}. The demo runs small samples to fit about two minutes on two cores; each "
               f"section gives its sample size and the command of its full-size run. Wall times: " +
