@@ -73,9 +73,9 @@ class StudyConfig:
     Its cost: time_limit_s / 20 ms control ticks of one batch (it runs until its
     slowest trial ends; a batch's tick costs about 7.4 ms of CPU for 3 trials and
     10-11 ms for 9 on this machine's cores), about 45-50 s of CPU for the defaults,
-    plus about 20 s to build the task and compile it with cold caches. It runs beside
-    the other stages and is the demo's longest: 75-80 s of the 90-95 s the whole demo
-    takes on 2 otherwise idle cores with cold caches."""
+    plus about 15 s to build the task and compile it with cold caches. It runs beside
+    the other stages and is the demo's longest: measured 64-66 s of the 74-76 s the
+    whole demo took on this machine's 2 cores with cold caches and no other job."""
 
     participants: int = 3
     trials: int = 1
