@@ -107,16 +107,23 @@ def register(app: typer.Typer) -> None:
         written = "plan/, speed_control/, transport/"
         study = summary["shared_control"]
         if study is not None:
+            from otgym.study.paper_fig8 import PAPER_FIG8
+
             size = study["size"]
             console.print(f"shared-control study (Fig. 8), {size['participants']} simulated participants x "
                           f"{size['trials_per_mode']} trial{'s' * (size['trials_per_mode'] > 1)} per mode, cut at "
                           f"{size['time_limit_s']:g} s (details in report.md):", highlight=False)
             for row in study["modes"]:
-                rate = (f"{row['obstacles_avoided'] / row['obstacles_encountered']:.0%}"
-                        if row["obstacles_encountered"] else "-")
+                paper = PAPER_FIG8.get(row["mode"], {})
+                rate = (f"{row['avoided_rate']:.0%}, 95 % CI {row['avoided_rate_ci_low']:.0%}-"
+                        f"{row['avoided_rate_ci_high']:.0%}" if row["obstacles_encountered"] else "-")
+                time_s = ("" if row["completion_time_mean_s"] is None
+                          else f", mean time {row['completion_time_mean_s']:.1f} s")
                 console.print(f"  {row['mode']}: obstacles avoided {row['obstacles_avoided']} of "
                               f"{row['obstacles_encountered']} ({rate}), goal reached in {row['goals_reached']} of "
-                              f"{row['trials']} trials", highlight=False)
+                              f"{row['trials']} trials{time_s}"
+                              + (f" (paper: {paper['success_mean']:.0%} avoided, {paper['time_mean_s']:g} s)"
+                                 if paper else ""), highlight=False)
             written += ", shared_control/"
         console.print(f"otgym demo wrote {out}/report.md, summary.json, {written} in "
                       f"{time.perf_counter() - began:.0f} s (small samples; full size: otgym evaluate, "

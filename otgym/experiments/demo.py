@@ -11,7 +11,9 @@ headless, at sizes that fit about two minutes on two CPU cores.
    in the ``realistic`` preset (``otgym.experiments.transport``).
 4. ``shared_control/``: a small manual / autonomous / shared study with simulated
    participants (the paper's Fig. 8; ``otgym.experiments.shared_control``, whose full
-   size is ``otgym experiment shared-control``).
+   size is ``otgym experiment shared-control``), its trials cut at 90 s of simulated
+   time: long enough to meet the obstacles and for the autonomous and shared trials to
+   reach the goal (``StudyConfig``).
 5. ``report.md``: our numbers beside the paper's, with every sample size.
 
 Every size is checked against its range (``SIZE_RANGES``) and the output folder is
@@ -55,21 +57,30 @@ FULL_EPISODES = 256
 @dataclasses.dataclass(frozen=True)
 class StudyConfig:
     """The demo's small shared-control study: every mode for every simulated
-    participant on the same seeded scenarios, each trial cut at ``time_limit_s`` of
-    simulated time (the full study, ``otgym experiment shared-control``: 8 participants
-    x 8 trials, 300 s).
+    participant, participant p on seeded scenarios of their own (every mode on the same
+    ones), all trials in one batch, each trial cut at ``time_limit_s`` of simulated time
+    (the full study, ``otgym experiment shared-control``: 8 participants x 8 trials,
+    300 s).
 
-    Its cost is at most modes x time_limit_s / 20 ms control ticks (a mode's batch runs
-    until its slowest trial ends; measured about 7.6 ms of CPU a tick for 3 trials and
-    14 ms for 6), plus about 22 s of CPU to build the task and compile it with cold
-    caches: 30-40 s on 2 cores for the defaults. The limit is that budget, not a
-    property of the task: the obstacles cross the route about 20-45 s into a trial and
-    the paper's trials took 54-164 s, so the demo sees the first encounters only."""
+    Why 90 s: an obstacle counts as met once it comes within 20 um of the assembly,
+    and the obstacles cross the route in the chip's central chamber, 35-65 % of the way
+    along it; at the autonomy's 5 um/s the assembly gets there about 20 s into a trial,
+    so a 20 s cut met none. Autonomous trials reach the goal in about 61 s and shared
+    ones in 70-86 s (seed 1's scenarios 10000-10002), so 90 s lets both finish and give
+    their completion times; manual trials (2 um/s, the paper's 163.5 s) are cut on the
+    way, after their first obstacles.
+
+    Its cost: time_limit_s / 20 ms control ticks of one batch (it runs until its
+    slowest trial ends; a batch's tick costs about 7.4 ms of CPU for 3 trials and
+    10-11 ms for 9 on this machine's cores), about 45-50 s of CPU for the defaults,
+    plus about 15 s to build the task and compile it with cold caches. It runs beside
+    the other stages and is the demo's longest: measured 64-66 s of the 74-76 s the
+    whole demo took on this machine's 2 cores with cold caches and no other job."""
 
     participants: int = 3
     trials: int = 1
     modes: tuple[str, ...] = ("manual", "autonomous", "shared")
-    time_limit_s: float = 20.0
+    time_limit_s: float = 90.0
 
     def __post_init__(self):
         from otgym.shared import MODES
@@ -166,8 +177,9 @@ def stage_names(config: DemoConfig) -> list[str]:
     if config.study is not None:
         study = config.study
         names.insert(1, f"shared-control study (Fig. 8): {study.participants} simulated participants x "
-                        f"{study.trials} trial{'s' * (study.trials > 1)} x {len(study.modes)} modes, trials cut at "
-                        f"{study.time_limit_s:g} s (the full study: otgym experiment shared-control)"
+                        f"{study.trials} trial{'s' * (study.trials > 1)} x {len(study.modes)} modes in one batch, "
+                        f"trials cut at {study.time_limit_s:g} s of simulated time (the full study: otgym experiment "
+                        f"shared-control)"
                         + (", in the background" if config.background_study else ""))
     return names
 
@@ -215,8 +227,10 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
 
     Most of the demo's work runs on one core (compiling, and Python between small
     XLA calls), so with ``config.background_study`` the study runs in a thread beside
-    the speed control and the transport, after the plan stage has made what they share
-    (the chip's fields on disk, numba's planner). Its results do not depend on it."""
+    the planning, the speed control and the transport, started once the chip's fields
+    are on disk (what every stage reads; numba compiles the planner both threads use
+    once, under its compiler lock). It is the demo's longest stage, so it starts first.
+    Its results do not depend on it."""
     from otgym.envs import speed_control as spc
     from otgym.envs import transport as tr
     from otgym.envs.presets import preset
@@ -238,35 +252,35 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
     began = time.perf_counter()
     timings = {}
 
+    study, stop = None, threading.Event()
+
+    def study_work():
+        start = time.perf_counter()
+
+        def report_line(text: str) -> None:
+            if stop.is_set():
+                raise _Cancelled("the demo stopped")
+            detail(text)
+
+        result = run_study(config.study, config.seed, out_dir / "shared_control", report_line)
+        return result, time.perf_counter() - start
+
     announce(1)
     start = time.perf_counter()
     chip = load_chip("default")
     chip_fields(chip)  # walls and flow, solved once into the disk cache for every later stage
-    transport = config.transport
-    metrics = write_plan(chip.image, chip.pixel_size_um, transport.start_um, transport.goal_um, out_dir / "plan",
-                         robot_radius_um=PLAN_ROBOT_RADIUS_UM, threshold=0.5)
-    timings["plan_s"] = time.perf_counter() - start
-
-    study, stop = None, threading.Event()
-    if config.study is not None:
-        announce(2)
-
-        def study_work():
-            start = time.perf_counter()
-
-            def report_line(text: str) -> None:
-                if stop.is_set():
-                    raise _Cancelled("the demo stopped")
-                detail(text)
-
-            result = run_study(config.study, config.seed, out_dir / "shared_control", report_line)
-            return result, time.perf_counter() - start
-
-        if config.background_study:
-            study = _Background(study_work)
-        else:
-            study_result = study_work()
+    if config.study is not None and config.background_study:
+        announce(2)  # the study, the demo's longest stage, needs only the fields: it starts beside the planning
+        study = _Background(study_work)
     try:
+        transport = config.transport
+        metrics = write_plan(chip.image, chip.pixel_size_um, transport.start_um, transport.goal_um, out_dir / "plan",
+                             robot_radius_um=PLAN_ROBOT_RADIUS_UM, threshold=0.5)
+        timings["plan_s"] = time.perf_counter() - start
+        if config.study is not None and not config.background_study:
+            announce(2)
+            study_result = study_work()
+
         announce(count - 1)
         start = time.perf_counter()
         evaluation = evaluate(spc.make_params(task), q_params, meta["hidden"], config.episodes, config.seed)
@@ -299,7 +313,7 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
         study_summary, timings["shared_control_s"] = study_result
         sections.append(report.shared_control_section(study_summary["modes"], study_summary["size"]))
     total = time.perf_counter() - began
-    beside = " (the study ran beside the speed control and the transport)" if study is not None else ""
+    beside = " (the study ran beside the planning, the speed control and the transport)" if study is not None else ""
     header = (f"Policy `{policy_path.name}` (preset `{task.name}`, trained {meta.get('env_steps', '?')} steps), "
               f"seed {config.seed}. The demo runs small samples to fit about two minutes on two cores; each "
               f"section gives its sample size and the command of its full-size run. Wall times: " +
@@ -321,17 +335,22 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
 def run_study(study: StudyConfig, seed: int, out_dir: Path, detail: Callable[[str], None] = lambda _: None) -> dict:
     """The small shared-control study into ``out_dir`` with the full experiment's files
     (``write_experiment``: trials.csv, summary.csv/md, stats.json, fig8.png,
-    acceptance.json). Returns its size, its per-mode rows as written to summary.csv
-    (``read_summary``) and the acceptance checks."""
+    acceptance.json): every mode's trials in one batch, participant p's trial t on
+    scenario ``seed * 10000 + p * trials + t`` (``run_experiment``'s ``one_batch`` and
+    ``scenario_per_participant``). Returns its size, its per-mode rows as written to
+    summary.csv (``read_summary``) and the acceptance checks."""
     from otgym.experiments.shared_control import run_experiment, write_experiment
+    from otgym.runtime.task import InteractiveConfig
 
     out_dir = Path(out_dir)
     trials = run_experiment(study.participants, study.trials, list(study.modes), seed, "default",
-                            report=lambda line: detail(line.strip()), time_limit_s=study.time_limit_s)
+                            report=lambda line: detail(line.strip()), time_limit_s=study.time_limit_s, one_batch=True,
+                            scenario_per_participant=True)
     checks = write_experiment(trials, out_dir)
     size = {"participants": study.participants, "trials_per_mode": study.trials, "modes": list(study.modes),
             "time_limit_s": study.time_limit_s, "seed": seed,
-            "scenarios": sorted(int(s) for s in trials["scenario"].unique())}
+            "scenarios": sorted(int(s) for s in trials["scenario"].unique()), "scenario_per_participant": True,
+            "one_batch": True, "encounter_gap_um": InteractiveConfig().encounter_gap_um}
     return {"size": size, "modes": read_summary(out_dir / "summary.csv"), "acceptance": checks}
 
 

@@ -127,25 +127,51 @@ def _pooled_success(row: dict) -> tuple[float | None, float, float]:
     return (avoided / encountered if encountered else None), low, high
 
 
+def _goals(row: dict) -> str:
+    """Goals reached of a mode's trials, with the rate's 95 % Wilson interval."""
+    goals, trials = int(row["goals_reached"]), int(row["trials"])
+    low, high = wilson_interval(goals, trials)
+    return (f"{goals} of {trials} ({_percent(goals / trials, '.0f')} % [{_percent(low, '.0f')}, "
+            f"{_percent(high, '.0f')}])")
+
+
+def _study_design(size: dict) -> str:
+    """What was run: participants, trials, scenarios and the cut, in one sentence."""
+    participants, trials = size["participants"], size["trials_per_mode"]
+    per_mode, scenarios = participants * trials, sorted(size["scenarios"])
+    named = (f"scenario {scenarios[0]}" if len(scenarios) == 1 else
+             f"scenarios {scenarios[0]}-{scenarios[-1]}" if scenarios == list(range(scenarios[0], scenarios[-1] + 1))
+             else "scenarios " + ", ".join(str(s) for s in scenarios))
+    if size.get("scenario_per_participant") and len(scenarios) > 1:
+        where = (f"each participant on {'a seeded scenario' if trials == 1 else 'seeded scenarios'} of their own "
+                 f"({named}; every mode on the same, so the modes are compared within participant and scenario)")
+    else:
+        where = (f"every mode with the same participants on the same "
+                 f"{'seeded scenario' if len(scenarios) == 1 else f'{len(scenarios)} seeded scenarios'} ({named})")
+    batch = ", all trials simulated together in one batch" if size.get("one_batch") else ""
+    return (f"A small study that fits the demo's time: {participants} simulated participants x {trials} "
+            f"trial{'s' * (trials > 1)} = {per_mode} trials per mode, {where}{batch}, each trial cut at "
+            f"{size['time_limit_s']:g} s of simulated time. The scenarios are the full experiment's seeded ones in "
+            f"order, not chosen by their outcome. The paper had 8 participants x 8 trials per mode; the full study "
+            f"is `otgym experiment shared-control` (8 x 8, trials up to 300 s). With {per_mode} trials per mode "
+            f"the intervals are wide: compare the ordering, not the values.")
+
+
 def shared_control_section(modes: list[dict], size: dict) -> list[str]:
     """The demo's small shared-control study beside the paper's Fig. 8. ``modes``: the
     per-mode rows of ``summary.csv`` (``otgym.study.summarize``; None for NaN);
-    ``size``: participants, trials_per_mode, time_limit_s, scenarios. Success is pooled
-    over a mode's trials (obstacles avoided / encountered) with its 95 % Wilson
-    interval; time is the mean over participants of their trials that reached the goal.
-    Every sentence is computed from these numbers."""
-    limit, per_mode = size["time_limit_s"], size["participants"] * size["trials_per_mode"]
-    n_scenarios = len(size["scenarios"])
+    ``size``: participants, trials_per_mode, time_limit_s, scenarios and optionally
+    scenario_per_participant and one_batch (how ``run_experiment`` of
+    ``otgym.experiments.shared_control`` ran it) and encounter_gap_um (the task's).
+    Success is pooled over a mode's trials (obstacles avoided / encountered) with its
+    95 % Wilson interval, as is the share of trials that reached the goal; time is the
+    mean over participants of their trials that reached the goal. Every sentence is
+    computed from these numbers."""
+    limit = size["time_limit_s"]
     lines = ["## Shared control: manual, autonomous, shared (paper Fig. 8), a small study", "",
-             f"A small study that fits the demo's time: {size['participants']} simulated participants x "
-             f"{size['trials_per_mode']} trial{'s' * (size['trials_per_mode'] > 1)} = {per_mode} trials per mode, "
-             f"every mode with the same participants on the same "
-             f"{'seeded scenario' if n_scenarios == 1 else f'{n_scenarios} seeded scenarios'}, each trial cut at "
-             f"{limit:g} s of simulated time. The paper had 8 participants x 8 trials per mode; the full study is "
-             f"`otgym experiment shared-control` (8 x 8, trials up to 300 s). With {per_mode} trials per mode "
-             f"the intervals are wide: compare the ordering, not the values.", "",
+             _study_design(size), "",
              "| mode | trials | obstacles avoided / encountered | success % [95 % CI] | paper success % | "
-             "reached the goal | completion time (s) | paper time (s) | trap losses |",
+             "reached the goal [95 % CI] | completion time (s) | paper time (s) | trap losses |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     rates = {}
     for row in modes:
@@ -160,11 +186,16 @@ def shared_control_section(modes: list[dict], size: dict) -> list[str]:
                                                   f"{_percent(paper['success_sd'], '.0f')}"
         paper_time = "-" if paper is None else f"{paper['time_mean_s']:.1f} ± {paper['time_sd_s']:.1f}"
         lines.append(f"| {row['mode']} | {row['trials']} | {row['obstacles_avoided']} / "
-                     f"{row['obstacles_encountered']} | {success} | {paper_success} | {row['goals_reached']} of "
-                     f"{row['trials']} | {time_s} | {paper_time} | {row['trap_losses']} |")
-    lines += ["", *_success_sentences(rates), *_time_sentences(modes, limit), "",
-              "Success: obstacles avoided / encountered, pooled over the mode's trials (the paper's metric), with "
-              "95 % Wilson intervals. Completion time: mean ± SD over participants of their trials that reached "
+                     f"{row['obstacles_encountered']} | {success} | {paper_success} | {_goals(row)} | {time_s} | "
+                     f"{paper_time} | {row['trap_losses']} |")
+    lines += ["", *_success_sentences(rates), *_ending_sentences(modes, limit), *_time_sentences(modes, limit), "",
+              "Success: obstacles avoided / encountered" + (
+                  f" (an obstacle counts as encountered once it comes within {size['encounter_gap_um']:g} um of "
+                  f"the assembly)" if size.get("encounter_gap_um") else "") +
+              ", pooled over the mode's trials (the paper's metric), with 95 % Wilson "
+              "intervals; these treat every obstacle as independent, but a trial's obstacles share its participant "
+              "and scenario, so the true uncertainty is wider still. Reached the goal: trials, with the rate's 95 % "
+              "Wilson interval. Completion time: mean ± SD over participants of their trials that reached "
               "the goal. Paper: Sec. III-C, mean ± SD. Files: `shared_control/trials.csv` (one row per trial), "
               "`summary.md` (with the repeated-measures ANOVA and Holm-corrected paired tests, of little power "
               f"with {size['participants']} participants), `stats.json`, `fig8.png`, `acceptance.json` (the "
@@ -201,16 +232,46 @@ def _success_sentences(rates: dict) -> list[str]:
     return [text]
 
 
+def _ending_sentences(modes: list[dict], limit: float) -> list[str]:
+    """How the trials of each mode that did not all reach the goal ended: a trap lost its
+    robot (which ends a trial) or still on the way at the cut."""
+    parts = []
+    for row in modes:
+        trials, goals, lost = int(row["trials"]), int(row["goals_reached"]), int(row["trap_losses"])
+        if goals == trials:
+            continue
+        cut = trials - goals - lost
+        endings = [f"{goals} reached the goal"] if goals else []
+        if lost:
+            endings.append(f"{lost} ended early when a trap lost its robot")
+        if cut:
+            endings.append(f"{cut} {'was' if cut == 1 else 'were'} still on the way at the {limit:g} s cut")
+        text = f"{row['mode'].capitalize()}: of {trials} trials, " + ", ".join(endings)
+        paper = PAPER_FIG8.get(row["mode"])
+        if cut and paper is not None and paper["time_mean_s"] > limit:
+            text += f" (the paper's {row['mode']} trials took {paper['time_mean_s']:g} s on average)"
+        if cut or lost:
+            text += "; its success counts only the obstacles met before the trials ended"
+        parts.append(text + ".")
+    return [" ".join(parts)] if parts else []
+
+
 def _time_sentences(modes: list[dict], limit: float) -> list[str]:
     if not any(row["goals_reached"] for row in modes):
         return [f"No trial reached the goal within the {limit:g} s limit, so there is no completion time to set "
                 f"beside the paper's; the full study has them."]
-    text = (f"Trials still running at {limit:g} s are left out of the times, which favours the fast ones.")
-    short = [mode["mode"] for mode in modes
-             if mode["mode"] in PAPER_FIG8 and PAPER_FIG8[mode["mode"]]["time_mean_s"] > limit]
-    if short:
-        text += f" The limit is below the paper's mean time for {', '.join(short)}."
-    return [text]
+    timed = [row for row in modes if row["completion_time_mean_s"] is not None and row["mode"] in PAPER_FIG8]
+    text = "Completion time against the paper's: " + ", ".join(
+        f"{row['mode']} {row['completion_time_mean_s']:.1f} s against {PAPER_FIG8[row['mode']]['time_mean_s']:g} s "
+        f"({row['completion_time_mean_s'] / PAPER_FIG8[row['mode']]['time_mean_s']:.2f} x)" for row in timed) + "."
+    if not timed:
+        text = ""
+    cut = [row["mode"] for row in modes if row["completion_time_mean_s"] is not None
+           and int(row["trials"]) - int(row["goals_reached"]) - int(row["trap_losses"]) > 0]
+    if cut:
+        text += (f" Trials of {', '.join(cut)} still running at {limit:g} s are left out of the times, which "
+                 f"favours the fast ones.")
+    return [text.strip()] if text.strip() else []
 
 
 def write_report(path: Path, sections: list[list[str]], header: str) -> Path:

@@ -88,8 +88,11 @@ def _recomputed_rows(trials: pd.DataFrame) -> dict:
             success = "- (no obstacle met)"
         means = group[group["reached_goal"]].groupby("participant")["completion_time_s"].mean()
         time_s = "-" if means.empty else f"{means.mean():.1f}" + ("" if len(means) < 2 else f" ± {means.std():.1f}")
+        reached = int(group["reached_goal"].sum())
+        low, high = wilson_interval(reached, len(group))
         rows[mode] = (f"| {mode} | {len(group)} | {avoided} / {encountered} | {success} |",
-                      f"| {int(group['reached_goal'].sum())} of {len(group)} | {time_s} |")
+                      f"| {reached} of {len(group)} ({100 * reached / len(group):.0f} % [{100 * low:.0f}, "
+                      f"{100 * high:.0f}]) | {time_s} |")
     return rows
 
 
@@ -98,9 +101,11 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     """The whole main job from the command line, small: a short leg of the transport, 4
     episodes with a policy that always drives at the slowest level (its Table II row
     equals G1's exactly in time), and a study of 2 participants x 1 trial x 3 modes cut
-    at 6 s. One line per stage on a stdout that is not a terminal; the report's
-    numbers are the written files' (Fig. 8: recomputed from trials.csv). The study runs
-    in a thread beside the other stages, as by default."""
+    at 30 s, long enough for the assembly to reach the obstacles' crossings (the demo's
+    20 s cut once met none: its Fig. 8 said "avoided 0 of 0"). One line per stage on a
+    stdout that is not a terminal; the report's numbers are the written files' (Fig. 8:
+    recomputed from trials.csv). The study runs in a thread beside the other stages, as
+    by default."""
     policy = save_policy(tmp_path / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(HIDDEN)})
     monkeypatch.setattr(demo_module, "_transport",
                         lambda **options: TransportDemo(start_um=SHORT_LEG.start_um, goal_um=SHORT_LEG.goal_um,
@@ -108,12 +113,13 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as exit_info:
         main(["demo", "--out", str(out), "--policy", str(policy), "--episodes", str(EPISODES), "--runs", "2",
-              "--study-participants", "2", "--study-trials", "1", "--study-time-limit-s", "6"])
+              "--study-participants", "2", "--study-trials", "1", "--study-time-limit-s", "30"])
     assert exit_info.value.code == 0
     printed = capsys.readouterr().out
     stages = [line for line in printed.splitlines() if line.startswith("[")]
     assert [line[:5] for line in stages] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
     assert "planning" in stages[0] and "2 simulated participants" in stages[1] and "in the background" in stages[1]
+    assert "3 modes in one batch, trials cut at 30 s" in stages[1]
     assert f"{EPISODES} episodes each" in stages[2] and "2 runs" in stages[3]
     for name in ("report.md", "summary.json", "plan/metrics.md", "plan/paths.png", "speed_control/table.csv",
                  "speed_control/safety.png", "speed_control/safety.json", "transport/transport.png",
@@ -135,8 +141,19 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
 
     trials = pd.read_csv(out / "shared_control" / "trials.csv")
     assert len(trials) == 6 and set(trials["mode"]) == {"manual", "autonomous", "shared"}
+    # each participant on a scenario of their own (seed 1: 10000 and 10001), every mode on the same ones
+    assert trials.groupby("participant")["scenario"].unique().map(list).to_dict() == {0: [10000], 1: [10001]}
+    met = trials.groupby("mode")["obstacles_encountered"].sum()
+    # the route follower reaches the crossings about 20 s in: both autonomous trials meet obstacles by 30 s, and
+    # so does shared control, which follows the route at the same pace until an obstacle comes near
+    assert (trials.loc[trials["mode"] != "manual", "obstacles_encountered"] > 0).all(), trials
     section = report[report.index("## Shared control"):]
-    assert "2 simulated participants x 1 trial = 2 trials per mode" in section and "cut at 6 s" in section
+    assert "2 simulated participants x 1 trial = 2 trials per mode" in section and "cut at 30 s" in section
+    assert "scenarios 10000-10001" in section and "one batch" in section
+    assert "Success ordering here:" in section
+    for mode in ("autonomous", "shared"):
+        line = next(line for line in printed.splitlines() if line.startswith(f"  {mode}: obstacles avoided"))
+        assert f"of {met[mode]} (" in line and "(paper: " in line, line
     assert "small study" in section and "otgym experiment shared-control" in section
     for mode, (start, goal) in _recomputed_rows(trials).items():
         line = next(line for line in section.splitlines() if line.startswith(f"| {mode} |"))

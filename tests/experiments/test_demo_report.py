@@ -31,11 +31,19 @@ def cell(avoided: int, encountered: int) -> str:
     return f"{100 * avoided / encountered:.1f} [{100 * low:.1f}, {100 * high:.1f}]"
 
 
-def section_for(trials: pd.DataFrame, tmp_path, limit_s: float = 200.0) -> list[str]:
-    """The section as the demo makes it: summary.csv written, read back, formatted."""
+def goals(reached: int, trials: int) -> str:
+    """The goal column: trials, rate and its Wilson interval in whole percent."""
+    low, high = wilson(reached, trials)
+    return f"{reached} of {trials} ({100 * reached / trials:.0f} % [{100 * low:.0f}, {100 * high:.0f}])"
+
+
+def section_for(trials: pd.DataFrame, tmp_path, limit_s: float = 200.0, **design) -> list[str]:
+    """The section as the demo makes it: summary.csv written, read back, formatted;
+    ``design``: the size's optional entries (scenario_per_participant, one_batch,
+    encounter_gap_um)."""
     summarize(trials).to_csv(tmp_path / "summary.csv", index=False)
     size = {"participants": int(trials["participant"].nunique()), "trials_per_mode": int(trials["trial"].nunique()),
-            "time_limit_s": limit_s, "scenarios": sorted(trials["scenario"].unique())}
+            "time_limit_s": limit_s, "scenarios": sorted(trials["scenario"].unique()), **design}
     return shared_control_section(read_summary(tmp_path / "summary.csv"), size)
 
 
@@ -59,17 +67,24 @@ def test_fig8_section_quotes_our_numbers_with_wilson_intervals_beside_the_papers
     text = "\n".join(section_for(trials, tmp_path))
 
     assert "3 simulated participants x 2 trials = 6 trials per mode" in text
-    assert "same 2 seeded scenarios" in text and "small study" in text and "otgym experiment shared-control" in text
+    assert "same 2 seeded scenarios (scenarios 10000-10001)" in text and "small study" in text
+    assert "otgym experiment shared-control" in text
     # manual: 22 of 24 avoided, all reached the goal, participants' means 160, 162.5, 165 -> 162.5 +- 2.5
-    assert f"| manual | 6 | 22 / 24 | {cell(22, 24)} | 94 ± 4 | 6 of 6 | 162.5 ± 2.5 | 163.5 ± 8.3 | 2 |" in text
-    assert f"| autonomous | 6 | 6 / 24 | {cell(6, 24)} | 59 ± 5 | 6 of 6 | 61.0 ± 1.0 | 54.1 ± 0.1 | 0 |" in text
+    assert (f"| manual | 6 | 22 / 24 | {cell(22, 24)} | 94 ± 4 | {goals(6, 6)} | 162.5 ± 2.5 | 163.5 ± 8.3 | 2 |"
+            in text)
+    assert (f"| autonomous | 6 | 6 / 24 | {cell(6, 24)} | 59 ± 5 | {goals(6, 6)} | 61.0 ± 1.0 | 54.1 ± 0.1 | 0 |"
+            in text)
     # shared: participant 0 mean 56, participant 1 only 54, participant 2 none -> 55 +- 1.4
-    assert f"| shared | 6 | 24 / 24 | {cell(24, 24)} | 100 ± 0 | 3 of 6 | 55.0 ± 1.4 | 53.9 ± 0.2 | 0 |" in text
+    assert (f"| shared | 6 | 24 / 24 | {cell(24, 24)} | 100 ± 0 | {goals(3, 6)} | 55.0 ± 1.4 | 53.9 ± 0.2 | 0 |"
+            in text)
     assert "Success ordering here: shared 100 % > manual 92 % > autonomous 25 %" in text
     assert "the paper's: shared 100 % > manual 94 % > autonomous 59 %" in text
     assert "Separated by their 95 % intervals: shared and autonomous, manual and autonomous." in text
-    assert "Trials still running at 200 s are left out of the times" in text
-    assert "The limit is below" not in text  # 200 s exceeds every paper mean time
+    assert "Shared: of 6 trials, 3 reached the goal, 3 were still on the way at the 200 s cut;" in text
+    assert "Trials of shared still running at 200 s are left out of the times" in text
+    assert "trials took" not in text  # 200 s exceeds every paper mean time
+    assert ("Completion time against the paper's: manual 162.5 s against 163.5 s (0.99 x), autonomous 61.0 s "
+            "against 54.1 s (1.13 x), shared 55.0 s against 53.9 s (1.02 x).") in text
 
 
 def test_fig8_section_says_what_a_short_study_cannot_show(tmp_path):
@@ -79,12 +94,59 @@ def test_fig8_section_says_what_a_short_study_cannot_show(tmp_path):
     trials["reached_goal"] = False
     trials.loc[trials["mode"] == "manual", ["obstacles_encountered", "obstacles_avoided"]] = 0
     text = "\n".join(section_for(trials, tmp_path, limit_s=20.0))
-    assert "2 simulated participants x 1 trial = 2 trials per mode" in text and "same seeded scenario," in text
-    assert "| manual | 2 | 0 / 0 | - (no obstacle met) | 94 ± 4 | 0 of 2 | - |" in text
-    assert f"| shared | 2 | 2 / 2 | {cell(2, 2)} | 100 ± 0 | 0 of 2 | - |" in text
+    assert "2 simulated participants x 1 trial = 2 trials per mode" in text
+    assert "same seeded scenario (scenario 0)," in text
+    assert f"| manual | 2 | 0 / 0 | - (no obstacle met) | 94 ± 4 | {goals(0, 2)} | - |" in text
+    assert f"| shared | 2 | 2 / 2 | {cell(2, 2)} | 100 ± 0 | {goals(0, 2)} | - |" in text
     assert "autonomous 100 % = shared 100 %" in text
     assert "every pair of modes overlap" in text and "Manual: no obstacle met before the trials ended" in text
     assert "No trial reached the goal within the 20 s limit" in text
+    assert "the paper's manual trials took 163.5 s on average" in text
+
+
+def test_fig8_section_of_the_demos_design_says_how_each_trial_ended(tmp_path):
+    """The demo's design (3 participants, each on a scenario of their own, one batch,
+    cut at 90 s): manual reached no goal, two of its trials lost a trap and one was cut;
+    the others finished, and their times stand beside the paper's."""
+    trials = make_trials({"manual": [9, 8, 90], "autonomous": [60.7, 60.7, 60.7], "shared": [71.2, 85.5, 72.5]},
+                         {"manual": [0, 0, 3], "autonomous": [1, 2, 1], "shared": [4, 4, 3]}, encountered=4)
+    trials["scenario"] = 10000 + trials["participant"]
+    manual = trials["mode"] == "manual"
+    trials.loc[manual, "reached_goal"] = False
+    trials.loc[manual & (trials["participant"] < 2), ["trap_losses", "obstacles_encountered", "obstacles_avoided"]] = \
+        (1, 0, 0)
+    trials.loc[trials["mode"] == "autonomous", "obstacles_encountered"] = [3, 4, 4]
+    text = "\n".join(section_for(trials, tmp_path, limit_s=90.0, scenario_per_participant=True, one_batch=True,
+                                 encounter_gap_um=20.0))
+    assert ("3 simulated participants x 1 trial = 3 trials per mode, each participant on a seeded scenario of their "
+            "own (scenarios 10000-10002; every mode on the same") in text
+    assert "all trials simulated together in one batch, each trial cut at 90 s of simulated time" in text
+    assert "not chosen by their outcome" in text and "within 20 um of the assembly" in text
+    assert f"| manual | 3 | 3 / 4 | {cell(3, 4)} | 94 ± 4 | {goals(0, 3)} | - | 163.5 ± 8.3 | 2 |" in text
+    assert f"| autonomous | 3 | 4 / 11 | {cell(4, 11)} | 59 ± 5 | {goals(3, 3)} | 60.7 ± 0.0 |" in text
+    assert f"| shared | 3 | 11 / 12 | {cell(11, 12)} | 100 ± 0 | {goals(3, 3)} | 76.4 ± 7.9 |" in text
+    assert ("Manual: of 3 trials, 2 ended early when a trap lost its robot, 1 was still on the way at the 90 s cut "
+            "(the paper's manual trials took 163.5 s on average); its success counts only the obstacles met before "
+            "the trials ended.") in text
+    assert ("Completion time against the paper's: autonomous 60.7 s against 54.1 s (1.12 x), shared 76.4 s against "
+            "53.9 s (1.42 x).") in text
+    assert "left out of the times" not in text  # every autonomous and shared trial finished
+    assert "Success ordering here: shared 92 % > manual 75 % > autonomous 36 %" in text
+
+
+def test_the_default_study_runs_long_enough_to_meet_obstacles_and_finish():
+    """The obstacles cross the route 35-65 % of the way along it, which the autonomy's
+    5 um/s reaches about 20 s into a trial (a 20 s cut met none); the default cut lets
+    the autonomous and shared trials reach the goal (the paper's took about 54 s, ours
+    61-86 s) and gives the manual ones time to meet their first obstacles."""
+    from otgym.runtime.scenario import ScenarioConfig
+    from otgym.study import PAPER_FIG8
+
+    limit = StudyConfig().time_limit_s
+    scenario = ScenarioConfig()
+    first_crossing_s = scenario.grip_time_s + 0.35 * 300.0 / scenario.cruise_speed_um_s  # a route of about 300 um
+    assert limit >= 3 * first_crossing_s >= 3 * 20
+    assert limit >= 1.5 * max(PAPER_FIG8[mode]["time_mean_s"] for mode in ("autonomous", "shared"))
 
 
 def _speed_rows(episodes: int) -> list[dict]:

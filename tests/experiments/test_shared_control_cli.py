@@ -87,3 +87,31 @@ def test_parse_modes():
     assert parse_modes("shared, manual") == ["shared", "manual"]
     with pytest.raises(ValueError, match="twice"):
         parse_modes("manual,manual")
+
+
+@pytest.mark.parametrize("one_batch, per_participant, batches", [
+    (False, False, [(["manual"] * 4, [10000, 10001] * 2, 1), (["shared"] * 4, [10000, 10001] * 2, 2)]),
+    (True, True, [(["manual"] * 4 + ["shared"] * 4, [10000, 10001, 10002, 10003] * 2, 1)]),
+])
+def test_batches_and_scenarios_of_run_experiment(monkeypatch, one_batch, per_participant, batches):
+    """Per mode (the full experiment: mode i's batch with seed + i, trial t of every
+    participant on scenario seed * 10000 + t) or, for the demo, one batch of every mode
+    with each participant on scenarios of their own (every mode on the same ones). The
+    task and the trials are stand-ins: only the batches are checked."""
+    import otgym.experiments.shared_control as experiment
+
+    calls = []
+
+    def trials(task, specs, people, seed, **options):
+        calls.append(([s.mode for s in specs], [s.scenario for s in specs], seed))
+        return [{**{column: 0 for column in TRIAL_COLUMNS}, "participant": s.participant, "mode": s.mode,
+                 "trial": s.trial, "scenario": s.scenario} for s in specs]
+
+    monkeypatch.setattr(experiment, "InteractiveTask", lambda config: None)
+    monkeypatch.setattr(experiment, "run_trials", trials)
+    lines = []
+    frame = experiment.run_experiment(2, 2, ["manual", "shared"], 1, report=lines.append, one_batch=one_batch,
+                                      scenario_per_participant=per_participant)
+    assert calls == batches
+    assert len(frame) == 8 and list(frame.columns[:len(TRIAL_COLUMNS)]) == TRIAL_COLUMNS
+    assert lines[0] == ("[1/1] manual, shared: 8 trials" if one_batch else "[1/2] manual: 4 trials")
