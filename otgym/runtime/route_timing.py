@@ -18,7 +18,9 @@ holds the goal arc is the earliest arrival. A clairvoyant follower limited to
 ``max_speed_um_s`` can do no better (up to one grid step), a person who only sees
 the obstacles' motion cannot either, so the gap between this bound and the
 unobstructed time ``(L - s_0) / v`` is time that any route-keeping control must lose
-on that scenario.
+on that scenario. Left out: lateral offsets from the route's centre line (side-steps),
+and the obstacles' deviations from their scheduled tracks (Brownian jitter about the
+track, pushes by the assembly), so on the simulator the bound is close, not exact.
 """
 
 from __future__ import annotations

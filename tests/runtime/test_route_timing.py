@@ -80,3 +80,27 @@ def test_bad_grids_are_refused():
         passage(track((50.0, 30.0), (0.0, 1.0), 0.0, 1.0), time_limit_s=-1.0)
     with pytest.raises(ValueError, match="positive"):
         passage(track((50.0, 30.0), (0.0, 1.0), 0.0, 1.0), speed_um_s=0.0)
+
+
+def test_the_tasks_assembly_is_taken_whole_and_across_the_route():
+    """The task's gripped assembly in the route frame: the cell at the origin, one robot
+    on each side of the route (their spheres more across than along it: the formation
+    straddles the route, as the task grips, each robot's handles in a line along it),
+    and its reach the scene's assembly radius. Fails if a body is left out or the frame
+    is turned the wrong way."""
+    from otgym.runtime.route_timing import task_assembly_shape
+    from tests.runtime import shared_task
+
+    task = shared_task()
+    shape = task_assembly_shape(task)
+    cell = np.argmax(shape.radii_um)
+    np.testing.assert_allclose(shape.offsets_um[cell], 0.0, atol=1e-4)
+    robots = np.delete(shape.offsets_um, cell, axis=0)
+    assert len(robots) == len(shape.radii_um) - 1 > 0
+    assert np.all(np.abs(robots[:, 1]) > np.abs(robots[:, 0]))
+    assert (robots[:, 1] > 0).sum() == (robots[:, 1] < 0).sum()
+    handles = shape.offsets_um[shape.radii_um == 1.25]  # each robot's two handles lie along the route
+    for side in (handles[handles[:, 1] > 0], handles[handles[:, 1] < 0]):
+        assert len(side) == 2 and abs(side[0, 1] - side[1, 1]) < 0.1  # 0.8 um apart if turned the wrong way
+    reach_um = np.max(np.linalg.norm(shape.offsets_um, axis=1) + shape.radii_um)
+    assert reach_um == pytest.approx(task.scene.assembly_radius_um, abs=0.5)
