@@ -7,10 +7,18 @@ One tick (50 Hz by default; ``InteractiveTask``'s control period), in this order
     RouteNavigator (the autonomy along the planned route)                     --> dP_r
     alpha = alpha_for_mode(mode, gap to the nearest obstacle)      (otgym.shared)
     dP_s = cap_speed(blend(dP_h, dP_r, alpha))                     (trap-speed clamp)
-    InteractiveTask.step(dP_s)                                     ("physics")
-    microscope crops around each trap                              ("render")
+    InteractiveTask.dispatch(dP_s)                                 ("physics", started)
+    microscope crops around each trap, frame of the tick's start   ("render")
     VisionForceSensor.measure -> handle positions and trap forces  ("sense")
     FeedbackLaw per device on its robots' handles -> device.set_force
+    InteractiveTask.complete                                       ("physics", waited for)
+
+The physics runs on JAX's own thread (asynchronous dispatch) while this thread draws
+and reads the microscope frame of the state the tick started from, so on two cores the
+two overlap. The feedback a device gets therefore comes from a camera frame one tick
+(20 ms) old, as it would from a real camera whose frame is read while the next is
+exposed; the record keeps that frame's trap positions (``frame_trap_xy_um``) beside
+the sensed handles.
 
 This mirrors ``otgym.runtime.trials.run_trials`` for one environment with real devices,
 with two differences: the human's increment comes from devices, not from simulated
@@ -52,7 +60,6 @@ counts in ``late_ticks``) and stops when the task is DONE.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import time
 from typing import Callable
@@ -115,7 +122,8 @@ class TickRecord:
     robot_um: np.ndarray  # (T, 2) dP_r
     shared_um: np.ndarray  # (T, 2) dP_s, what the traps moved by
     trap_xy_um: np.ndarray  # (T, 2) after the tick
-    sensed_handle_xy_um: np.ndarray  # (T, 2)
+    frame_trap_xy_um: np.ndarray  # (T, 2) at the tick's start: the microscope frame the sensor read
+    sensed_handle_xy_um: np.ndarray  # (T, 2) in that frame
     sensed_force_pn: np.ndarray  # (T, 2), NaN where not valid
     sensed_valid: np.ndarray  # (T,)
     feedback_n: np.ndarray  # (D, 3) sent to each device
@@ -194,7 +202,6 @@ class InteractiveLoop:
             raise ValueError(f"the vision sensor needs handles of one radius, got {handle_radii}")
         self.sensor = VisionForceSensor(law, handle_radius_um=float(handle_radii[0]))
         self._sphere_radius_um = np.asarray(model.sphere_radius_um, float)
-        self._sphere_positions = jax.jit(functools.partial(ph.sphere_positions_um, model))
         tick_rate_hz = 1.0 / self.tick_s
         self._channels = []
         for binding in bindings:
@@ -281,7 +288,7 @@ class InteractiveLoop:
 
     def sphere_xy_um(self) -> np.ndarray:
         """(S, 2) centres in um of every sphere of the scene now (what a view draws)."""
-        return np.asarray(self._sphere_positions(self.state.scene.physics.pose), float)[0]
+        return self.state.sphere_xy_um[0]
 
     def _render(self, trap_xy_um: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One crop per trap (T, crop_px, crop_px) and the crops' origins (T, 2) in um."""
@@ -298,8 +305,9 @@ class InteractiveLoop:
         return images, origin
 
     def tick(self) -> TickRecord:
-        """One tick: devices and autonomy -> arbitration -> physics -> microscope ->
-        sensor -> feedback to the devices."""
+        """One tick: devices and autonomy -> arbitration -> physics dispatched; while JAX
+        computes it, the microscope frame of the tick's start -> sensor -> feedback to the
+        devices; then the physics is completed."""
         begin = time.perf_counter()
         obs = self.state.observation
         human, live = self._human_increments(self.clock())
@@ -310,12 +318,12 @@ class InteractiveLoop:
         alpha = float(alpha_for_mode(mode, obs.nearest_obstacle_gap_um[0], self.arbitration))
         shared = cap_speed(blend(human, robot, alpha, self.arbitration.tau), self.max_step_um)
         physics_begin = time.perf_counter()
-        obs = self.task.step(self.state, shared[None], self._next_key(), np.array([alpha]))
+        pending = self.task.dispatch(self.state, shared[None], self._next_key())
         render_begin = time.perf_counter()
-        traps = obs.trap_xy_um[0]
-        images, origin = self._render(traps)
+        frame_traps = obs.trap_xy_um[0]
+        images, origin = self._render(frame_traps)
         sense_begin = time.perf_counter()
-        reading = self.sensor.measure(images, origin, self.microscope.pixel_size_um, traps[:, None])
+        reading = self.sensor.measure(images, origin, self.microscope.pixel_size_um, frame_traps[:, None])
         sense_end = time.perf_counter()
         sensed_xy, sensed_force, valid = reading.handle_xy_um[:, 0], reading.force_pn[:, 0], reading.valid[:, 0]
         feedback = np.zeros((len(self._channels), 3))
@@ -323,18 +331,21 @@ class InteractiveLoop:
             if live[index]:
                 mask = channel.trap_mask
                 contact_pn = float(obs.contact_force_pn[0, channel.robot_columns].max())
-                feedback[index] = channel.feedback(sensed_force[mask], traps[mask] - sensed_xy[mask], contact_pn,
-                                                   valid[mask])
+                feedback[index] = channel.feedback(sensed_force[mask], frame_traps[mask] - sensed_xy[mask],
+                                                   contact_pn, valid[mask])
             else:
                 channel.feedback.reset()
             channel.device.set_force(feedback[index])
+        complete_begin = time.perf_counter()
+        obs = self.task.complete(self.state, pending, np.array([alpha]))
         end = time.perf_counter()
         return TickRecord(
             time_s=float(obs.time_s[0]), phase=int(obs.phase[0]), alpha=alpha, human_um=human, robot_um=robot,
-            shared_um=shared, trap_xy_um=traps, sensed_handle_xy_um=sensed_xy, sensed_force_pn=sensed_force,
-            sensed_valid=valid, feedback_n=feedback, device_live=live, physics_s=render_begin - physics_begin,
+            shared_um=shared, trap_xy_um=obs.trap_xy_um[0], frame_trap_xy_um=frame_traps,
+            sensed_handle_xy_um=sensed_xy, sensed_force_pn=sensed_force, sensed_valid=valid, feedback_n=feedback,
+            device_live=live, physics_s=(render_begin - physics_begin) + (end - complete_begin),
             render_s=sense_begin - render_begin, sense_s=sense_end - sense_begin,
-            rest_s=(physics_begin - begin) + (end - sense_end), mode=mode, autonomy_live=autonomy_live)
+            rest_s=(physics_begin - begin) + (complete_begin - sense_end), mode=mode, autonomy_live=autonomy_live)
 
     def run(self, duration_s: float, realtime: bool = True) -> list[TickRecord]:
         """Tick for ``duration_s`` of simulated time (rounded to whole ticks), or until

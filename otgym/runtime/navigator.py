@@ -103,13 +103,19 @@ class RouteNavigator:
         advanced = np.minimum(self.commanded_arc_um + self.cruise_speed_um_s * self.tick_s,
                               obs.cell_arc_um + self.lead_um)
         self.commanded_arc_um = np.where(carrying, advanced, self.commanded_arc_um)
+        # each command only where some environment uses it (one environment: one of the two)
+        carry = self._carry(obs, previous_arc) if carrying.any() else 0.0
+        chase = 0.0 if carrying.all() else self.formation_targets(obs.cell_arc_um, obs.cell_xy_um) - obs.trap_xy_um
+        step = np.where(carrying[:, None, None], carry, chase)
+        return cap_speed(step, self.max_speed_um_s * self.tick_s)
+
+    def _carry(self, obs: Observation, previous_arc) -> np.ndarray:
+        """The carrying command (E, T, 2): feed-forward along the advanced arc plus the
+        capped correction of the formation's common drift and its full shape correction."""
         places = self.formation_targets(self.commanded_arc_um, self.route_point_at(self.commanded_arc_um))
         advanced_from = np.minimum(previous_arc, self.commanded_arc_um)  # an arc pulled back moves nothing
         feed_forward = places - self.formation_targets(advanced_from, self.route_point_at(advanced_from))
         correction = self.carry_gain_per_s * self.tick_s * (places - obs.trap_xy_um)
         common = correction.mean(axis=1, keepdims=True)  # the formation's drift as a whole
-        carry = feed_forward + cap_speed(common, self.carry_gain_per_s * self.lead_um * self.tick_s) \
+        return feed_forward + cap_speed(common, self.carry_gain_per_s * self.lead_um * self.tick_s) \
             + (correction - common)
-        chase = self.formation_targets(obs.cell_arc_um, obs.cell_xy_um) - obs.trap_xy_um
-        step = np.where(carrying[:, None, None], carry, chase)
-        return cap_speed(step, self.max_speed_um_s * self.tick_s)

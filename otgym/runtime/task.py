@@ -152,6 +152,17 @@ class TaskState:
     route_index: np.ndarray  # (E,) index of the route point nearest the cell
     metrics: TrialMetrics
     observation: Observation | None = None
+    sphere_xy_um: np.ndarray | None = None  # (E, S, 2) every sphere's centre, as of ``observation``
+
+
+@dataclasses.dataclass(frozen=True)
+class PendingStep:
+    """A tick's physics dispatched by ``InteractiveTask.dispatch`` and not yet
+    completed: JAX computes it in the background until ``complete`` reads it."""
+
+    scene: sc.SceneState
+    measured: dict
+    before_done: np.ndarray  # (E,) environments already DONE when it was dispatched
 
 
 class InteractiveTask:
@@ -228,15 +239,27 @@ class InteractiveTask:
         """Advance every environment by one tick, moving each trap by
         ``trap_increment_um`` (E, T, 2) um (finished environments hold); ``alpha`` (E,)
         is only recorded. Updates ``state`` in place and returns the new observation."""
+        return self.complete(state, self.dispatch(state, trap_increment_um, key), alpha)
+
+    def dispatch(self, state: TaskState, trap_increment_um, key) -> PendingStep:
+        """Start one tick's physics (as ``step``) and return at once: JAX's asynchronous
+        dispatch runs it on its own thread while the caller works on the state as it was
+        (``otgym.runtime.loop`` renders and senses the tick's starting frame meanwhile).
+        ``state`` is not touched until ``complete``."""
         increment = np.where((state.phase == DONE)[:, None, None], 0.0, np.asarray(trap_increment_um, float))
         if not np.all(np.isfinite(increment)):
             raise ValueError("trap increments must be finite")
-        before_done = state.phase == DONE
-        scene_state, measured = self._step(self.scene, state.scene, jnp.asarray(increment, jnp.float32), key,
-                                           state.tracks)
-        state.scene = scene_state
-        observation = self._observe(state, scene_state, measured)
-        self._account(state, observation, before_done, alpha)
+        # a numpy argument goes to the device with the call itself (jnp.asarray first would
+        # dispatch a conversion of its own: a fifth of a one-environment tick's overhead)
+        scene_state, measured = self._step(self.scene, state.scene, increment.astype(np.float32), key, state.tracks)
+        return PendingStep(scene_state, measured, state.phase == DONE)
+
+    def complete(self, state: TaskState, pending: PendingStep, alpha=None) -> Observation:
+        """Wait for a dispatched tick, update ``state`` in place (phases, metrics) and
+        return the new observation."""
+        state.scene = pending.scene
+        observation = self._observe(state, pending.scene, pending.measured)
+        self._account(state, observation, pending.before_done, alpha)
         state.observation = observation
         return observation
 
@@ -245,6 +268,7 @@ class InteractiveTask:
 
     def _observe(self, state: TaskState, scene_state, measured) -> Observation:
         measured = jax.tree.map(np.asarray, measured)
+        state.sphere_xy_um = measured["sphere_xy_um"].astype(float)
         cell = measured["cell_xy_um"].astype(float)
         state.route_index = self.route_index(cell, state.route_index)
         return Observation(
@@ -319,7 +343,7 @@ def _measure(scene: sc.Scene, scene_state: sc.SceneState, config: InteractiveCon
     cell = pose[:, scene.payload, :2]
     surface = jnp.linalg.norm(grippers - cell[:, None, None], axis=-1) - config.scene.cell_radius_um \
         - radius[scene.gripper_spheres[0][0]]
-    return {"cell_xy_um": cell, "trap_xy_um": traps, "handle_xy_um": handles,
+    return {"sphere_xy_um": xy, "cell_xy_um": cell, "trap_xy_um": traps, "handle_xy_um": handles,
             "robot_xy_um": pose[:, np.asarray(scene.robots), :2], "obstacle_xy_um": pose[:, obstacles, :2],
             "obstacle_gap_um": gap, "cell_gap_um": jnp.min(surface, axis=-1),
             "trap_distance_um": jnp.linalg.norm(handles - traps, axis=-1),

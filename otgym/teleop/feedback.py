@@ -40,6 +40,7 @@ from scipy import signal
 
 from otgym.teleop.device import saturate_force
 from otgym.teleop.retarget import PLANES, chip_to_device
+from otgym.teleop.streaming_filter import sos_step
 from otgym.teleop.touch import TOUCH_CAPS
 
 if TYPE_CHECKING:
@@ -164,5 +165,5 @@ class FeedbackLaw:
             raise ValueError(f"handle_force_pn and handle_offset_um must be (H, 2) and valid (H,), "
                              f"got {force.shape}, {offset.shape}, {valid.shape}")
         chip_n = chip_force_n(force, offset, contact_force_pn, valid, self.config, self.bend_distance_um)
-        filtered, self._zi = signal.sosfilt(self._sos, chip_n[None, :], axis=0, zi=self._zi)
-        return saturate_force(chip_to_device(filtered[0], self.config.plane), self.config.force_limit_n)
+        filtered = sos_step(self._sos, chip_n, self._zi)
+        return saturate_force(chip_to_device(filtered, self.config.plane), self.config.force_limit_n)

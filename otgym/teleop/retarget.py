@@ -16,7 +16,7 @@ Per control tick (rate ``tick_rate_hz``), in this order:
    and device y (up) -> chip -y; "xz" maps device x -> chip x and device z (toward the
    user) -> chip y.
 4. Tremor filter: a Butterworth low-pass (``scipy.signal.butter(..., output='sos')``)
-   run sample by sample with its state kept between ticks. Physiological tremor lies
+   run sample by sample with its state kept between ticks (``streaming_filter.sos_step``). Physiological tremor lies
    at 8-12 Hz (McAuley & Marsden, Brain 123, 1545, 2000) while voluntary hand motion
    stays below about 2-3 Hz; the defaults (order 3, cutoff 3.5 Hz at 50 Hz ticks) pass
    1 Hz within 0.01 dB, attenuate 8 Hz by 23 dB and 10 Hz by 31 dB, with a group delay
@@ -41,6 +41,7 @@ import numpy as np
 from scipy import signal
 
 from otgym.teleop.device import Sample
+from otgym.teleop.streaming_filter import sos_step
 
 PLANES = ("xy", "xz")
 
@@ -159,8 +160,7 @@ class Retargeter:
         return step * (self._max_step_um / length) if length > self._max_step_um else step
 
     def _filter(self, velocity_mm_s: np.ndarray) -> np.ndarray:
-        out, self._zi = signal.sosfilt(self._sos, velocity_mm_s[None, :], axis=0, zi=self._zi)
-        return out[0]
+        return sos_step(self._sos, velocity_mm_s, self._zi)
 
 
 class BatchRetargeter:

@@ -177,7 +177,8 @@ class BusSession:
             zeros = np.zeros((n_traps, 2))
             record = TickRecord(
                 time_s=time_s, phase=phase, alpha=alpha, human_um=zeros, robot_um=zeros, shared_um=zeros,
-                trap_xy_um=traps, sensed_handle_xy_um=handles, sensed_force_pn=np.full((n_traps, 2), np.nan),
+                trap_xy_um=traps, frame_trap_xy_um=traps, sensed_handle_xy_um=handles,
+                sensed_force_pn=np.full((n_traps, 2), np.nan),
                 sensed_valid=np.ones(n_traps, bool), feedback_n=self._feedback_n.copy(),
                 device_live=np.ones(n_robots, bool), physics_s=0.0, render_s=0.0, sense_s=0.0, rest_s=0.0,
                 mode=self._tick_mode or self._mode, autonomy_live=self._autonomy_live)

@@ -256,10 +256,12 @@ class LocalView:
             cross(surface, TRAP_RGB, trap, 7.0, 2)
         record = snapshot.record
         if record is not None:
-            for handle, trap, valid in zip(record.sensed_handle_xy_um, record.trap_xy_um, record.sensed_valid):
+            # the sensed offset (of the frame the sensor read, a tick old) drawn from the handle as it is now
+            offsets = record.frame_trap_xy_um - record.sensed_handle_xy_um
+            for handle, offset, valid in zip(snapshot.observation.handle_xy_um[0], offsets, record.sensed_valid):
                 if valid:
                     start = self.to_px(handle)
-                    arrow(surface, (0, 200, 230), start, start + (trap - handle) * OFFSET_MAGNIFICATION
+                    arrow(surface, (0, 200, 230), start, start + offset * OFFSET_MAGNIFICATION
                           * self.scale_px_per_um, 2, 6.0)
         bar_px = 2.0 * self.scale_px_per_um
         x, y = self.rect.left + 10, self.rect.bottom - 14
@@ -353,7 +355,8 @@ class CuePanel:
             y += 22
         # trap loss
         if record is not None:
-            offsets = np.where(record.sensed_valid[:, None], record.trap_xy_um - record.sensed_handle_xy_um, np.nan)
+            offsets = np.where(record.sensed_valid[:, None], record.frame_trap_xy_um - record.sensed_handle_xy_um,
+                               np.nan)
         else:
             offsets = np.zeros((1, 2))
         lag = float(np.nan_to_num(np.linalg.norm(offsets, axis=-1), nan=0.0).max())

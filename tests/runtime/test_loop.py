@@ -114,11 +114,13 @@ def traps_of(task, robots):
 
 
 def ticks_with_truth(loop, n):
-    """n ticks: (record, observation after it) pairs."""
+    """n ticks: (record, observation after it, observation of the frame its sensor read:
+    the tick's start)."""
     out = []
     for _ in range(n):
+        frame = loop.observation
         record = loop.tick()
-        out.append((record, loop.observation))
+        out.append((record, loop.observation, frame))
     return out
 
 
@@ -148,11 +150,11 @@ def test_a_silent_or_broken_device_holds_the_traps_in_manual_mode(task, scenario
     loop = make_loop(task, scenario, [(device, (0,))], "manual", clock)
     if kind == "stale":
         moving = ticks_with_truth(loop, 13)  # stale from the tick that starts after t = 0.2 s
-        assert moving[0][0].device_live[0] and max(np.abs(r.shared_um).max() for r, _ in moving) > 0
+        assert moving[0][0].device_live[0] and max(np.abs(r.shared_um).max() for r, *_ in moving) > 0
         assert not moving[-1][0].device_live[0]
     device.forces = []
     before = loop.observation.trap_xy_um.copy()
-    for record, obs in ticks_with_truth(loop, 15):
+    for record, obs, _ in ticks_with_truth(loop, 15):
         assert not record.device_live[0] and record.alpha == 1.0
         np.testing.assert_array_equal(record.human_um, 0.0)
         np.testing.assert_array_equal(record.shared_um, 0.0)
@@ -180,7 +182,7 @@ def test_replayed_constant_velocity_moves_the_traps_by_tau_v_dt(task, scenario, 
     driven = traps_of(task, robots)
     expected = TAU_UM_PER_MM * np.array([2.0, -1.0]) * task.config.tick_s
     previous = loop.observation.trap_xy_um[0]
-    for index, (record, obs) in enumerate(ticks_with_truth(loop, 60)):
+    for index, (record, obs, _) in enumerate(ticks_with_truth(loop, 60)):
         assert record.device_live[0] and record.alpha == 1.0
         moved = obs.trap_xy_um[0] - previous
         np.testing.assert_allclose(moved, record.shared_um, atol=2e-5)
@@ -227,8 +229,8 @@ def lead_and_force(task, history, device_index, robots):
     law = task.config.scene.trap_law
     mask = traps_of(task, robots)
     lead, law_force, device_force = [], [], []
-    for record, obs in history[15:]:
-        offsets = obs.trap_xy_um[0, mask] - obs.handle_xy_um[0, mask]
+    for record, _, frame in history[15:]:
+        offsets = frame.trap_xy_um[0, mask] - frame.handle_xy_um[0, mask]
         lead.append(offsets.sum(axis=0))
         law_force.append(np.asarray(law.force_pn(offsets)).sum(axis=0))
         device_force.append(device_to_chip(record.feedback_n[device_index], "xy"))
@@ -293,7 +295,7 @@ def test_autonomous_mode_carries_the_cell_along_the_route(task, autonomous):
     (route points are 0.125 um apart, 2 % of the 7.5 um). Catches a loop that ignores
     the autonomy in autonomous mode, or a blend with the weights swapped."""
     previous = None
-    for record, obs in autonomous:
+    for record, obs, _ in autonomous:
         assert record.alpha == 0.0
         np.testing.assert_allclose(record.shared_um, record.robot_um, rtol=1e-12)  # capped twice: 1 ulp
         assert np.linalg.norm(record.shared_um, axis=1).max() <= 20.0 * task.config.tick_s + 1e-9
@@ -315,19 +317,20 @@ def test_sensed_forces_agree_with_the_trap_law_at_the_true_offsets(task, autonom
     or found off by pixels), crops offset by half a pixel (50 nm), or the sensor given
     the wrong pixel size or trap positions."""
     law = task.config.scene.trap_law
-    for record, obs in autonomous:
+    for record, _, frame in autonomous:
         assert record.sensed_valid.all()
-        true_handles = obs.handle_xy_um[0]
+        np.testing.assert_array_equal(record.frame_trap_xy_um, frame.trap_xy_um[0])
+        true_handles = frame.handle_xy_um[0]
         error = np.linalg.norm(record.sensed_handle_xy_um - true_handles, axis=1)
         assert error.max() <= SENSOR_POSITION_BOUND_UM, error
-        truth = np.asarray(law.force_pn(obs.trap_xy_um[0] - true_handles))
+        truth = np.asarray(law.force_pn(frame.trap_xy_um[0] - true_handles))
         assert np.linalg.norm(record.sensed_force_pn - truth, axis=1).max() <= 50.0 * SENSOR_POSITION_BOUND_UM
-    assert max(np.linalg.norm(r.sensed_force_pn, axis=1).max() for r, _ in autonomous) > 1.0  # forces, not zeros
+    assert max(np.linalg.norm(r.sensed_force_pn, axis=1).max() for r, *_ in autonomous) > 1.0  # forces, not zeros
 
 
 def test_tick_reports_its_stage_times(autonomous):
     """Every stage time is positive and the total is their sum."""
-    for record, _ in autonomous:
+    for record, *_ in autonomous:
         times = [record.physics_s, record.render_s, record.sense_s, record.rest_s]
         assert min(times) > 0 and record.wall_s == pytest.approx(sum(times))
 
