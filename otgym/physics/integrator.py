@@ -15,7 +15,8 @@ theorem; about the hydrodynamic centre translation and rotation decouple and M
 depends on the pose only through theta in its translational block, so the mobility's
 divergence vanishes and no spurious-drift term arises. Kinematic bodies (obstacles)
 move with their prescribed velocity instead. Traps move with a prescribed velocity
-each step.
+each step. With ``PhysicsConfig(contact_overlap_cap=...)`` each step is followed by
+the overlap projection of ``otgym.physics.projection``.
 
 The chip's flow and wall distance are sampled every ``model.field_refresh`` steps
 (default every step); in between the flow is held and the wall distance is carried to
@@ -48,6 +49,7 @@ from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.batching import batch_through
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
 from otgym.physics.model import Model, PhysicsState, rotate_body_frame, sphere_positions_um
+from otgym.physics.projection import project_overlaps
 
 
 @struct.dataclass
@@ -204,6 +206,7 @@ def _substep(model: Model, controls, trap_start, fields, body_drag, carry, input
     trap_vx, trap_vy, body_velocity, external = controls
     (gx, gy, gt), cx, cy, wall_touch, overlap, distance = _forces(
         model, px, py, theta, trap_x, trap_y, external, fields, body_drag)
+    px_start, py_start = px, py
     kinematic = model.kinematic_mask
     dt = model.dt_s
     # translational step in the body frame: A^-1 (R^T F) dt + sqrt(2 kT dt) L xi, then back to the lab
@@ -215,8 +218,14 @@ def _substep(model: Model, controls, trap_start, fields, body_drag, carry, input
     step_x, step_y = rotate_body_frame(theta, step_x, step_y)
     px = px + step_x + kinematic[:, 0:1] * body_velocity[0] * dt
     py = py + step_y + kinematic[:, 1:2] * body_velocity[1] * dt
-    theta = (theta + (model.body_rotational_mobility[:, None] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt
-             + model.body_rotational_noise_rad[:, None] * noise[2])
+    theta_new = (theta + (model.body_rotational_mobility[:, None] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt
+                 + model.body_rotational_noise_rad[:, None] * noise[2])
+    if model.projection_iterations:  # opt-in: no overlap deeper than its cap (otgym.physics.projection)
+        px, py, theta_new, push_x, push_y, wall_push = project_overlaps(
+            model, (px_start, py_start, theta), (px, py, theta_new), fields)
+        cx, cy = cx + push_x, cy + push_y
+        wall_touch = wall_touch | (wall_push > 0)
+    theta = theta_new
     # traps move from their start by v * t, not by summing v * dt: in float32 a sum of
     # many steps far smaller than a position's last digit would drift systematically
     elapsed = (index + 1).astype(dt.dtype) * dt

@@ -7,7 +7,9 @@ of any overlap: the scheme cannot blow up however hard bodies are pushed togethe
 and in steady contact the penalty force equals the force pushing the bodies
 together, so the reported contact force (pN) is the physical constraint force of
 overdamped dynamics. Same idea as the step-adapted repulsion of Brownian dynamics
-codes (e.g. Heyes & Melrose, J. Non-Newtonian Fluid Mech. 46, 1, 1993).
+codes (e.g. Heyes & Melrose, J. Non-Newtonian Fluid Mech. 46, 1, 1993). A pressed
+pair settles at an overlap of the pressing force over k; ``otgym.physics.projection``
+(opt-in, ``PhysicsConfig(contact_overlap_cap=...)``) caps it.
 
 Van der Waals: the retarded Hamaker attraction of ``otgym.physics.adhesion`` (Hamaker
 constant per material pair, Gregory's retardation, the surface gap clamped below at

@@ -65,6 +65,13 @@ class PhysicsConfig:
     dtype: str = "float32"
     field_refresh_substeps: int = 1
     """Sample the chip's flow and walls every this many steps (see integrator)."""
+    contact_overlap_cap: float | None = None
+    """None (default): penalty contact alone. A fraction c in (0, 1): after each step,
+    bodies are projected apart so that no overlap exceeds c times the smaller radius
+    of its pair, or c times the radius at a wall (``otgym.physics.projection``)."""
+    contact_projection_iterations: int = 16
+    """Jacobi iterations of that projection per step (in dense driven packings the
+    deepest overlap was 1.00-1.09 times its cap at 16, 1.00-1.48 at 8)."""
 
     def __post_init__(self):
         require_positive_scalar("dt_s", self.dt_s)
@@ -89,6 +96,12 @@ class PhysicsConfig:
             raise ValueError(f"dtype must be 'float32' or 'float64', got {self.dtype!r}")
         if not isinstance(self.trap_law, TrapLaw):
             raise ValueError(f"trap_law must be a TrapLaw, got {self.trap_law!r}")
+        cap = self.contact_overlap_cap
+        if cap is not None and not (isinstance(cap, (int, float)) and 0 < cap < 1):
+            raise ValueError(f"contact_overlap_cap must be None or a fraction in (0, 1), got {cap!r}")
+        iterations = self.contact_projection_iterations
+        if not isinstance(iterations, int) or not 1 <= iterations <= 100:
+            raise ValueError(f"contact_projection_iterations must be an integer within 1..100, got {iterations!r}")
 
     @property
     def kt_pn_um(self) -> float:
@@ -120,6 +133,8 @@ class Model:
     wall_stiffness_pn_per_um: jnp.ndarray  # (N,); 0 for spheres of kinematic bodies
     pair_hamaker_pn_um: jnp.ndarray  # (P,) Hamaker constant of each pair's materials
     wall_hamaker_pn_um: jnp.ndarray  # (N,) Hamaker constant of each sphere with the walls
+    pair_overlap_cap_um: jnp.ndarray  # (P,) deepest overlap the projection allows (with it on)
+    wall_overlap_cap_um: jnp.ndarray  # (N,) the same at the walls
     dt_s: jnp.ndarray
     min_gap_um: jnp.ndarray
     retardation_wavelength_um: jnp.ndarray
@@ -135,6 +150,8 @@ class Model:
     trap_law: TrapLaw = struct.field(pytree_node=False, default=TrapLaw())
     substeps: int = struct.field(pytree_node=False, default=1)
     field_refresh: int = struct.field(pytree_node=False, default=1)
+    projection_iterations: int = struct.field(pytree_node=False, default=0)
+    """0: penalty contact alone; else the overlap projection's iterations per step."""
 
     @property
     def n_bodies(self) -> int:
@@ -317,6 +334,9 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
         pair_hamaker_pn_um=arr(pair_hamaker),
         wall_hamaker_pn_um=arr([adhesion.hamaker_pn_um(bodies[b].material, adhesion.wall_material)
                                 for b in sphere_body]),
+        pair_overlap_cap_um=arr((config.contact_overlap_cap or 0.0)
+                                * np.minimum(np.asarray(radii, float)[pair_a], np.asarray(radii, float)[pair_b])),
+        wall_overlap_cap_um=arr((config.contact_overlap_cap or 0.0) * np.asarray(radii, float)),
         dt_s=arr(config.dt_s),
         min_gap_um=arr(adhesion.min_gap_um),
         retardation_wavelength_um=arr(adhesion.retardation_wavelength_um),
@@ -332,6 +352,7 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
         trap_law=config.trap_law,
         substeps=config.substeps,
         field_refresh=config.field_refresh_substeps,
+        projection_iterations=0 if config.contact_overlap_cap is None else config.contact_projection_iterations,
     )
 
 

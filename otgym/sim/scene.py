@@ -67,6 +67,10 @@ class SceneConfig:
     field_refresh_substeps: int = 10
     """Sample flow and walls every this many physics steps (1 ms at the default step);
     the largest divisor of ``substeps`` not above it is used."""
+    contact_overlap_cap: float | None = None
+    """None: penalty contact alone (default). A fraction c in (0, 1): no overlap deeper
+    than c times the smaller radius of its pair (``otgym.physics.projection``; it costs
+    physics time, see benchmarks/README.md)."""
 
     def __post_init__(self):
         if self.kind not in SCENE_KINDS:
@@ -186,7 +190,8 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     physics_config = ph.PhysicsConfig(
         dt_s=config.control_period_s / config.substeps, substeps=config.substeps,
         temperature_k=config.temperature_k, viscosity_pa_s=config.viscosity_pa_s, trap_law=config.trap_law,
-        adhesion=config.adhesion, field_refresh_substeps=config.field_refresh)
+        adhesion=config.adhesion, field_refresh_substeps=config.field_refresh,
+        contact_overlap_cap=config.contact_overlap_cap)
     model = ph.build_model(bodies, physics_config, flow=flow, walls=walls)
     n_payload = len(bodies) - config.n_obstacles
     distance = np.asarray(walls.distance)

@@ -1,0 +1,51 @@
+"""Cost of the opt-in overlap projection (``PhysicsConfig(contact_overlap_cap=...)``).
+
+Env-substeps per second of the transport scene on the default chip (walls and flow,
+obstacles) with the penalty contact alone (the reference, the default) and with the
+projection on (cap 2 % of a radius, its default 16 iterations), measured alternately
+in the same run, each figure the best of ``--repeats`` timings, and their ratio.
+
+Run: python benchmarks/contact_projection.py [--envs 1,64] [--seconds 3] [--repeats 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import jax
+import jax.numpy as jnp
+
+from physics_throughput import control_steps_per_second  # benchmarks/ is on the path when run as a script
+from otgym.sim import scene as sc
+
+CAP = 0.02
+
+
+def rate(scene, n_env: int, seconds: float) -> float:
+    states = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), n_env))
+    velocity = jnp.zeros((n_env, scene.n_traps, 2))
+    return control_steps_per_second(jax.jit(sc.step_batch), scene, states, velocity, seconds) \
+        * scene.model.substeps * n_env
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--envs", default="1,64", help="environment counts, comma-separated")
+    parser.add_argument("--seconds", type=float, default=3.0, help="seconds per timing")
+    parser.add_argument("--repeats", type=int, default=2, help="alternating timings per variant")
+    args = parser.parse_args()
+    scenes = {"penalty (reference)": sc.build_scene(sc.SceneConfig()),
+              f"projection, cap {CAP:g}": sc.build_scene(sc.SceneConfig(contact_overlap_cap=CAP))}
+    print("transport scene, default chip: env-substeps/s, best of", args.repeats)
+    for n_env in (int(n) for n in args.envs.split(",")):
+        best = {name: 0.0 for name in scenes}
+        for _ in range(args.repeats):
+            for name, scene in scenes.items():
+                best[name] = max(best[name], rate(scene, n_env, args.seconds))
+        reference, projected = best.values()
+        print(f"  {n_env:5d} envs: " + ", ".join(f"{name} {value:.3g}" for name, value in best.items())
+              + f"; projection / penalty = {projected / reference:.2f}")
+
+
+if __name__ == "__main__":
+    main()
