@@ -2,7 +2,7 @@
 
 Env-substeps per second of the transport scene on the default chip (walls and flow,
 obstacles) with the penalty contact alone (the reference, the default) and with the
-projection on (cap 2 % of a radius, its default 16 iterations), measured alternately
+projection on (cap 2 % of a radius, at most its default 64 iterations), measured alternately
 in the same run, each figure the best of ``--repeats`` timings, and their ratio.
 
 Run: python benchmarks/contact_projection.py [--envs 1,64] [--seconds 3] [--repeats 2]

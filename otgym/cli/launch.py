@@ -79,6 +79,16 @@ class NodeProcesses:
                 raise RuntimeError(f"node(s) {', '.join(sorted(waiting))} not ready within {timeout_s:.0f} s")
             time.sleep(0.1)
 
+    def wait_output(self, label: str, line: str, timeout_s: float) -> bool:
+        """Until ``label`` has written ``line`` to its stdout (True), it has ended or
+        ``timeout_s`` has passed (False)."""
+        deadline = time.monotonic() + timeout_s
+        while line not in self._text(label, "out"):
+            if self.ended(label) or time.monotonic() > deadline:
+                return line in self._text(label, "out")
+            time.sleep(0.05)
+        return True
+
     def wait_exit(self, label: str, timeout_s: float) -> bool:
         child = self.children[label]
         try:

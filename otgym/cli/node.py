@@ -118,6 +118,10 @@ def _device(stop, endpoints, *, name, device, replay, device_name, **_):
     print(f"device {name}: {published} samples published", flush=True)
 
 
+SESSION_END_RECORDED = "recorded: session_end"
+"""The recorder node's line once the simulator's ``session_end`` event is in its file."""
+
+
 def _recorder(stop, endpoints, *, out, **_):
     from otgym.bus import messages as msg
     from otgym.bus.nodes import record_all
@@ -131,6 +135,8 @@ def _recorder(stop, endpoints, *, out, **_):
         def sink(topic: str, data: bytes) -> None:
             type_name = msg.topic_type(topic)
             recorder.write(topic, type_name, msg.SCHEMAS[type_name], data)
+            if topic == msg.EVENTS and msg.event_fields(msg.decode(topic, data)).get("event") == "session_end":
+                print(SESSION_END_RECORDED, flush=True)  # what otgym play --distributed waits for
 
         record_all(node, sink)
         _ready(f"recorder into {path}")

@@ -162,14 +162,19 @@ def node_plan(device: str, endpoint: str) -> tuple[list[tuple[str, list[str]]], 
     return nodes, ["--name", "device0,device1", "--takeover", "ui0,ui1"], "mouse", ["device0", "device1"]
 
 
+RECORDER_DRAIN_S = 10.0
+"""How long ``otgym play --distributed`` waits, after the sim's end, for the recorder to
+have the session's last message."""
+
+
 def _window_over_nodes(nodes, endpoint: str, layout, window_kind: str, shown: list[str], out: Path,
                        questionnaire: bool, screenshot: Path | None, failed: list[str]):
     """The window as the ui node until it closes, a node fails (its line appended to
     ``failed``) or the sim ends; then the sim's own end is awaited."""
     import threading
-    import time
 
     from otgym.bus.transport import Node
+    from otgym.cli.node import SESSION_END_RECORDED
     from otgym.teleop.device import DeviceError
     from otgym.ui.node import run_window
 
@@ -197,7 +202,9 @@ def _window_over_nodes(nodes, endpoint: str, layout, window_kind: str, shown: li
             done.set()
     if not nodes.wait_exit("sim", 30.0) and not failed:
         failed.append("the sim node did not end within 30 s of the session's end")
-    time.sleep(0.5)  # the session's last messages reach the recorder
+    # the recorder says when the sim's last message, session_end, is in its file (a fixed
+    # half second lost the trial_end once on a loaded machine); a sim that died sends none
+    nodes.wait_output("recorder", SESSION_END_RECORDED, RECORDER_DRAIN_S)
     return app
 
 

@@ -203,6 +203,30 @@ def test_recorder_node_killed_with_sigkill_keeps_all_but_its_last_moments(tmp_pa
     assert lost_s <= 1.5
 
 
+def test_recorder_node_says_when_the_session_end_is_in_its_file(tmp_path, children):
+    """The recorder node prints its SESSION_END_RECORDED line (what ``otgym play
+    --distributed`` waits for before stopping it) once the sim's session_end event is
+    written, not for another event; after SIGTERM the file holds both events. Catches
+    a line printed for any event, or none."""
+    from otgym.cli.node import SESSION_END_RECORDED
+
+    endpoint = free_endpoint()
+    children.append(spawn("-m", "otgym", "node", "recorder", "--out", str(tmp_path), "--listen", endpoint))
+    wait_for_line(children[0], "ready")
+    with Node("sim", "sim", connect=[endpoint]) as node:
+        time.sleep(1.0)  # the link comes up
+        node.publish(msg.EVENTS, msg.event("trial_end", trial=1))
+        node.publish(msg.EVENTS, msg.event("session_end", trials=1))
+        lines = [wait_for_line(children[0], "recorded:", 10.0)]
+    children[0].send_signal(signal.SIGTERM)
+    rest, _ = children[0].communicate(timeout=30)
+    lines += rest.splitlines()
+    assert [line.strip() for line in lines if line.startswith("recorded:")] == [SESSION_END_RECORDED]
+    events = [msg.event_fields(msg.decode(msg.EVENTS, m.data))["event"]
+              for m in read_recording(tmp_path / "session.mcap").messages if m.topic == msg.EVENTS]
+    assert events == ["trial_end", "session_end"]
+
+
 def test_malformed_messages_are_dropped_and_counted_never_applied():
     endpoint = free_endpoint()
     with Node("sim", "sim", listen=[endpoint]) as sim, Node("device", "device0", connect=[endpoint]) as device:

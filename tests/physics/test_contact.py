@@ -132,10 +132,11 @@ PROJECTED_MODEL = ph.build_model(DENSE_BODIES, dataclasses.replace(DENSE_CONFIG,
 PAIR_MIN_RADIUS_UM = np.minimum(np.asarray(DENSE_MODEL.sphere_radius_um)[list(DENSE_MODEL.pair_a)],
                                 np.asarray(DENSE_MODEL.sphere_radius_um)[list(DENSE_MODEL.pair_b)])
 PROJECTION_SLACK = 1.5
-"""The projection's residual after its 16 Jacobi iterations and its linearisation (a
-sphere's rotation to first order, normals held over a step): the deepest pair overlap
-at the control steps' ends was 1.00-1.09 times its cap on six driven packings (seeds
-0-5; 1.00-1.48 with 8 iterations, 1.00-1.01 with 32); allowed 1.5."""
+"""The projection's residual after at most 64 Jacobi iterations and its linearisation
+(a sphere's rotation to first order, normals held over a step): the deepest pair
+overlap at the control steps' ends was 1.00-1.01 times its cap on seven driven
+packings (seeds 0-5 and hypothesis's seed 1311, box 14 um, 38 um/s; with at most 16
+iterations that jam reached 1.54, with 32 1.08); allowed 1.5."""
 
 
 @settings(max_examples=10, deadline=None)
@@ -175,6 +176,8 @@ def test_pushed_beads_in_steady_contact_report_the_push(cap):
         state, report = step(model, state, controls, jax.random.PRNGKey(0))
     pair = model.body_pair_index("held", "pushed")
     assert float(report.contact_force_pn[pair]) == pytest.approx(30.0, rel=1e-3)
+    assert bool(report.contact[pair])
+    # the penalty's compliance: overlap = F / k_c with k_c = kappa / (dt (mu_a + mu_b))
     penalty_overlap = 30.0 / float(model.pair_stiffness_pn_per_um[0])
     expected = penalty_overlap if cap is None else cap * 0.5
     assert float(report.max_overlap_um) == pytest.approx(expected, rel=0.02)
@@ -188,25 +191,6 @@ def test_overlap_cap_is_validated():
             ph.PhysicsConfig(contact_overlap_cap=bad)
     with pytest.raises(ValueError, match="contact_projection_iterations"):
         ph.PhysicsConfig(contact_overlap_cap=0.1, contact_projection_iterations=0)
-
-
-def test_reported_contact_force_equals_the_push_in_steady_contact():
-    """Two beads at T = 0, one pushed against the other held by a stiff harmonic trap:
-    overdamped force balance makes the contact force equal the push (3 pN)."""
-    config = ph.PhysicsConfig(dt_s=1e-5, substeps=200, temperature_k=0.0, adhesion=ph.Adhesion.none(),
-                              trap_law=ph.TrapLaw("harmonic", 100.0))
-    model = ph.build_model([ph.bead("held"), ph.bead("pushed", radius_um=1.0)], config,
-                           traps=[(0, 0)])
-    state = ph.initial_state(model, [[0, 0, 0], [1.6, 0, 0]])
-    controls = ph.Controls.zeros(model).replace(external_force=jnp.array([[0, 0, 0], [-3.0, 0, 0]]))
-    for _ in range(10):
-        state, report = step(model, state, controls, jax.random.PRNGKey(0))
-    pair = model.body_pair_index("held", "pushed")
-    assert float(report.contact_force_pn[pair]) == pytest.approx(3.0, rel=1e-3)
-    assert bool(report.contact[pair])
-    # the penalty's compliance: overlap = F / k_c with k_c = kappa / (dt (mu_a + mu_b))
-    stiffness = float(model.pair_stiffness_pn_per_um[0])
-    assert float(report.max_overlap_um) == pytest.approx(3.0 / stiffness, rel=0.01)
 
 
 def test_van_der_waals_force_is_minus_gradient_of_derjaguin_energy():

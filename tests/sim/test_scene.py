@@ -128,6 +128,18 @@ def steady_drive(scene, states, velocity_um_s, key, n_steps):
     return jax.lax.scan(body, states, jax.random.split(key, n_steps))
 
 
+def drive_into_walls(scene, n_env):
+    """``steady_drive`` of the assembly at 15 um/s in a random direction per environment
+    for 20 control steps (4 s, 60 um: every run meets a wall); the clearances (steps,
+    E), checked finite."""
+    states = reset_batch(scene, jax.random.split(jax.random.PRNGKey(11), n_env))
+    angle = jax.random.uniform(jax.random.PRNGKey(12), (n_env,), maxval=2 * np.pi)
+    velocity = 15.0 * jnp.stack([jnp.cos(angle), jnp.sin(angle)], axis=-1)
+    final, clearance = steady_drive(scene, states, velocity, jax.random.PRNGKey(13), 20)
+    assert np.all(np.isfinite(np.asarray(final.physics.pose)))
+    return np.asarray(clearance)
+
+
 def test_stiff_traps_do_not_push_bodies_through_walls(transport):
     """The literature traps (Gaussian, 50 pN/um, up to 9.1 pN each) drag the assembly at
     15 um/s in a random direction per environment for 4 s (60 um: every run meets a
@@ -147,12 +159,7 @@ def test_stiff_traps_do_not_push_bodies_through_walls(transport):
     thermal = 3 * np.sqrt(2 * thermal_energy_pn_um(transport.config.temperature_k) * mobility * dt)
     give_um = 1.25 * (2 * 2 * law.max_force_pn * dt * mobility + thermal)
     smallest = float(np.asarray(model.sphere_radius_um)[np.asarray(model.sphere_body) == robot].min())
-    states = reset_batch(transport, jax.random.split(jax.random.PRNGKey(11), n_env))
-    angle = jax.random.uniform(jax.random.PRNGKey(12), (n_env,), maxval=2 * np.pi)
-    velocity = 15.0 * jnp.stack([jnp.cos(angle), jnp.sin(angle)], axis=-1)
-    final, clearance = steady_drive(transport, states, velocity, jax.random.PRNGKey(13), 20)
-    clearance = np.asarray(clearance)
-    assert np.all(np.isfinite(np.asarray(final.physics.pose)))
+    clearance = drive_into_walls(transport, n_env)
     assert give_um / smallest < 0.25  # the bound is a small fraction of a radius
     assert clearance.min() > 1 - give_um / smallest, (clearance.min(), give_um)
     assert np.mean(clearance.min(axis=0) < 1.2) > 0.5  # most runs pressed a sphere against a wall
@@ -165,14 +172,7 @@ def test_overlap_projection_holds_bodies_off_walls_within_its_cap():
     tests/physics/test_contact.py). The penalty alone lets robots in to 0.87 of their
     radius in this drive, so a projection that ignored the walls would fail."""
     cap = 0.02
-    scene = sc.build_scene(sc.SceneConfig(contact_overlap_cap=cap))
-    n_env = 32
-    states = reset_batch(scene, jax.random.split(jax.random.PRNGKey(11), n_env))
-    angle = jax.random.uniform(jax.random.PRNGKey(12), (n_env,), maxval=2 * np.pi)
-    velocity = 15.0 * jnp.stack([jnp.cos(angle), jnp.sin(angle)], axis=-1)
-    final, clearance = steady_drive(scene, states, velocity, jax.random.PRNGKey(13), 20)
-    clearance = np.asarray(clearance)
-    assert np.all(np.isfinite(np.asarray(final.physics.pose)))
+    clearance = drive_into_walls(sc.build_scene(sc.SceneConfig(contact_overlap_cap=cap)), 32)
     assert clearance.min() > 1 - 1.5 * cap, clearance.min()
     assert np.mean(clearance.min(axis=0) < 1.2) > 0.5  # most runs pressed a sphere against a wall
 
