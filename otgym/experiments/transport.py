@@ -80,6 +80,8 @@ def run(demo: TransportDemo, out_dir: Path, progress=None) -> dict:
     outcome = ["reached the goal"] * demo.n_runs
     active = np.ones(demo.n_runs, bool)
     frames, arc = [], 0.0
+    end_pose = np.array(states.physics.pose)
+    end_traps = np.array(states.physics.trap_xy_um)
     for index in range(n_steps):
         arc = min(arc + demo.speed_um_s * period, length)
         key, step_key = jax.random.split(key)
@@ -90,6 +92,9 @@ def run(demo: TransportDemo, out_dir: Path, progress=None) -> dict:
             rows[run_index].append(_row(scene, host_states, host_events, run_index, arc))
             if failed[run_index]:
                 outcome[run_index] = _failure(host_events, run_index)
+        # where each run ended: a stopped run's environment keeps stepping with the batch
+        end_pose[active] = np.asarray(host_states.physics.pose)[active]
+        end_traps[active] = np.asarray(host_states.physics.trap_xy_um)[active]
         active &= ~failed
         if index % 10 == 0:
             frames.append(np.asarray(ph.sphere_positions_um(scene.model, host_states.physics.pose)))
@@ -117,8 +122,8 @@ def run(demo: TransportDemo, out_dir: Path, progress=None) -> dict:
         "max_trap_distance_um": round(float(np.max([np.max(np.array(r)[:, 14]) for r in rows])), 4),
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
-    last_frame = np.asarray(ph.sphere_positions_um(scene.model, jax.device_get(states.physics.pose)[shown]))
-    _figure(chip, scene, last_frame, np.asarray(states.physics.trap_xy_um[shown]), plan, table,
+    last_frame = np.asarray(ph.sphere_positions_um(scene.model, jnp.asarray(end_pose[shown])))
+    _figure(chip, scene, last_frame, end_traps[shown], plan, table,
             [f[shown] for f in frames][: len(table) // 10 + 1], out_dir / "transport.png", summary)
     return summary
 
