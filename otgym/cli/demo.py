@@ -56,7 +56,8 @@ def register(app: typer.Typer) -> None:
                                                  help=f"Simulated seconds after which a study trial ends "
                                                       f"unfinished, {_range('study_time_limit_s')}."),
         sequential: bool = typer.Option(False, "--sequential",
-                                        help="Run the study on its own, right after the planning, instead of beside the other stages."),
+                                        help="Run the study on its own, right after the planning, "
+                                             "instead of beside the other stages."),
     ) -> None:
         """Plan on the default chip (Table I), evaluate the pretrained speed controller
         against constant speeds (Table II, safety violins), carry the cell along the
