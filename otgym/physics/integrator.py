@@ -48,7 +48,7 @@ from jax.custom_batching import custom_vmap
 from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.batching import batch_through
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
-from otgym.physics.model import Model, PhysicsState, rotate_body_frame, sphere_positions_um
+from otgym.physics.model import Model, PhysicsState, sphere_positions_um
 from otgym.physics.projection import project_overlaps
 
 
@@ -95,10 +95,34 @@ def _check_controls(model: Model, controls: Controls, lead: tuple) -> None:
             raise ValueError(f"controls.{name} must have shape {lead + shape}, got {actual}")
 
 
-def _sphere_xy(model: Model, px, py, theta):
-    """Sphere centres (N, E) and their lever arms from the hydrodynamic centre."""
+def _turn(theta):
+    """(cos, sin) of each body's angle (B, E).
+
+    The integration loop carries them with the angle, computed once per body where the
+    angle is updated: computed where they are used, XLA recomputes them inside every
+    fusion that reads them (per sphere for the lever arms, twice more per body to turn the
+    step into and out of the body frame), and on a CPU the sines and cosines are a good
+    part of a step's time."""
+    return jnp.cos(theta), jnp.sin(theta)
+
+
+def _to_lab(turn, x, y):
+    """Body-frame components (x, y) -> lab frame, for bodies turned by ``turn``."""
+    cos, sin = turn
+    return cos * x - sin * y, sin * x + cos * y
+
+
+def _to_body(turn, x, y):
+    """Lab-frame components (x, y) -> body frame (the inverse of ``_to_lab``)."""
+    cos, sin = turn
+    return cos * x + sin * y, cos * y - sin * x
+
+
+def _sphere_xy(model: Model, px, py, turn):
+    """Sphere centres (N, E) and their lever arms from the hydrodynamic centre, for
+    bodies at (px, py) turned by ``turn`` (``_turn``)."""
     body = np.asarray(model.sphere_body, dtype=int)
-    cos, sin = jnp.cos(theta)[body], jnp.sin(theta)[body]
+    cos, sin = turn[0][body], turn[1][body]
     ox, oy = model.sphere_offset_um[:, 0:1], model.sphere_offset_um[:, 1:2]
     lever_x, lever_y = cos * ox - sin * oy, sin * ox + cos * oy
     return px[body] + lever_x, py[body] + lever_y, lever_x, lever_y
@@ -123,21 +147,21 @@ def _sample_fields(model: Model, x, y):
     return flow + walls + (x, y)
 
 
-def _body_frame_flow_drag(model: Model, theta, fields):
+def _body_frame_flow_drag(model: Model, turn, fields):
     """Generalised drag (3 arrays (B, E)) of the flow on each body held still, in the
-    body frame (force along the body's axes, torque), for bodies at angles ``theta``.
+    body frame (force along the body's axes, torque), for bodies turned by ``turn``.
 
     Uniform flow: the body's translational resistance, no torque about its centre.
     Otherwise the multiblob weights applied to the sampled flow and half its vorticity
     at each sphere, in the body frame."""
     if isinstance(model.flow, UniformFlow):
-        velocity = model.flow.velocity.astype(theta.dtype)
-        to_body_x, to_body_y = rotate_body_frame(-theta, velocity[0], velocity[1])
+        velocity = model.flow.velocity.astype(turn[0].dtype)
+        to_body_x, to_body_y = _to_body(turn, velocity[0], velocity[1])
         resistance = model.body_translational_resistance_pn_s_per_um[:, :, :, None]
         return (resistance[:, 0, 0] * to_body_x + resistance[:, 0, 1] * to_body_y,
-                resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y, jnp.zeros_like(theta))
-    sphere_theta = theta[np.asarray(model.sphere_body, dtype=int)]
-    u_x, u_y = rotate_body_frame(-sphere_theta, fields[0], fields[1])
+                resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y, jnp.zeros_like(turn[0]))
+    body = np.asarray(model.sphere_body, dtype=int)
+    u_x, u_y = _to_body((turn[0][body], turn[1][body]), fields[0], fields[1])
     spin = fields[2] / 2
     weight = model.sphere_flow_weight[:, :, :, None]
     per_sphere = [weight[:, row, 0] * u_x + weight[:, row, 1] * u_y + weight[:, row, 2] * spin for row in range(3)]
@@ -145,8 +169,9 @@ def _body_frame_flow_drag(model: Model, theta, fields):
     return to_body @ per_sphere[0], to_body @ per_sphere[1], to_body @ per_sphere[2]
 
 
-def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields, body_drag):
-    """Generalised forces (3 arrays (B, E)) and the contact details for reporting.
+def _forces(model: Model, px, py, turn, trap_x, trap_y, external, fields, body_drag):
+    """Generalised forces (3 arrays (B, E)) and the contact details for reporting, for
+    bodies at (px, py) turned by ``turn`` (``_turn``).
 
     ``body_drag`` is the flow's drag in the body frame (``_body_frame_flow_drag``),
     computed with the fields; it is turned with each body's present angle.
@@ -154,7 +179,7 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields, body_
     ``fields`` is a ``_sample_fields`` result from at most ``model.field_refresh`` steps
     ago: the flow is held, the wall distance is carried to the current positions to
     first order, d(x) = d(x0) + n(x0).(x - x0) (exact for straight walls)."""
-    x, y, lever_x, lever_y = _sphere_xy(model, px, py, theta)
+    x, y, lever_x, lever_y = _sphere_xy(model, px, py, turn)
     fx, fy = jnp.zeros_like(x), jnp.zeros_like(y)
     traps = np.asarray(model.trap_sphere, dtype=int)
     e = x.shape[-1]
@@ -192,7 +217,7 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields, body_
         wall_touch = (wall_contact > 0) & dynamic
     torque = lever_x * fy - lever_y * fx
     to_body = model.body_of_sphere.T
-    flow_x, flow_y = rotate_body_frame(theta, body_drag[0], body_drag[1])
+    flow_x, flow_y = _to_lab(turn, body_drag[0], body_drag[1])
     flow_torque = body_drag[2]
     generalised = (to_body @ fx + flow_x + external[0], to_body @ fy + flow_y + external[1],
                    to_body @ torque + flow_torque + external[2])
@@ -201,21 +226,22 @@ def _forces(model: Model, px, py, theta, trap_x, trap_y, external, fields, body_
 
 def _substep(model: Model, controls, trap_start, fields, body_drag, carry, inputs):
     noise, index = inputs
-    (px, py, theta, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
+    (px, py, theta, cos, sin, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
      distance_max, overlap_max) = carry
     trap_vx, trap_vy, body_velocity, external = controls
+    turn = cos, sin
     (gx, gy, gt), cx, cy, wall_touch, overlap, distance = _forces(
-        model, px, py, theta, trap_x, trap_y, external, fields, body_drag)
+        model, px, py, turn, trap_x, trap_y, external, fields, body_drag)
     px_start, py_start = px, py
     kinematic = model.kinematic_mask
     dt = model.dt_s
     # translational step in the body frame: A^-1 (R^T F) dt + sqrt(2 kT dt) L xi, then back to the lab
-    body_gx, body_gy = rotate_body_frame(-theta, gx, gy)
+    body_gx, body_gy = _to_body(turn, gx, gy)
     mobility, noise_t = model.body_translational_mobility[:, :, :, None], model.body_translational_noise_um[:, :, :, None]
     step_x = (mobility[:, 0, 0] * body_gx + mobility[:, 0, 1] * body_gy) * dt + noise_t[:, 0, 0] * noise[0]
     step_y = ((mobility[:, 1, 0] * body_gx + mobility[:, 1, 1] * body_gy) * dt
               + noise_t[:, 1, 0] * noise[0] + noise_t[:, 1, 1] * noise[1])
-    step_x, step_y = rotate_body_frame(theta, step_x, step_y)
+    step_x, step_y = _to_lab(turn, step_x, step_y)
     px = px + step_x + kinematic[:, 0:1] * body_velocity[0] * dt
     py = py + step_y + kinematic[:, 1:2] * body_velocity[1] * dt
     theta_new = (theta + (model.body_rotational_mobility[:, None] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt
@@ -230,7 +256,7 @@ def _substep(model: Model, controls, trap_start, fields, body_drag, carry, input
     # many steps far smaller than a position's last digit would drift systematically
     elapsed = (index + 1).astype(dt.dtype) * dt
     trap_x, trap_y = trap_start[0] + trap_vx * elapsed, trap_start[1] + trap_vy * elapsed
-    return (px, py, theta, trap_x, trap_y, contact_x + cx,
+    return (px, py, theta, *_turn(theta), trap_x, trap_y, contact_x + cx,
             contact_y + cy, contact_any | (cx**2 + cy**2 > 0), wall_any | wall_touch,
             jnp.maximum(distance_max, distance), jnp.maximum(overlap_max, overlap)), None
 
@@ -260,7 +286,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
                      (body_velocity[:, 0], body_velocity[:, 1], body_velocity[:, 2]),
                      (external[:, 0], external[:, 1], external[:, 2]))
     n_pairs, n_spheres = len(model.pair_a), model.sphere_radius_um.shape[0]
-    carry = (pose_t[:, 0], pose_t[:, 1], pose_t[:, 2], trap_t[:, 0], trap_t[:, 1],
+    carry = (pose_t[:, 0], pose_t[:, 1], pose_t[:, 2], *_turn(pose_t[:, 2]), trap_t[:, 0], trap_t[:, 1],
              jnp.zeros((n_pairs, n_env), dtype), jnp.zeros((n_pairs, n_env), dtype),
              jnp.zeros((n_pairs, n_env), bool), jnp.zeros((n_spheres, n_env), bool),
              jnp.zeros((model.n_traps, n_env), dtype), jnp.zeros(n_env, dtype))
@@ -269,9 +295,10 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     blocks = model.substeps // refresh
 
     def sample(carry):
-        x, y, _, _ = _sphere_xy(model, carry[0], carry[1], carry[2])
+        turn = carry[3], carry[4]
+        x, y, _, _ = _sphere_xy(model, carry[0], carry[1], turn)
         fields = _sample_fields(model, x, y)
-        return fields, _body_frame_flow_drag(model, carry[2], fields)
+        return fields, _body_frame_flow_drag(model, turn, fields)
 
     def block(carry, inputs):
         fields, body_drag = sample(carry)
@@ -287,9 +314,9 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         inputs = (noise.reshape((blocks, refresh) + noise.shape[1:]),
                   jnp.arange(model.substeps).reshape(blocks, refresh))
         carry, _ = jax.lax.scan(block, carry, inputs)
-    (px, py, theta, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
+    (px, py, theta, cos, sin, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
      distance_max, overlap_max) = carry
-    x, y, _, _ = _sphere_xy(model, px, py, theta)
+    x, y, _, _ = _sphere_xy(model, px, py, (cos, sin))
     traps = np.asarray(model.trap_sphere, dtype=int)
     distance = jnp.sqrt((trap_x - x[traps]) ** 2 + (trap_y - y[traps]) ** 2)
     distance_max = jnp.maximum(distance_max, distance)
