@@ -34,10 +34,16 @@ def main():
     parser.add_argument("--seconds", type=float, default=3.0, help="seconds per timing")
     parser.add_argument("--repeats", type=int, default=2, help="alternating timings per variant")
     args = parser.parse_args()
+    try:
+        env_counts = [int(n) for n in args.envs.split(",")]
+    except ValueError:
+        parser.error(f"--envs must be positive integers separated by commas, got {args.envs!r}")
+    if min(env_counts) < 1 or args.seconds <= 0 or args.repeats < 1:
+        parser.error("--envs counts and --repeats must be at least 1 and --seconds positive")
     scenes = {"penalty (reference)": sc.build_scene(sc.SceneConfig()),
               f"projection, cap {CAP:g}": sc.build_scene(sc.SceneConfig(contact_overlap_cap=CAP))}
     print("transport scene, default chip: env-substeps/s, best of", args.repeats)
-    for n_env in (int(n) for n in args.envs.split(",")):
+    for n_env in env_counts:
         best = {name: 0.0 for name in scenes}
         for _ in range(args.repeats):
             for name, scene in scenes.items():
