@@ -48,7 +48,7 @@ from jax.custom_batching import custom_vmap
 from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.batching import batch_through
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
-from otgym.physics.model import Model, PhysicsState, sphere_positions_um
+from otgym.physics.model import Model, PhysicsState, sphere_positions_um, turn_to_body, turn_to_lab
 from otgym.physics.projection import project_overlaps
 
 
@@ -106,18 +106,6 @@ def _turn(theta):
     return jnp.cos(theta), jnp.sin(theta)
 
 
-def _to_lab(turn, x, y):
-    """Body-frame components (x, y) -> lab frame, for bodies turned by ``turn``."""
-    cos, sin = turn
-    return cos * x - sin * y, sin * x + cos * y
-
-
-def _to_body(turn, x, y):
-    """Lab-frame components (x, y) -> body frame (the inverse of ``_to_lab``)."""
-    cos, sin = turn
-    return cos * x + sin * y, cos * y - sin * x
-
-
 def _sphere_xy(model: Model, px, py, turn):
     """Sphere centres (N, E) and their lever arms from the hydrodynamic centre, for
     bodies at (px, py) turned by ``turn`` (``_turn``)."""
@@ -156,12 +144,12 @@ def _body_frame_flow_drag(model: Model, turn, fields):
     at each sphere, in the body frame."""
     if isinstance(model.flow, UniformFlow):
         velocity = model.flow.velocity.astype(turn[0].dtype)
-        to_body_x, to_body_y = _to_body(turn, velocity[0], velocity[1])
+        to_body_x, to_body_y = turn_to_body(turn, velocity[0], velocity[1])
         resistance = model.body_translational_resistance_pn_s_per_um[:, :, :, None]
         return (resistance[:, 0, 0] * to_body_x + resistance[:, 0, 1] * to_body_y,
                 resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y, jnp.zeros_like(turn[0]))
     body = np.asarray(model.sphere_body, dtype=int)
-    u_x, u_y = _to_body((turn[0][body], turn[1][body]), fields[0], fields[1])
+    u_x, u_y = turn_to_body((turn[0][body], turn[1][body]), fields[0], fields[1])
     spin = fields[2] / 2
     weight = model.sphere_flow_weight[:, :, :, None]
     per_sphere = [weight[:, row, 0] * u_x + weight[:, row, 1] * u_y + weight[:, row, 2] * spin for row in range(3)]
@@ -217,7 +205,7 @@ def _forces(model: Model, px, py, turn, trap_x, trap_y, external, fields, body_d
         wall_touch = (wall_contact > 0) & dynamic
     torque = lever_x * fy - lever_y * fx
     to_body = model.body_of_sphere.T
-    flow_x, flow_y = _to_lab(turn, body_drag[0], body_drag[1])
+    flow_x, flow_y = turn_to_lab(turn, body_drag[0], body_drag[1])
     flow_torque = body_drag[2]
     generalised = (to_body @ fx + flow_x + external[0], to_body @ fy + flow_y + external[1],
                    to_body @ torque + flow_torque + external[2])
@@ -236,19 +224,19 @@ def _substep(model: Model, controls, trap_start, fields, body_drag, carry, input
     kinematic = model.kinematic_mask
     dt = model.dt_s
     # translational step in the body frame: A^-1 (R^T F) dt + sqrt(2 kT dt) L xi, then back to the lab
-    body_gx, body_gy = _to_body(turn, gx, gy)
+    body_gx, body_gy = turn_to_body(turn, gx, gy)
     mobility, noise_t = model.body_translational_mobility[:, :, :, None], model.body_translational_noise_um[:, :, :, None]
     step_x = (mobility[:, 0, 0] * body_gx + mobility[:, 0, 1] * body_gy) * dt + noise_t[:, 0, 0] * noise[0]
     step_y = ((mobility[:, 1, 0] * body_gx + mobility[:, 1, 1] * body_gy) * dt
               + noise_t[:, 1, 0] * noise[0] + noise_t[:, 1, 1] * noise[1])
-    step_x, step_y = _to_lab(turn, step_x, step_y)
+    step_x, step_y = turn_to_lab(turn, step_x, step_y)
     px = px + step_x + kinematic[:, 0:1] * body_velocity[0] * dt
     py = py + step_y + kinematic[:, 1:2] * body_velocity[1] * dt
     theta_new = (theta + (model.body_rotational_mobility[:, None] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt
                  + model.body_rotational_noise_rad[:, None] * noise[2])
     if model.projection_iterations:  # opt-in: no overlap deeper than its cap (otgym.physics.projection)
         px, py, theta_new, push_x, push_y, wall_push = project_overlaps(
-            model, (px_start, py_start, theta), (px, py, theta_new), fields)
+            model, (px_start, py_start, theta), turn, (px, py, theta_new), fields)
         cx, cy = cx + push_x, cy + push_y
         wall_touch = wall_touch | (wall_push > 0)
     theta = theta_new

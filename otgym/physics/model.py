@@ -368,8 +368,20 @@ def sphere_positions_um(model: Model, pose):
 
 def rotate_body_frame(theta, x, y):
     """Vector components (x, y) in a body frame turned by theta -> lab frame."""
-    cos, sin = jnp.cos(theta), jnp.sin(theta)
+    return turn_to_lab((jnp.cos(theta), jnp.sin(theta)), x, y)
+
+
+def turn_to_lab(turn, x, y):
+    """Body-frame components (x, y) -> lab frame, for bodies turned by ``turn`` = (cos,
+    sin) of their angles (precomputed: the integrator carries them)."""
+    cos, sin = turn
     return cos * x - sin * y, sin * x + cos * y
+
+
+def turn_to_body(turn, x, y):
+    """Lab-frame components (x, y) -> body frame (the inverse of ``turn_to_lab``)."""
+    cos, sin = turn
+    return cos * x + sin * y, cos * y - sin * x
 
 
 def drag_force_pn(model: Model, pose, velocity_um_s):

@@ -37,40 +37,41 @@ import jax.numpy as jnp
 import numpy as np
 
 from otgym.physics.fields import NoWalls
-from otgym.physics.model import Model, rotate_body_frame
+from otgym.physics.model import Model, turn_to_body, turn_to_lab
 
 CONVERGED_FRACTION = 0.01
 """The iterations stop once no overlap exceeds its cap by more than this fraction of
 the cap (or after ``PhysicsConfig.contact_projection_iterations``)."""
 
 
-def _point_mobility_along(model: Model, theta_sphere, lever_x, lever_y, normal_x, normal_y, body):
+def _point_mobility_along(model: Model, sphere_turn, lever_x, lever_y, normal_x, normal_y, body):
     """Displacement per unit force per unit time (um / (pN s)) of each sphere along a
     unit normal when that force acts on it along the same normal: the body's
     translational mobility (turned with it) plus its rotational mobility times the
     lever arm's moment about the centre, squared."""
     mobility = model.body_translational_mobility[body][..., None]  # (N, 2, 2, 1) body frame
-    nb_x, nb_y = rotate_body_frame(-theta_sphere, normal_x, normal_y)
+    nb_x, nb_y = turn_to_body(sphere_turn, normal_x, normal_y)
     translational = (nb_x * (mobility[:, 0, 0] * nb_x + mobility[:, 0, 1] * nb_y)
                      + nb_y * (mobility[:, 1, 0] * nb_x + mobility[:, 1, 1] * nb_y))
     moment = lever_x * normal_y - lever_y * normal_x
     return translational + model.body_rotational_mobility[body][:, None] * moment**2
 
 
-def project_overlaps(model: Model, start, moved, fields):
+def project_overlaps(model: Model, start, turn, moved, fields):
     """Correct one step's end poses ``moved`` (px, py, theta; each (B, E)) taken from
     ``start`` so that no overlap exceeds its cap (to the linearisation and the
-    iterations). ``fields``: the integrator's sampled fields (walls carried to the
-    start's sphere centres to first order, as its forces do).
+    iterations). ``turn``: (cos, sin) of the start's angles (B, E), which the integrator
+    carries. ``fields``: the integrator's sampled fields (walls carried to the start's
+    sphere centres to first order, as its forces do).
 
     Returns (px, py, theta, pair force on b (x, y), (P, E) each, wall force (N, E))."""
     px0, py0, theta0 = start
     body = np.asarray(model.sphere_body, dtype=int)
-    cos, sin = jnp.cos(theta0)[body], jnp.sin(theta0)[body]
+    cos, sin = turn[0][body], turn[1][body]
     ox, oy = model.sphere_offset_um[:, 0:1], model.sphere_offset_um[:, 1:2]
     lever_x, lever_y = cos * ox - sin * oy, sin * ox + cos * oy
     x, y = px0[body] + lever_x, py0[body] + lever_y
-    theta_sphere = theta0[body]
+    sphere_turn = cos, sin
     radius = model.sphere_radius_um[:, None]
     a, b = np.asarray(model.pair_a, dtype=int), np.asarray(model.pair_b, dtype=int)
     dx, dy = x[b] - x[a], y[b] - y[a]
@@ -79,15 +80,15 @@ def project_overlaps(model: Model, start, moved, fields):
     inverse = jnp.where(apart, 1.0 / jnp.where(apart, distance, 1.0), 0.0)
     nx, ny = jnp.where(apart, dx * inverse, 1.0), dy * inverse
     pair_gap = distance - radius[a] - radius[b]
-    along_a = _point_mobility_along(model, theta_sphere[a], lever_x[a], lever_y[a], nx, ny, body[a])
-    along_b = _point_mobility_along(model, theta_sphere[b], lever_x[b], lever_y[b], nx, ny, body[b])
+    along_a = _point_mobility_along(model, (cos[a], sin[a]), lever_x[a], lever_y[a], nx, ny, body[a])
+    along_b = _point_mobility_along(model, (cos[b], sin[b]), lever_x[b], lever_y[b], nx, ny, body[b])
     pair_weight = (along_a + along_b) * model.dt_s
     pair_cap = model.pair_overlap_cap_um[:, None]
     has_walls = not isinstance(model.walls, NoWalls)
     if has_walls:
         distance0, wall_nx, wall_ny, x0, y0 = fields[3:]
         wall_gap = distance0 + wall_nx * (x - x0) + wall_ny * (y - y0) - radius
-        wall_weight = _point_mobility_along(model, theta_sphere, lever_x, lever_y, wall_nx, wall_ny, body) * model.dt_s
+        wall_weight = _point_mobility_along(model, sphere_turn, lever_x, lever_y, wall_nx, wall_ny, body) * model.dt_s
         wall_cap = model.wall_overlap_cap_um[:, None]
         dynamic = (model.wall_stiffness_pn_per_um > 0)[:, None]
     to_body = model.body_of_sphere.T
@@ -122,10 +123,10 @@ def project_overlaps(model: Model, start, moved, fields):
             fx, fy = fx + wall_push * wall_nx, fy + wall_push * wall_ny
             wall_force = wall_force + wall_push
         gx, gy, gt = to_body @ fx, to_body @ fy, to_body @ (lever_x * fy - lever_y * fx)
-        body_gx, body_gy = rotate_body_frame(-theta0, gx, gy)
+        body_gx, body_gy = turn_to_body(turn, gx, gy)
         step_x = (mobility[:, 0, 0] * body_gx + mobility[:, 0, 1] * body_gy) * model.dt_s
         step_y = (mobility[:, 1, 0] * body_gx + mobility[:, 1, 1] * body_gy) * model.dt_s
-        step_x, step_y = rotate_body_frame(theta0, step_x, step_y)
+        step_x, step_y = turn_to_lab(turn, step_x, step_y)
         return (count_done + 1, dpx + step_x, dpy + step_y, dth + rotational * gt * model.dt_s, pair_force + push,
                 wall_force, worst)
 
