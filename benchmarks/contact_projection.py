@@ -4,6 +4,9 @@ Env-substeps per second of the transport scene on the default chip (walls and fl
 obstacles) with the penalty contact alone (the reference, the default) and with the
 projection on (cap 2 % of a radius, at most its default 64 iterations), measured alternately
 in the same run, each figure the best of ``--repeats`` timings, and their ratio.
+Then what each buys: the gripper-cell overlap at the end of each control step (the
+negative of ``SceneEvents.cell_gap_um``) over 10 control steps of 16 environments, with
+every trap still and with every trap moving at 12 um/s along +x (the assembly carried).
 
 Run: python benchmarks/contact_projection.py [--envs 1,64] [--seconds 3] [--repeats 2]
 """
@@ -14,6 +17,7 @@ import argparse
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from physics_throughput import control_steps_per_second  # benchmarks/ is on the path when run as a script
 from otgym.sim import scene as sc
@@ -26,6 +30,17 @@ def rate(scene, n_env: int, seconds: float) -> float:
     velocity = jnp.zeros((n_env, scene.n_traps, 2))
     return control_steps_per_second(jax.jit(sc.step_batch), scene, states, velocity, seconds) \
         * scene.model.substeps * n_env
+
+
+def grip_overlaps_um(scene, speed_um_s: float, n_env: int = 16, n_steps: int = 10) -> np.ndarray:
+    """Gripper-cell overlap (um, (n_steps, n_env, robots)) at the end of each control step."""
+    states = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), n_env))
+    velocity = jnp.zeros((n_env, scene.n_traps, 2)).at[..., 0].set(speed_um_s)
+    step, overlaps = jax.jit(sc.step_batch), []
+    for index in range(n_steps):
+        states, events = step(scene, states, velocity, jax.random.PRNGKey(index))
+        overlaps.append(-np.asarray(events.cell_gap_um))
+    return np.array(overlaps)
 
 
 def main():
@@ -51,6 +66,13 @@ def main():
         reference, projected = best.values()
         print(f"  {n_env:5d} envs: " + ", ".join(f"{name} {value:.3g}" for name, value in best.items())
               + f"; projection / penalty = {projected / reference:.2f}")
+    smallest_radius = float(np.min(np.asarray(next(iter(scenes.values())).model.sphere_radius_um)))
+    print(f"gripper-cell overlap at the control steps' ends (10 steps x 16 envs x 2 robots; smallest radius "
+          f"{smallest_radius:g} um): median / max, as a fraction of that radius")
+    for speed in (0.0, 12.0):
+        print(f"  traps at {speed:g} um/s: " + ", ".join(
+            f"{name} {np.median(o) / smallest_radius:.1%} / {o.max() / smallest_radius:.1%}"
+            for name, o in ((name, grip_overlaps_um(scene, speed)) for name, scene in scenes.items())))
 
 
 if __name__ == "__main__":
