@@ -36,8 +36,11 @@ def save_policy(path, q_params, meta: dict) -> Path:
 
 
 def policy_meta(path) -> dict:
-    """The ``__meta__`` of a policy file (raises FileNotFoundError or ValueError)."""
+    """The ``__meta__`` of a policy file (raises FileNotFoundError, IsADirectoryError or
+    ValueError)."""
     path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(f"{path} is a folder; give a policy file (policy.npz from otgym train)")
     if not path.is_file():
         raise FileNotFoundError(f"policy file {path} does not exist")
     try:

@@ -53,6 +53,7 @@ def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params):
 
 @pytest.mark.parametrize("arguments, message", [
     (["evaluate", "--policy", "nowhere.npz"], "does not exist"),
+    (["evaluate", "--policy", "."], ". is a folder; give a policy file"),
     (["evaluate", "--policy", "pretrained", "--episodes", "0"], "--episodes"),
     (["evaluate", "--policy", "pretrained", "--repeats", "0"], "--repeats"),
     (["train", "--preset", "fast"], "unknown preset"),
