@@ -249,29 +249,13 @@ def _substep(model: Model, controls, trap_start, fields, body_drag, carry, input
             jnp.maximum(distance_max, distance), jnp.maximum(overlap_max, overlap)), None
 
 
-def _noise_chunk_substeps(model: Model, n_env: int, itemsize: int) -> int:
-    """Substeps whose noise is drawn at once: all of them if that fits in
-    ``model.noise_chunk_bytes``, else the most whole field-refresh blocks that divide the
-    step and fit (one block at the least)."""
-    per_substep = 3 * model.n_bodies * n_env * itemsize
-    if model.substeps * per_substep <= model.noise_chunk_bytes:
-        return model.substeps
-    blocks = model.substeps // model.field_refresh
-    fitting = [count for count in range(1, blocks + 1)
-               if blocks % count == 0 and count * model.field_refresh * per_substep <= model.noise_chunk_bytes]
-    return max(fitting, default=1) * model.field_refresh
-
-
 def control_step_batch(model: Model, state: PhysicsState, controls: Controls, key):
     """Advance E environments (leading batch axis on state and controls) by one
     control step of ``model.substeps`` Euler-Maruyama steps.
 
     ``key`` is one PRNG key for the whole batch: the noise of all environments is drawn
     in one call, directly in the batch-last layout (3x faster on CPU than one key per
-    environment, which is what ``vmap(control_step)`` does). Where that draw would take
-    more than ``model.noise_chunk_bytes`` (a transport-scene step needs 0.17 MB per
-    environment, so from about 6,400 environments on), it is drawn in chunks of whole
-    field-refresh blocks inside the loop, each from ``fold_in(key, chunk)``.
+    environment, which is what ``vmap(control_step)`` does).
     Returns (state, StepReport), both with a leading batch axis."""
     pose, trap_xy = state.pose, state.trap_xy_um
     if pose.ndim != 3 or pose.shape[1:] != (model.n_bodies, 3):
@@ -281,6 +265,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         raise ValueError(f"state.trap_xy_um must have shape {(n_env, model.n_traps, 2)}, got {trap_xy.shape}")
     _check_controls(model, controls, (n_env,))
     dtype = pose.dtype
+    noise = jax.random.normal(key, (model.substeps, 3, model.n_bodies, n_env), dtype)
     last = lambda a: jnp.moveaxis(a, 0, -1)  # noqa: E731  (E, K, ...) -> (K, ..., E)
     pose_t, trap_t = last(pose), last(trap_xy)
     body_velocity, external = last(controls.body_velocity), last(controls.external_force)
@@ -295,6 +280,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
              jnp.zeros((model.n_traps, n_env), dtype), jnp.zeros(n_env, dtype))
     trap_start = (trap_t[:, 0], trap_t[:, 1])
     refresh = model.field_refresh
+    blocks = model.substeps // refresh
 
     def sample(carry):
         turn = carry[3], carry[4]
@@ -307,27 +293,15 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         return jax.lax.scan(lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, i),
                             carry, inputs)
 
-    def run_steps(carry, noise, index):
-        """The substeps ``index`` (a whole number of field-refresh blocks) with their noise."""
-        if refresh == 1:  # one flat loop: a scan of one-step blocks costs a loop level per step
-            def single(carry, inputs):
-                return _substep(model, step_controls, trap_start, *sample(carry), carry, inputs)
+    if refresh == 1:  # one flat loop: a scan of one-step blocks costs a loop level per step
+        def single(carry, inputs):
+            return _substep(model, step_controls, trap_start, *sample(carry), carry, inputs)
 
-            return jax.lax.scan(single, carry, (noise, index))[0]
-        inputs = (noise.reshape((-1, refresh) + noise.shape[1:]), index.reshape(-1, refresh))
-        return jax.lax.scan(block, carry, inputs)[0]
-
-    chunk = _noise_chunk_substeps(model, n_env, np.dtype(dtype).itemsize)
-    noise_shape = (3, model.n_bodies, n_env)
-    if chunk == model.substeps:
-        carry = run_steps(carry, jax.random.normal(key, (model.substeps,) + noise_shape, dtype),
-                          jnp.arange(model.substeps))
+        carry, _ = jax.lax.scan(single, carry, (noise, jnp.arange(model.substeps)))
     else:
-        def chunk_of_steps(carry, number):
-            noise = jax.random.normal(jax.random.fold_in(key, number), (chunk,) + noise_shape, dtype)
-            return run_steps(carry, noise, number * chunk + jnp.arange(chunk)), None
-
-        carry, _ = jax.lax.scan(chunk_of_steps, carry, jnp.arange(model.substeps // chunk))
+        inputs = (noise.reshape((blocks, refresh) + noise.shape[1:]),
+                  jnp.arange(model.substeps).reshape(blocks, refresh))
+        carry, _ = jax.lax.scan(block, carry, inputs)
     (px, py, theta, cos, sin, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
      distance_max, overlap_max) = carry
     x, y, _, _ = _sphere_xy(model, px, py, (cos, sin))

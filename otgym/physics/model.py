@@ -153,10 +153,6 @@ class Model:
     field_refresh: int = struct.field(pytree_node=False, default=1)
     projection_iterations: int = struct.field(pytree_node=False, default=0)
     """0: penalty contact alone; else the overlap projection's iterations per step."""
-    noise_chunk_bytes: int = struct.field(pytree_node=False, default=2**30)
-    """A control step whose noise (substeps x 3 x bodies x environments values) would
-    take more than this draws it in chunks inside its loop instead of up front (so large
-    GPU batches fit in memory); below it, one draw for the whole step."""
 
     @property
     def n_bodies(self) -> int:

@@ -43,10 +43,8 @@ def interacting_drag(body):
     return 1 / np.diag(mobility)[:2], 1 / mobility[2, 2]
 
 
-def measured_variances(body, config, theta=0.0, noise_chunk_bytes=None):
+def measured_variances(body, config, theta=0.0):
     model = ph.build_model([body], config, traps=[])
-    if noise_chunk_bytes is not None:
-        model = model.replace(noise_chunk_bytes=noise_chunk_bytes)
     state = batch_state(model, np.array([[0.0, 0.0, theta]]), N_ENV)
     controls = ph.Controls.zeros(model, N_ENV)
     _, (states, _) = run_batch(model, state, controls, jax.random.PRNGKey(7), N_STEPS)
@@ -59,25 +57,17 @@ def measured_variances(body, config, theta=0.0, noise_chunk_bytes=None):
     return np.array([along.var(), across.var(), steps[..., 2].var()]), config.control_period_s
 
 
-ONE_SUBSTEP_OF_NOISE_BYTES = 3 * N_ENV * 4
-"""A ``noise_chunk_bytes`` that makes a one-body step draw its noise one substep at a
-time inside its loop (as very large batches do): if the chunks reused one draw, the
-5 substeps' increments would add up coherently and the variances come out 5 times too
-large."""
-
-
-@pytest.mark.parametrize("body, height, theta, noise_chunk_bytes", [
-    (ph.bead(radius_um=0.5), None, 0.0, None),
-    (ph.bead(radius_um=0.5), None, 0.0, ONE_SUBSTEP_OF_NOISE_BYTES),
-    (ph.two_handle_robot(), None, 0.0, None),
-    (ph.two_handle_robot(), None, 1.1, None),  # turned: the anisotropy must turn with the body
-    (ph.four_arm_robot(), 4.0, 0.0, None),  # near the chip floor: free-draining and Faxen-corrected
+@pytest.mark.parametrize("body, height, theta", [
+    (ph.bead(radius_um=0.5), None, 0.0),
+    (ph.two_handle_robot(), None, 0.0),
+    (ph.two_handle_robot(), None, 1.1),  # turned: the anisotropy must turn with the body
+    (ph.four_arm_robot(), 4.0, 0.0),  # near the chip floor: free-draining and Faxen-corrected
 ])
-def test_translational_and_rotational_diffusion_match_mobility(body, height, theta, noise_chunk_bytes):
+def test_translational_and_rotational_diffusion_match_mobility(body, height, theta):
     interaction = height is None
     config = ph.PhysicsConfig(dt_s=2e-4, substeps=5, height_above_floor_um=height,
                               hydrodynamic_interaction=interaction)
-    variances, duration = measured_variances(body, config, theta, noise_chunk_bytes)
+    variances, duration = measured_variances(body, config, theta)
     gamma_t, gamma_r = interacting_drag(body) if interaction else independent_drag(body, height)
     kt = 1.380649e-5 * 298.15
     d_t = variances[:2] / (2 * duration)
