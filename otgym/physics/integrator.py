@@ -283,7 +283,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     blocks = model.substeps // refresh
 
     def sample(carry):
-        turn = carry[3], carry[4]
+        turn = carry[3], carry[4]  # the (cos, sin) carried after (px, py, theta)
         x, y, _, _ = _sphere_xy(model, carry[0], carry[1], turn)
         fields = _sample_fields(model, x, y)
         return fields, _body_frame_flow_drag(model, turn, fields)
