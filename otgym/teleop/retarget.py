@@ -20,8 +20,9 @@ Per control tick (rate ``tick_rate_hz``), in this order:
    Physiological tremor lies at 8-12 Hz (McAuley & Marsden, Brain 123, 1545, 2000)
    while voluntary hand motion stays below about 2-3 Hz; the defaults (order 3, cutoff
    3.5 Hz at 50 Hz ticks) pass 1 Hz within 0.01 dB, attenuate 8 Hz by 23 dB and 10 Hz
-   by 31 dB, with a group delay of about 0.09 s. (The authors' release used an exponential moving average, alpha
-   0.05: at 100 Hz it takes 22 dB off 10 Hz but also 4 dB off 1 Hz, a lag of 0.2 s.)
+   by 31 dB, with a group delay of about 0.09 s. (The authors' release used an
+   exponential moving average, alpha 0.05: at 100 Hz it takes 22 dB off 10 Hz but also
+   4 dB off 1 Hz, a lag of 0.2 s.)
 5. Dead band: a filtered tip speed below ``dead_band_mm_s`` is zero (hand drift);
    above it the velocity passes unchanged.
 6. Scale and clamp: dP_h = tau v / tick_rate_hz um with tau =
