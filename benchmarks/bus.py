@@ -86,8 +86,9 @@ def spawn(endpoint: str, load: str) -> subprocess.Popen:
         command = ["-m", "otgym", "node", "sim", "--name", "device0", "--listen", endpoint]
     else:
         command = ["-c", SIM_SIDE, endpoint, load]
-    child = subprocess.Popen([sys.executable, *command], stdout=subprocess.PIPE, text=True,
-                             env={**os.environ, "PYTHONPATH": str(ROOT)})
+    child = subprocess.Popen(
+        [sys.executable, *command], stdout=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}
+    )
     while not child.stdout.readline().startswith("ready"):
         if child.poll() is not None:
             raise RuntimeError("the sim side died")
@@ -106,6 +107,7 @@ def round_trip(n: int, side: str) -> None:
     sent: set[float] = set()
     try:
         with Node("device", "device0", connect=[endpoint]) as node:
+
             def on_feedback(topic, message, data):
                 stamp = msg.stamp_s(message)
                 if stamp in sent:  # an answer to a twist (the node also publishes each tick's force)
@@ -134,10 +136,16 @@ def round_trip(n: int, side: str) -> None:
     finally:
         os.kill(child.pid, signal.SIGTERM if side == "node" else signal.SIGKILL)
         child.wait()
-    label = {"node": "otgym node sim (ticks in its worker)", "sim": "same process, ticks back to back",
-             "paced": "same process, ticks at 50 Hz"}[side]
-    print(f"bus round trip device -> sim -> feedback, {label}: {percentiles_ms(rtts)}; {n - len(rtts)} lost; "
-          f"load average {os.getloadavg()[0]:.2f}", flush=True)
+    label = {
+        "node": "otgym node sim (ticks in its worker)",
+        "sim": "same process, ticks back to back",
+        "paced": "same process, ticks at 50 Hz",
+    }[side]
+    print(
+        f"bus round trip device -> sim -> feedback, {label}: {percentiles_ms(rtts)}; {n - len(rtts)} lost; "
+        f"load average {os.getloadavg()[0]:.2f}",
+        flush=True,
+    )
 
 
 def in_process_reference(n: int) -> None:
@@ -171,8 +179,9 @@ def in_process_reference(n: int) -> None:
         device.set_force(np.zeros(3))
         path.append(time.perf_counter() - begin)
     ticks = [loop.tick().wall_s for _ in range(200)]
-    print(f"in-process device path (read + set_force): {percentiles_ms(path)}; "
-          f"in-process tick: {percentiles_ms(ticks)}")
+    print(
+        f"in-process device path (read + set_force): {percentiles_ms(path)}; in-process tick: {percentiles_ms(ticks)}"
+    )
 
 
 def liveliness(kills: int) -> None:
@@ -189,8 +198,10 @@ def liveliness(kills: int) -> None:
             gone.wait(5.0)
             delays.append(time.monotonic() - killed_at if gone.is_set() else float("inf"))
             child.wait()
-    print(f"liveliness: a SIGKILLed node noticed after {', '.join(f'{d * 1e3:.1f}' for d in delays)} ms "
-          f"(max {max(delays) * 1e3:.1f} ms)")
+    print(
+        f"liveliness: a SIGKILLed node noticed after {', '.join(f'{d * 1e3:.1f}' for d in delays)} ms "
+        f"(max {max(delays) * 1e3:.1f} ms)"
+    )
 
 
 def rates() -> None:

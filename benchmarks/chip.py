@@ -86,8 +86,14 @@ def sensor_frames(frames, seed=0):
     rng = np.random.default_rng(seed)
     robot = two_handle_robot()
     theta = rng.uniform(0.0, 2 * np.pi, frames)
-    rotation = np.stack([np.stack([np.cos(theta), -np.sin(theta)], -1), np.stack([np.sin(theta), np.cos(theta)], -1)], -2)
-    spheres = np.array([7.0, 7.0]) + rng.uniform(-0.5, 0.5, (frames, 1, 2)) + np.einsum("bij,nj->bni", rotation, robot.offsets_um)
+    rotation = np.stack(
+        [np.stack([np.cos(theta), -np.sin(theta)], -1), np.stack([np.sin(theta), np.cos(theta)], -1)], -2
+    )
+    spheres = (
+        np.array([7.0, 7.0])
+        + rng.uniform(-0.5, 0.5, (frames, 1, 2))
+        + np.einsum("bij,nj->bni", rotation, robot.offsets_um)
+    )
     handles = spheres[:, list(robot.handle_indices)]
     law = TrapLaw.paper()
     distance = rng.uniform(0.1, law.paper_delta_um, (frames, 2))
@@ -117,8 +123,10 @@ def main(frames: int) -> None:
     numbering = _Numbering(chip.fluid)
     solve_time, _ = timed(lambda: solve_flow(chip))
     sdf_time, _ = timed(lambda: signed_distance_um(chip))
-    print(f"flow: default chip {chip.shape[1]}x{chip.shape[0]} px, {numbering.size} unknowns: "
-          f"solve {solve_time:.2f} s (target <= 10 s); wall distance field {sdf_time:.2f} s")
+    print(
+        f"flow: default chip {chip.shape[1]}x{chip.shape[0]} px, {numbering.size} unknowns: "
+        f"solve {solve_time:.2f} s (target <= 10 s); wall distance field {sdf_time:.2f} s"
+    )
 
     scene = transport_scene()
     flow = solve_flow(chip)
@@ -128,8 +136,10 @@ def main(frames: int) -> None:
     render_time, _ = timed(lambda: [renderer.render(*scene) for _ in range(n_render)], repeats=3)
     reference_time, _ = timed(lambda: [matplotlib_frame(chip, scene) for _ in range(10)], repeats=2)
     ours_fps, reference_fps = n_render / render_time, 10 / reference_time
-    print(f"render 512x512: otgym {ours_fps:.0f} frames/s (target >= 60); matplotlib (reference) "
-          f"{reference_fps:.1f} frames/s; ratio {ours_fps / reference_fps:.0f}x")
+    print(
+        f"render 512x512: otgym {ours_fps:.0f} frames/s (target >= 60); matplotlib (reference) "
+        f"{reference_fps:.1f} frames/s; ratio {ours_fps / reference_fps:.0f}x"
+    )
 
     spheres, radii, handles, traps, origin, law = sensor_frames(frames)
     params = MicroscopeParams(pixel_size_um=0.1)
@@ -138,20 +148,26 @@ def main(frames: int) -> None:
     sensor = VisionForceSensor(law)
     batch_time, reading = timed(lambda: sensor.measure(images, origin, params.pixel_size_um, traps))
     n_single = min(frames, 100)
-    single_time, _ = timed(lambda: [sensor.measure(images[i], origin[i], params.pixel_size_um, traps[i])
-                                    for i in range(n_single)])
+    single_time, _ = timed(
+        lambda: [sensor.measure(images[i], origin[i], params.pixel_size_um, traps[i]) for i in range(n_single)]
+    )
     errors = sensor_errors(reading, handles, np.asarray(law.force_pn(traps - handles)))
     n_ref = min(frames, 100)
-    ref_time, ref_xy = timed(lambda: blob_log_positions(images[:n_ref], origin[:n_ref], params.pixel_size_um,
-                                                        traps[:n_ref], 1.25))
+    ref_time, ref_xy = timed(
+        lambda: blob_log_positions(images[:n_ref], origin[:n_ref], params.pixel_size_um, traps[:n_ref], 1.25)
+    )
     ref_error = np.linalg.norm(ref_xy - handles[:n_ref], axis=-1)
-    print(f"sensor (2 handles/frame): batch {frames / batch_time:.0f} frames/s, one frame at a time "
-          f"{n_single / single_time:.0f} frames/s; mean position error {1000 * errors['position_um'].mean():.1f} nm "
-          f"(99th percentile {1000 * np.percentile(errors['position_um'], 99):.1f} nm), mean force error "
-          f"{100 * errors['relative_force'].mean():.2f} % over {errors['position_um'].size} handles")
-    print(f"reference scikit-image blob_log: {n_ref / ref_time:.1f} frames/s, mean position error "
-          f"{1000 * np.nanmean(ref_error):.0f} nm (median {1000 * np.nanmedian(ref_error):.0f} nm) over "
-          f"{np.isfinite(ref_error).sum()} handles")
+    print(
+        f"sensor (2 handles/frame): batch {frames / batch_time:.0f} frames/s, one frame at a time "
+        f"{n_single / single_time:.0f} frames/s; mean position error {1000 * errors['position_um'].mean():.1f} nm "
+        f"(99th percentile {1000 * np.percentile(errors['position_um'], 99):.1f} nm), mean force error "
+        f"{100 * errors['relative_force'].mean():.2f} % over {errors['position_um'].size} handles"
+    )
+    print(
+        f"reference scikit-image blob_log: {n_ref / ref_time:.1f} frames/s, mean position error "
+        f"{1000 * np.nanmean(ref_error):.0f} nm (median {1000 * np.nanmedian(ref_error):.0f} nm) over "
+        f"{np.isfinite(ref_error).sum()} handles"
+    )
 
 
 if __name__ == "__main__":

@@ -18,8 +18,8 @@ import argparse
 import jax
 import jax.numpy as jnp
 import numpy as np
-
 from physics_throughput import control_steps_per_second  # benchmarks/ is on the path when run as a script
+
 from otgym.sim import scene as sc
 
 CAP = 0.02
@@ -28,8 +28,11 @@ CAP = 0.02
 def rate(scene, n_env: int, seconds: float) -> float:
     states = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), n_env))
     velocity = jnp.zeros((n_env, scene.n_traps, 2))
-    return control_steps_per_second(jax.jit(sc.step_batch), scene, states, velocity, seconds) \
-        * scene.model.substeps * n_env
+    return (
+        control_steps_per_second(jax.jit(sc.step_batch), scene, states, velocity, seconds)
+        * scene.model.substeps
+        * n_env
+    )
 
 
 def grip_overlaps_um(scene, speed_um_s: float, n_env: int = 16, n_steps: int = 10) -> np.ndarray:
@@ -55,8 +58,10 @@ def main():
         parser.error(f"--envs must be positive integers separated by commas, got {args.envs!r}")
     if min(env_counts) < 1 or args.seconds <= 0 or args.repeats < 1:
         parser.error("--envs counts and --repeats must be at least 1 and --seconds positive")
-    scenes = {"penalty (reference)": sc.build_scene(sc.SceneConfig()),
-              f"projection, cap {CAP:g}": sc.build_scene(sc.SceneConfig(contact_overlap_cap=CAP))}
+    scenes = {
+        "penalty (reference)": sc.build_scene(sc.SceneConfig()),
+        f"projection, cap {CAP:g}": sc.build_scene(sc.SceneConfig(contact_overlap_cap=CAP)),
+    }
     print("transport scene, default chip: env-substeps/s, best of", args.repeats)
     for n_env in env_counts:
         best = {name: 0.0 for name in scenes}
@@ -64,15 +69,24 @@ def main():
             for name, scene in scenes.items():
                 best[name] = max(best[name], rate(scene, n_env, args.seconds))
         reference, projected = best.values()
-        print(f"  {n_env:5d} envs: " + ", ".join(f"{name} {value:.3g}" for name, value in best.items())
-              + f"; projection / penalty = {projected / reference:.2f}")
+        print(
+            f"  {n_env:5d} envs: "
+            + ", ".join(f"{name} {value:.3g}" for name, value in best.items())
+            + f"; projection / penalty = {projected / reference:.2f}"
+        )
     smallest_radius = float(np.min(np.asarray(next(iter(scenes.values())).model.sphere_radius_um)))
-    print(f"gripper-cell overlap at the control steps' ends (10 steps x 16 envs x 2 robots; smallest radius "
-          f"{smallest_radius:g} um): median / max, as a fraction of that radius")
+    print(
+        f"gripper-cell overlap at the control steps' ends (10 steps x 16 envs x 2 robots; smallest radius "
+        f"{smallest_radius:g} um): median / max, as a fraction of that radius"
+    )
     for speed in (0.0, 12.0):
-        print(f"  traps at {speed:g} um/s: " + ", ".join(
-            f"{name} {np.median(o) / smallest_radius:.1%} / {o.max() / smallest_radius:.1%}"
-            for name, o in ((name, grip_overlaps_um(scene, speed)) for name, scene in scenes.items())))
+        print(
+            f"  traps at {speed:g} um/s: "
+            + ", ".join(
+                f"{name} {np.median(o) / smallest_radius:.1%} / {o.max() / smallest_radius:.1%}"
+                for name, o in ((name, grip_overlaps_um(scene, speed)) for name, scene in scenes.items())
+            )
+        )
 
 
 if __name__ == "__main__":

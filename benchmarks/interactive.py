@@ -98,8 +98,12 @@ def kernel_first_calls_cpu_s() -> tuple[dict, dict]:
     first of them also pays numba's own start-up (about 0.2 s)."""
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-        runs = [subprocess.run([sys.executable, "-c", KERNELS_FIRST_CALLS], env=env, capture_output=True, text=True,
-                               check=True) for _ in range(2)]
+        runs = [
+            subprocess.run(
+                [sys.executable, "-c", KERNELS_FIRST_CALLS], env=env, capture_output=True, text=True, check=True
+            )
+            for _ in range(2)
+        ]
     return tuple(json.loads(run.stdout) for run in runs)
 
 
@@ -110,23 +114,35 @@ def main():
     parser.add_argument("--paced-s", type=float, default=5.0, help="simulated seconds of the paced run")
     parser.add_argument("--quick", action="store_true", help="300 ticks, 2 s idle, 2 s paced")
     parser.add_argument("--no-compile", action="store_true", help="skip timing the numba kernels' compilation")
-    parser.add_argument("--normal-priority", action="store_true",
-                        help="run the servo loop at normal priority (default: it asks for SCHED_FIFO 50)")
+    parser.add_argument(
+        "--normal-priority",
+        action="store_true",
+        help="run the servo loop at normal priority (default: it asks for SCHED_FIFO 50)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.ticks, args.idle_s, args.paced_s = 300, 2.0, 2.0
-    print(f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}); {os.cpu_count()} CPU cores, "
-          f"load average {os.getloadavg()[0]:.2f} at start (other jobs included)")
+    print(
+        f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}); {os.cpu_count()} CPU cores, "
+        f"load average {os.getloadavg()[0]:.2f} at start (other jobs included)"
+    )
     task = InteractiveTask()
     scenario = task.scenario(SCENARIO_SEED)
     tick_s = task.config.tick_s
     hand = SteadyHand(velocity_mm_s=HAND_VELOCITY_MM_S)
-    stylus = ServoDevice(functools.partial(SimulatedHapticBackend, hand=hand), SIMULATED_HAPTIC_CAPS,
-                         period_capacity=PERIOD_CAPACITY, realtime_priority=None if args.normal_priority else 50)
+    stylus = ServoDevice(
+        functools.partial(SimulatedHapticBackend, hand=hand),
+        SIMULATED_HAPTIC_CAPS,
+        period_capacity=PERIOD_CAPACITY,
+        realtime_priority=None if args.normal_priority else 50,
+    )
     loop = InteractiveLoop(task, [DeviceBinding(stylus, (0, 1))], scenario, "shared", seed=0)
     with loop:
-        scheduling = "SCHED_FIFO 50" if stylus.realtime else "normal (" + (
-            "asked" if args.normal_priority else "SCHED_FIFO refused") + ")"
+        scheduling = (
+            "SCHED_FIFO 50"
+            if stylus.realtime
+            else "normal (" + ("asked" if args.normal_priority else "SCHED_FIFO refused") + ")"
+        )
         loop.run(WARM_UP_TICKS * tick_s, realtime=False)
         idle_periods, _ = servo_phase(stylus, lambda: time.sleep(args.idle_s))
         begin = time.perf_counter()
@@ -139,44 +155,63 @@ def main():
         late = loop.late_ticks - late_before
     physics_s = physics_reference(task, scenario, args.ticks)
 
-    print(f"interactive tick: one environment, shared mode, {tick_s * 1e3:.0f} ms ticks, one simulated stylus "
-          f"(own process) driving both robots, {loop.task.n_traps} crops of {loop.crop_px}x{loop.crop_px} px at "
-          f"{loop.microscope.pixel_size_um} um")
-    print(f"  ticks timed back to back: {len(records)} ({len(records) * tick_s:.1f} s simulated) "
-          f"in {busy_wall_s:.2f} s wall")
+    print(
+        f"interactive tick: one environment, shared mode, {tick_s * 1e3:.0f} ms ticks, one simulated stylus "
+        f"(own process) driving both robots, {loop.task.n_traps} crops of {loop.crop_px}x{loop.crop_px} px at "
+        f"{loop.microscope.pixel_size_um} um"
+    )
+    print(
+        f"  ticks timed back to back: {len(records)} ({len(records) * tick_s:.1f} s simulated) "
+        f"in {busy_wall_s:.2f} s wall"
+    )
     factor = len(records) * tick_s / busy_wall_s
     physics_factor = tick_s / physics_s
     print(f"  real-time factor: {factor:.2f}x (goal >= 10x: {'met' if factor >= 10 else 'not met'})")
-    print(f"  reference, physics alone (InteractiveTask.step): {physics_factor:.1f}x real time, "
-          f"{physics_s * 1e3:.2f} ms per tick; full tick / physics alone = {physics_factor / factor:.1f}x the time")
+    print(
+        f"  reference, physics alone (InteractiveTask.step): {physics_factor:.1f}x real time, "
+        f"{physics_s * 1e3:.2f} ms per tick; full tick / physics alone = {physics_factor / factor:.1f}x the time"
+    )
     print(f"  {'stage':<8} {'p50 (ms)':>9} {'p99 (ms)':>9} {'share of mean':>14}")
-    stages = {name: np.array([getattr(r, f"{name}_s") for r in records]) for name in ("physics", "render", "sense",
-                                                                                       "rest")}
+    stages = {
+        name: np.array([getattr(r, f"{name}_s") for r in records]) for name in ("physics", "render", "sense", "rest")
+    }
     total = sum(stages.values())
     for name, values in list(stages.items()) + [("total", total)]:
         p50, p99 = percentiles_ms(values)
         print(f"  {name:<8} {p50:>9.2f} {p99:>9.2f} {values.mean() / total.mean():>13.0%}")
-    print(f"  paced at real time for {args.paced_s:g} s simulated: {len(paced)} ticks in {paced_wall_s:.2f} s wall "
-          f"(simulated / wall = {len(paced) * tick_s / paced_wall_s:.3f}), schedule restarts {late}")
+    print(
+        f"  paced at real time for {args.paced_s:g} s simulated: {len(paced)} ticks in {paced_wall_s:.2f} s wall "
+        f"(simulated / wall = {len(paced) * tick_s / paced_wall_s:.3f}), schedule restarts {late}"
+    )
 
-    print(f"servo loop of the simulated stylus in its own process, target {SIMULATED_HAPTIC_CAPS.rate_hz:g} Hz, "
-          f"scheduling {scheduling}")
+    print(
+        f"servo loop of the simulated stylus in its own process, target {SIMULATED_HAPTIC_CAPS.rate_hz:g} Hz, "
+        f"scheduling {scheduling}"
+    )
     print(f"  {'phase':<42} {'periods':>8} {'p50 (ms)':>9} {'p99 (ms)':>9} {'max (ms)':>9} {'p99 ratio':>10}")
     idle_p99 = percentiles_ms(idle_periods)[1]
-    for name, periods in (("reference: simulation idle", idle_periods),
-                          ("simulation running back to back", busy_periods),
-                          ("simulation paced at real time", paced_periods)):
+    for name, periods in (
+        ("reference: simulation idle", idle_periods),
+        ("simulation running back to back", busy_periods),
+        ("simulation paced at real time", paced_periods),
+    ):
         p50, p99 = percentiles_ms(periods)
-        print(f"  {name:<42} {len(periods):>8} {p50:>9.3f} {p99:>9.3f} {periods.max() * 1e3:>9.2f} "
-              f"{p99 / idle_p99:>9.2f}x")
+        print(
+            f"  {name:<42} {len(periods):>8} {p50:>9.3f} {p99:>9.3f} {periods.max() * 1e3:>9.2f} "
+            f"{p99 / idle_p99:>9.2f}x"
+        )
     worst = max(percentiles_ms(busy_periods)[1], percentiles_ms(paced_periods)[1])
-    print(f"  goal p99 <= 1.5 ms with the simulation running: {'met' if worst <= 1.5 else 'not met'} "
-          f"(worst p99 {worst:.3f} ms)")
+    print(
+        f"  goal p99 <= 1.5 ms with the simulation running: {'met' if worst <= 1.5 else 'not met'} "
+        f"(worst p99 {worst:.3f} ms)"
+    )
     if not args.no_compile:
         cold, cached = kernel_first_calls_cpu_s()
-        print(f"numba kernels, first call in a fresh interpreter (CPU s): compiled from nothing: microscope "
-              f"{cold['microscope']:.2f}, sensor {cold['sensor']:.2f}; loaded from the cache: microscope "
-              f"{cached['microscope']:.3f}, sensor {cached['sensor']:.3f}")
+        print(
+            f"numba kernels, first call in a fresh interpreter (CPU s): compiled from nothing: microscope "
+            f"{cold['microscope']:.2f}, sensor {cold['sensor']:.2f}; loaded from the cache: microscope "
+            f"{cached['microscope']:.3f}, sensor {cached['sensor']:.3f}"
+        )
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
 
 

@@ -51,13 +51,32 @@ print(rate * window_s, window_s, rate * n_env * substeps, flush=True)
 
 def run_pair(this: Path, baseline: Path, scene: str, n_env: int, seconds: float, core: int, start_in_s: float):
     """Both workers' (calls, seconds, env-substeps/s), started at the same moment."""
-    environment = dict(os.environ, XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
-                       JAX_PLATFORMS="cpu")
+    environment = dict(
+        os.environ, XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1", JAX_PLATFORMS="cpu"
+    )
     start_at = time.time() + start_in_s
-    workers = [subprocess.Popen(["taskset", "-c", str(core), sys.executable, "-c", WORKER, str(repo), scene,
-                                 str(n_env), str(start_at), str(seconds)],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
-               for repo in (this, baseline)]
+    workers = [
+        subprocess.Popen(
+            [
+                "taskset",
+                "-c",
+                str(core),
+                sys.executable,
+                "-c",
+                WORKER,
+                str(repo),
+                scene,
+                str(n_env),
+                str(start_at),
+                str(seconds),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=environment,
+        )
+        for repo in (this, baseline)
+    ]
     results = []
     for worker in workers:
         out, err = worker.communicate()
@@ -76,20 +95,29 @@ def main():
     parser.add_argument("--seconds", type=float, default=60.0, help="timed window of each pair")
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--core", type=int, default=1, help="the CPU core both workers share")
-    parser.add_argument("--start-in-s", type=float, default=40.0,
-                        help="time given to both workers to import and compile before the window opens")
+    parser.add_argument(
+        "--start-in-s",
+        type=float,
+        default=40.0,
+        help="time given to both workers to import and compile before the window opens",
+    )
     args = parser.parse_args()
     this = Path(__file__).resolve().parent.parent
     if not (args.baseline / "otgym" / "physics").is_dir():
         raise SystemExit(f"error: {args.baseline} is not an otgym checkout")
-    print(f"{args.scene} scene, {args.envs} environments, one core ({args.core}) shared by both, XLA on one "
-          f"thread, {args.seconds:g} s windows; load average {os.getloadavg()[0]:.2f} at start")
+    print(
+        f"{args.scene} scene, {args.envs} environments, one core ({args.core}) shared by both, XLA on one "
+        f"thread, {args.seconds:g} s windows; load average {os.getloadavg()[0]:.2f} at start"
+    )
     print(f"this: {this}\nbaseline: {args.baseline.resolve()}")
     for repeat in range(args.repeats):
-        (calls_a, _, rate_a), (calls_b, _, rate_b) = run_pair(this, args.baseline, args.scene, args.envs,
-                                                               args.seconds, args.core, args.start_in_s)
-        print(f"  pair {repeat + 1}: this {rate_a:.3g} env-substeps/s ({calls_a} calls), baseline {rate_b:.3g} "
-              f"({calls_b} calls): ratio {rate_a / rate_b:.3f}")
+        (calls_a, _, rate_a), (calls_b, _, rate_b) = run_pair(
+            this, args.baseline, args.scene, args.envs, args.seconds, args.core, args.start_in_s
+        )
+        print(
+            f"  pair {repeat + 1}: this {rate_a:.3g} env-substeps/s ({calls_a} calls), baseline {rate_b:.3g} "
+            f"({calls_b} calls): ratio {rate_a / rate_b:.3f}"
+        )
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
 
 

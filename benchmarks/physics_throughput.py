@@ -37,8 +37,7 @@ def standard_model(temperature_k=298.15):
     bodies = [ph.two_handle_robot("robot_a"), ph.two_handle_robot("robot_b"), ph.cell("cell")]
     bodies += [ph.obstacle(f"obstacle_{i}", kinematic=False) for i in range(4)]
     config = ph.PhysicsConfig(dt_s=1e-4, substeps=SUBSTEPS, temperature_k=temperature_k)
-    pose = np.array([[0, -6.0, 0], [0, 6.0, np.pi], [0, 0, 0], [25, 0, 0], [-25, 0, 0],
-                     [0, 25, 0], [0, -25, 0]], float)
+    pose = np.array([[0, -6.0, 0], [0, 6.0, np.pi], [0, 0, 0], [25, 0, 0], [-25, 0, 0], [0, 25, 0], [0, -25, 0]], float)
     return ph.build_model(bodies, config), pose
 
 
@@ -79,8 +78,11 @@ def numpy_substep(m, pose, trap_xy, noise):
     body_y = -sin * generalised[..., 0] + cos * generalised[..., 1]
     mob, chol = m["mobility"], m["noise"]
     step_x = (mob[:, 0, 0] * body_x + mob[:, 0, 1] * body_y) * m["dt"] + chol[:, 0, 0] * noise[..., 0]
-    step_y = ((mob[:, 1, 0] * body_x + mob[:, 1, 1] * body_y) * m["dt"] + chol[:, 1, 0] * noise[..., 0]
-              + chol[:, 1, 1] * noise[..., 1])
+    step_y = (
+        (mob[:, 1, 0] * body_x + mob[:, 1, 1] * body_y) * m["dt"]
+        + chol[:, 1, 0] * noise[..., 0]
+        + chol[:, 1, 1] * noise[..., 1]
+    )
     new = pose.copy()
     new[..., 0] += cos * step_x - sin * step_y
     new[..., 1] += sin * step_x + cos * step_y
@@ -90,11 +92,19 @@ def numpy_substep(m, pose, trap_xy, noise):
 
 def numpy_arrays(model):
     get = lambda a: np.asarray(a, np.float64)  # noqa: E731
-    return {"offset": get(model.sphere_offset_um), "radius": get(model.sphere_radius_um),
-            "stiffness": get(model.pair_stiffness_pn_per_um), "hamaker": get(model.pair_hamaker_pn_um),
-            "min_gap": float(model.min_gap_um), "wavelength": float(model.retardation_wavelength_um), "mobility": get(model.body_translational_mobility),
-            "noise": get(model.body_translational_noise_um), "rotational_mobility": get(model.body_rotational_mobility),
-            "rotational_noise": get(model.body_rotational_noise_rad), "dt": float(model.dt_s)}
+    return {
+        "offset": get(model.sphere_offset_um),
+        "radius": get(model.sphere_radius_um),
+        "stiffness": get(model.pair_stiffness_pn_per_um),
+        "hamaker": get(model.pair_hamaker_pn_um),
+        "min_gap": float(model.min_gap_um),
+        "wavelength": float(model.retardation_wavelength_um),
+        "mobility": get(model.body_translational_mobility),
+        "noise": get(model.body_translational_noise_um),
+        "rotational_mobility": get(model.body_rotational_mobility),
+        "rotational_noise": get(model.body_rotational_noise_rad),
+        "dt": float(model.dt_s),
+    }
 
 
 class NumpyModel(dict):
@@ -116,8 +126,10 @@ def check_same_dynamics():
     jax_state, _ = jax.jit(ph.control_step)(half, state, ph.Controls.zeros(half), jax.random.PRNGKey(0))
     difference = np.abs(np.asarray(jax_state.pose) - numpy_pose[0]).max()
     moved = np.abs(numpy_pose[0] - np.asarray(state.pose)).max()
-    print(f"same dynamics check: JAX vs NumPy after {SUBSTEPS // 2} steps at T=0: "
-          f"max |difference| {difference:.2e} (bodies moved up to {moved:.2e})")
+    print(
+        f"same dynamics check: JAX vs NumPy after {SUBSTEPS // 2} steps at T=0: "
+        f"max |difference| {difference:.2e} (bodies moved up to {moved:.2e})"
+    )
     assert difference < 1e-4, "the NumPy reference and the JAX core disagree"
 
 
@@ -137,8 +149,9 @@ def control_steps_per_second(step, first, state, second, min_seconds):
 
 def time_jax(model, pose, n_env, min_seconds):
     state = jax.tree.map(lambda a: jnp.broadcast_to(a, (n_env,) + a.shape), ph.initial_state(model, pose))
-    rate = control_steps_per_second(jax.jit(ph.control_step_batch), model, state,
-                                    ph.Controls.zeros(model, n_env), min_seconds)
+    rate = control_steps_per_second(
+        jax.jit(ph.control_step_batch), model, state, ph.Controls.zeros(model, n_env), min_seconds
+    )
     return rate * SUBSTEPS * n_env
 
 
@@ -158,12 +171,17 @@ def time_numpy(model, pose, n_env, min_seconds):
 def compiled_cost_per_env_substep(model, pose, n_env=64):
     """XLA's cost analysis of one batched control step, divided by environments x substeps."""
     state = jax.tree.map(lambda a: jnp.broadcast_to(a, (n_env,) + a.shape), ph.initial_state(model, pose))
-    compiled = jax.jit(ph.control_step_batch).lower(model, state, ph.Controls.zeros(model, n_env),
-                                                    jax.random.PRNGKey(0)).compile()
+    compiled = (
+        jax.jit(ph.control_step_batch)
+        .lower(model, state, ph.Controls.zeros(model, n_env), jax.random.PRNGKey(0))
+        .compile()
+    )
     cost = compiled.cost_analysis()
     cost = cost[0] if isinstance(cost, (list, tuple)) else cost
-    return {name: cost.get(name, float("nan")) / (n_env * SUBSTEPS)
-            for name in ("flops", "transcendentals", "bytes accessed")}
+    return {
+        name: cost.get(name, float("nan")) / (n_env * SUBSTEPS)
+        for name in ("flops", "transcendentals", "bytes accessed")
+    }
 
 
 def time_scene(n_env, min_seconds):
@@ -183,15 +201,18 @@ def main():
     parser.add_argument("--scene-sizes", default="1,64,1024")
     args = parser.parse_args()
     seconds = 1.0 if args.quick else 3.0
-    print(f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}), "
-          f"{jax.device_count()} device(s)")
+    print(f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}), {jax.device_count()} device(s)")
     check_same_dynamics()
     model, pose = standard_model()
-    print(f"standard scene: {model.n_bodies} bodies, {len(model.sphere_body)} spheres, "
-          f"{len(model.pair_a)} sphere pairs, {model.n_traps} traps, dt = {float(model.dt_s):g} s")
+    print(
+        f"standard scene: {model.n_bodies} bodies, {len(model.sphere_body)} spheres, "
+        f"{len(model.pair_a)} sphere pairs, {model.n_traps} traps, dt = {float(model.dt_s):g} s"
+    )
     cost = compiled_cost_per_env_substep(model, pose)
-    print("compiled work per env-substep (XLA cost analysis, 64 envs): "
-          + ", ".join(f"{value:,.0f} {name}" for name, value in cost.items()))
+    print(
+        "compiled work per env-substep (XLA cost analysis, 64 envs): "
+        + ", ".join(f"{value:,.0f} {name}" for name, value in cost.items())
+    )
     print(f"{'envs':>6} {'otgym JAX env-substeps/s':>26} {'NumPy loop env-substeps/s':>27} {'ratio':>8}")
     for n_env in [int(s) for s in args.sizes.split(",")]:
         jax_rate = time_jax(model, pose, n_env, seconds)

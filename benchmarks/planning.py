@@ -67,8 +67,9 @@ def pyastar2d_runner():
 
 
 def benchmark(name, free, start, goal, pixel_size_um, repeats):
-    print(f"\n{name}: {free.shape[0]}x{free.shape[1]} pixels, {100 * (1 - free.mean()):.1f} % blocked, "
-          f"{start} -> {goal}")
+    print(
+        f"\n{name}: {free.shape[0]}x{free.shape[1]} pixels, {100 * (1 - free.mean()):.1f} % blocked, {start} -> {goal}"
+    )
     rows = []
     t_astar, (path, cost) = best_time(lambda: astar(free, start, goal), repeats)
     t_mcp, optimal = best_time(lambda: mcp(free, start, goal), max(1, repeats // 3))
@@ -86,8 +87,7 @@ def benchmark(name, free, start, goal, pixel_size_um, repeats):
     for label, seconds, length in rows:
         print(f"  {label:<30} {1e3 * seconds:9.2f} {seconds / t_mcp:11.3f} {length / optimal:15.6f}")
     ratio = path_length(smooth) / (optimal * pixel_size_um)
-    print(f"  {'otgym smoothing (B-spline)':<30} {1e3 * t_smooth:9.2f} {'':>11} {ratio:15.6f}  "
-          f"({len(smooth)} points)")
+    print(f"  {'otgym smoothing (B-spline)':<30} {1e3 * t_smooth:9.2f} {'':>11} {ratio:15.6f}  ({len(smooth)} points)")
     return t_astar, cost / optimal
 
 

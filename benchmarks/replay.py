@@ -32,9 +32,27 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def record_session(folder: Path, duration_s: float) -> Path:
-    subprocess.run([sys.executable, "-m", "otgym", "play", "--headless", "--device", "simulated", "--mode", "shared",
-                    "--duration", str(duration_s), "--no-questionnaire", "--out", str(folder)], check=True,
-                   env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.DEVNULL)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "otgym",
+            "play",
+            "--headless",
+            "--device",
+            "simulated",
+            "--mode",
+            "shared",
+            "--duration",
+            str(duration_s),
+            "--no-questionnaire",
+            "--out",
+            str(folder),
+        ],
+        check=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        stdout=subprocess.DEVNULL,
+    )
     return folder / "session.mcap"
 
 
@@ -55,9 +73,11 @@ def main() -> None:
         scene_s = time.perf_counter() - started
         n_ticks = tick_count(recording)
         simulated_s = n_ticks * scene.tick_s
-        print(f"recording {path}: {path.stat().st_size / 1e6:.2f} MB, {len(recording.messages)} messages, "
-              f"{n_ticks} ticks = {simulated_s:.1f} s simulated ({path.stat().st_size / 1e3 / simulated_s:.0f} kB "
-              f"per simulated second); chip {scene.chip.name if scene.chip else None}")
+        print(
+            f"recording {path}: {path.stat().st_size / 1e6:.2f} MB, {len(recording.messages)} messages, "
+            f"{n_ticks} ticks = {simulated_s:.1f} s simulated ({path.stat().st_size / 1e3 / simulated_s:.0f} kB "
+            f"per simulated second); chip {scene.chip.name if scene.chip else None}"
+        )
         print(f"read {read_s:.2f} s; scene (chip rebuilt, background drawn) {scene_s:.2f} s")
         step = max(n_ticks // args.frames, 1)
         draw_s, png_s = [], []
@@ -68,18 +88,22 @@ def main() -> None:
             Image.fromarray(frame).save(scratch / "frame.png")
             png_s.append(time.perf_counter() - t1)
             draw_s.append(t1 - t0)
-        print(f"frame {renderer.width_px}x{renderer.height_px}: draw {1e3 * np.median(draw_s):.1f} ms, PNG write "
-              f"{1e3 * np.median(png_s):.1f} ms (medians of {len(draw_s)}), PNG "
-              f"{(scratch / 'frame.png').stat().st_size / 1e3:.0f} kB")
+        print(
+            f"frame {renderer.width_px}x{renderer.height_px}: draw {1e3 * np.median(draw_s):.1f} ms, PNG write "
+            f"{1e3 * np.median(png_s):.1f} ms (medians of {len(draw_s)}), PNG "
+            f"{(scratch / 'frame.png').stat().st_size / 1e3:.0f} kB"
+        )
         started = time.perf_counter()
         made = write_video(recording, scratch / "session.mp4", fps=25.0)
         encode_s = time.perf_counter() - started
         with av.open(str(scratch / "session.mp4")) as container:
             decoded = sum(1 for _ in container.decode(video=0))
         size_mb = (scratch / "session.mp4").stat().st_size / 1e6
-        print(f"video: {made['frames']} frames ({decoded} decoded) at 25 fps, {made['width']}x{made['height']}, "
-              f"{size_mb:.2f} MB; encoded in {encode_s:.1f} s = {1e3 * encode_s / made['frames']:.1f} ms a frame, "
-              f"{simulated_s / encode_s:.1f}x real time (reference: the {simulated_s:.1f} s it plays)")
+        print(
+            f"video: {made['frames']} frames ({decoded} decoded) at 25 fps, {made['width']}x{made['height']}, "
+            f"{size_mb:.2f} MB; encoded in {encode_s:.1f} s = {1e3 * encode_s / made['frames']:.1f} ms a frame, "
+            f"{simulated_s / encode_s:.1f}x real time (reference: the {simulated_s:.1f} s it plays)"
+        )
 
 
 if __name__ == "__main__":

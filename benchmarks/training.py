@@ -99,10 +99,15 @@ def with_rl(constant, rl):
     """One Evaluation holding RL's rows then the constant speeds' (same episodes)."""
     from otgym.experiments.speed_control_eval import Evaluation
 
-    return Evaluation(rl.names + constant.names, rl.speeds_um_s + constant.speeds_um_s,
-                      np.concatenate([rl.progress, constant.progress]), np.concatenate([rl.success, constant.success]),
-                      np.concatenate([rl.time_s, constant.time_s]), rl.force_pn + constant.force_pn,
-                      rl.distance_um + constant.distance_um)
+    return Evaluation(
+        rl.names + constant.names,
+        rl.speeds_um_s + constant.speeds_um_s,
+        np.concatenate([rl.progress, constant.progress]),
+        np.concatenate([rl.success, constant.success]),
+        np.concatenate([rl.time_s, constant.time_s]),
+        rl.force_pn + constant.force_pn,
+        rl.distance_um + constant.distance_um,
+    )
 
 
 def main() -> None:
@@ -111,8 +116,12 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4], help="training seeds")
     parser.add_argument("--episodes", type=int, default=256, help="test episodes per batch")
     parser.add_argument("--repeats", type=int, default=2, help="test batches (seeds --eval-seed onwards)")
-    parser.add_argument("--eval-seed", type=int, default=301, help="first test seed (fresh: not 1000, the "
-                        "selection's, nor 201-204, the README's Table II)")
+    parser.add_argument(
+        "--eval-seed",
+        type=int,
+        default=301,
+        help="first test seed (fresh: not 1000, the selection's, nor 201-204, the README's Table II)",
+    )
     parser.add_argument("--sb3-sample", type=int, default=10_000, help="SB3 steps timed (then extrapolated)")
     args = parser.parse_args()
     from otgym.envs import speed_control as spc
@@ -126,39 +135,55 @@ def main() -> None:
     limits = task.force_band_pn[1], task.deviation_limit_um
     constant = constant_speed_evaluation(params, config.hidden, args.episodes, args.eval_seed, args.repeats)
     episodes = constant.success.shape[1]
-    print(f"test: {episodes} episodes (seeds {args.eval_seed}..{args.eval_seed + args.repeats - 1}); constant "
-          "speeds: " + ", ".join(f"{row['policy']} {row['success_rate']:.3f} / {row['ATCT_s']:.1f} s"
-                                 for row in constant.rows() if row["ATCT_s"] is not None))
+    print(
+        f"test: {episodes} episodes (seeds {args.eval_seed}..{args.eval_seed + args.repeats - 1}); constant "
+        "speeds: "
+        + ", ".join(
+            f"{row['policy']} {row['success_rate']:.3f} / {row['ATCT_s']:.1f} s"
+            for row in constant.rows()
+            if row["ATCT_s"] is not None
+        )
+    )
     passed, train_s = [], []
     for seed in args.seeds:
         result = train(task, config, seed, params=params)
         train_s.append(result.wall_s)
-        rl = evaluate(params, result.q_params, config.hidden, args.episodes, args.eval_seed, policies=(0,),
-                      repeats=args.repeats)
+        rl = evaluate(
+            params, result.q_params, config.hidden, args.episodes, args.eval_seed, policies=(0,), repeats=args.repeats
+        )
         evaluation = with_rl(constant, rl)
         checks = acceptance(evaluation, evaluation.safety("RL", *limits))
         row = next(evaluation.rows())
         passed.append(passes(checks))
-        print(f"seed {seed}: trained {result.env_steps} steps in {result.wall_s:.0f} s; success {row['success_rate']:.3f} "
-              f"[{row['success_ci95_low']:.3f}, {row['success_ci95_high']:.3f}], ATCT {row['ATCT_s']:.2f} s; reference "
-              f"{checks['reference']}: first in {checks['faster_episodes']}, later in {checks['slower_episodes']} "
-              f"(p = {checks['speed_p']:.2g}); force safe {checks['force_safe']}; handles within "
-              f"{limits[1]} um in {evaluation.safety('RL', *limits)['distance_within_limit']:.1%} of the steps "
-              f"(G1: {evaluation.safety('G1', *limits)['distance_within_limit']:.1%}, reported, not required); "
-              f"{'PASS' if passed[-1] else 'fail'}", flush=True)
-    print(f"training seeds passing the acceptance: {sum(passed)} of {len(passed)} (goal: at least 4 of 5); "
-          f"training {np.mean(train_s):.0f} s per seed (compile included)")
+        print(
+            f"seed {seed}: trained {result.env_steps} steps in {result.wall_s:.0f} s; success {row['success_rate']:.3f} "
+            f"[{row['success_ci95_low']:.3f}, {row['success_ci95_high']:.3f}], ATCT {row['ATCT_s']:.2f} s; reference "
+            f"{checks['reference']}: first in {checks['faster_episodes']}, later in {checks['slower_episodes']} "
+            f"(p = {checks['speed_p']:.2g}); force safe {checks['force_safe']}; handles within "
+            f"{limits[1]} um in {evaluation.safety('RL', *limits)['distance_within_limit']:.1%} of the steps "
+            f"(G1: {evaluation.safety('G1', *limits)['distance_within_limit']:.1%}, reported, not required); "
+            f"{'PASS' if passed[-1] else 'fail'}",
+            flush=True,
+        )
+    print(
+        f"training seeds passing the acceptance: {sum(passed)} of {len(passed)} (goal: at least 4 of 5); "
+        f"training {np.mean(train_s):.0f} s per seed (compile included)"
+    )
     print(f"functional env, 256 envs batched: {env_steps_per_s(params):.0f} env steps/s")
     ours_s = float(np.mean(train_s))
     sb3 = sb3_seconds(result.env_steps, args.sb3_sample)
     if sb3 is None:
         floor = adapter_seconds(result.env_steps)
-        print(f"stable-baselines3 is not installed (pip install '.[sb3]'); the Gymnasium adapter alone (one env, no "
-              f"learning) needs {floor:.0f} s for {result.env_steps} steps (extrapolated from 1000): SB3 would be at "
-              f"least {floor / ours_s:.1f}x slower than our {ours_s:.1f} s per seed")
+        print(
+            f"stable-baselines3 is not installed (pip install '.[sb3]'); the Gymnasium adapter alone (one env, no "
+            f"learning) needs {floor:.0f} s for {result.env_steps} steps (extrapolated from 1000): SB3 would be at "
+            f"least {floor / ours_s:.1f}x slower than our {ours_s:.1f} s per seed"
+        )
     else:
-        print(f"SB3 DQN, {result.env_steps} steps on the Gymnasium adapter, extrapolated from {args.sb3_sample}: "
-              f"{sb3:.0f} s; ours (one seed, whole run, compile included) {ours_s:.1f} s; ratio {sb3 / ours_s:.1f}x")
+        print(
+            f"SB3 DQN, {result.env_steps} steps on the Gymnasium adapter, extrapolated from {args.sb3_sample}: "
+            f"{sb3:.0f} s; ours (one seed, whole run, compile included) {ours_s:.1f} s; ratio {sb3 / ours_s:.1f}x"
+        )
 
 
 if __name__ == "__main__":

@@ -45,9 +45,11 @@ def frame_stats(frame_times_s) -> str:
     fps = 1.0 / times
     ends_s = np.cumsum(times)
     per_second = np.bincount(ends_s[ends_s < np.floor(ends_s[-1])].astype(int))  # frames in each whole second
-    return (f"fps p50 {np.percentile(fps, 50):5.1f}  p5 {np.percentile(fps, 5):5.1f}  "
-            f"frames in the slowest whole second {per_second.min()} of {len(per_second)} s  "
-            f"frame p99 {np.percentile(times, 99) * 1e3:5.1f} ms")
+    return (
+        f"fps p50 {np.percentile(fps, 50):5.1f}  p5 {np.percentile(fps, 5):5.1f}  "
+        f"frames in the slowest whole second {per_second.min()} of {len(per_second)} s  "
+        f"frame p99 {np.percentile(times, 99) * 1e3:5.1f} ms"
+    )
 
 
 def process_cpu_s(pid: int) -> float:
@@ -106,13 +108,21 @@ def main():
             last = now
         wall = time.perf_counter() - begin
         worker_cpu = (process_cpu_s(worker_pid) - worker_before) / wall if worker_pid else float("nan")
-        return (frames, (sim_time_s() - sim_before) / wall, (app.frames_with_new_state - fresh_before) / wall,
-                (time.process_time() - cpu_before) / wall, worker_cpu)
+        return (
+            frames,
+            (sim_time_s() - sim_before) / wall,
+            (app.frames_with_new_state - fresh_before) / wall,
+            (time.process_time() - cpu_before) / wall,
+            worker_cpu,
+        )
 
     def report(label, frames, rtf, fresh_per_s, window_cpu, worker_cpu, restarts):
         stats = frame_stats(frames) if frames else "no window" + " " * 44
-        print(f"{label:<30} {stats}  new states {fresh_per_s:4.1f}/s  RTF {rtf:.3f}  restarts {restarts}  "
-              f"CPU window {window_cpu:.2f} session {worker_cpu:.2f}  ({load()})", flush=True)
+        print(
+            f"{label:<30} {stats}  new states {fresh_per_s:4.1f}/s  RTF {rtf:.3f}  restarts {restarts}  "
+            f"CPU window {window_cpu:.2f} session {worker_cpu:.2f}  ({load()})",
+            flush=True,
+        )
 
     for run in runs:
         if run == "thread":
@@ -124,8 +134,15 @@ def main():
                 session.start_thread()
                 late_before = session.late_ticks
                 frames, rtf, fresh, window_cpu, _ = window_frames(app, lambda: session.loop.time_s, None)
-                report("thread, whole frames", frames, rtf, fresh, window_cpu, float("nan"),
-                       session.late_ticks - late_before)
+                report(
+                    "thread, whole frames",
+                    frames,
+                    rtf,
+                    fresh,
+                    window_cpu,
+                    float("nan"),
+                    session.late_ticks - late_before,
+                )
             finally:
                 session.close()
             continue

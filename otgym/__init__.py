@@ -20,8 +20,11 @@ def _register_gym_envs() -> None:
 
     for env_id, name in zip(GYM_IDS, ("SpeedControl", "CellTransport")):
         if env_id not in gymnasium.registry:  # re-imports and reloads register once
-            gymnasium.register(env_id, entry_point=f"otgym.envs.gym_adapter:{name}Env",
-                               vector_entry_point=f"otgym.envs.gym_vector:{name}VectorEnv")
+            gymnasium.register(
+                env_id,
+                entry_point=f"otgym.envs.gym_adapter:{name}Env",
+                vector_entry_point=f"otgym.envs.gym_vector:{name}VectorEnv",
+            )
 
 
 _register_gym_envs()

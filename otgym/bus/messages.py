@@ -64,8 +64,8 @@ import struct
 from typing import TYPE_CHECKING
 
 import numpy as np
-from PIL import Image
 from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
+from PIL import Image
 
 from otgym.shared import MODES
 from otgym.teleop.device import Sample
@@ -77,9 +77,13 @@ if TYPE_CHECKING:  # the loop imports JAX; a device node need not
 _RULE = "=" * 80
 _HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
 _VECTOR3 = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
-_POSE = ("MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientation\n" + _RULE
-         + "\nMSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n" + _RULE
-         + "\nMSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n")
+_POSE = (
+    "MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientation\n"
+    + _RULE
+    + "\nMSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n"
+    + _RULE
+    + "\nMSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n"
+)
 
 
 def _schema(body: str, *dependencies: str) -> str:
@@ -97,15 +101,27 @@ COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 
 SCHEMAS: dict[str, str] = {
     POSE_ARRAY: _schema("std_msgs/Header header\ngeometry_msgs/Pose[] poses\n", _HEADER, _POSE),
-    TWIST_STAMPED: _schema("std_msgs/Header header\nTwist twist\n", _HEADER,
-                           "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n", _VECTOR3),
-    WRENCH_STAMPED: _schema("std_msgs/Header header\nWrench wrench\n", _HEADER,
-                            "MSG: geometry_msgs/Wrench\nVector3 force\nVector3 torque\n", _VECTOR3),
+    TWIST_STAMPED: _schema(
+        "std_msgs/Header header\nTwist twist\n",
+        _HEADER,
+        "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n",
+        _VECTOR3,
+    ),
+    WRENCH_STAMPED: _schema(
+        "std_msgs/Header header\nWrench wrench\n",
+        _HEADER,
+        "MSG: geometry_msgs/Wrench\nVector3 force\nVector3 torque\n",
+        _VECTOR3,
+    ),
     JOY: _schema("std_msgs/Header header\nfloat32[] axes\nint32[] buttons\n", _HEADER),
     FLOAT64: "float64 data\n",
     STRING: "string data\n",
-    PATH: _schema("std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n", _HEADER,
-                  "MSG: geometry_msgs/PoseStamped\nstd_msgs/Header header\nPose pose\n", _POSE),
+    PATH: _schema(
+        "std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n",
+        _HEADER,
+        "MSG: geometry_msgs/PoseStamped\nstd_msgs/Header header\nPose pose\n",
+        _POSE,
+    ),
     COMPRESSED_IMAGE: _schema("std_msgs/Header header\nstring format\nuint8[] data\n", _HEADER),
 }
 """ros2msg schema text per type (definitions of ROS 2 Humble's common_interfaces)."""
@@ -125,9 +141,20 @@ COMMAND = "/otgym/command"
 SESSION = "/otgym/session"
 CHIP = "/otgym/chip"
 ROUTE = "/otgym/route"
-_FIXED_TOPICS = {TRAPS: POSE_ARRAY, BODIES: POSE_ARRAY, ALPHA: FLOAT64, MODE: STRING, EVENTS: STRING, TRIAL: STRING,
-                 PHASE: STRING, AUTONOMY: POSE_ARRAY, COMMAND: STRING, SESSION: STRING, CHIP: COMPRESSED_IMAGE,
-                 ROUTE: PATH}
+_FIXED_TOPICS = {
+    TRAPS: POSE_ARRAY,
+    BODIES: POSE_ARRAY,
+    ALPHA: FLOAT64,
+    MODE: STRING,
+    EVENTS: STRING,
+    TRIAL: STRING,
+    PHASE: STRING,
+    AUTONOMY: POSE_ARRAY,
+    COMMAND: STRING,
+    SESSION: STRING,
+    CHIP: COMPRESSED_IMAGE,
+    ROUTE: PATH,
+}
 COMMANDS = ("mode", "pause", "resume", "reset", "next_trial", "quit")
 """What a ui node asks of the sim: switch the mode, pause or resume simulated time,
 abandon the trial for the next (R), start the next trial after the questionnaires,
@@ -230,17 +257,26 @@ def encode(type_name: str, message) -> bytes:
 def pose_array(xy_um, stamp_s: float, frame_id: str = "chip") -> bytes:
     """PoseArray of points (N, 2) in um (z = 0, identity orientation)."""
     xy = np.asarray(xy_um, float).reshape(-1, 2)
-    poses = [{"position": {"x": float(x), "y": float(y), "z": 0.0},
-              "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}} for x, y in xy]
+    poses = [
+        {"position": {"x": float(x), "y": float(y), "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
+        for x, y in xy
+    ]
     return encode(POSE_ARRAY, {"header": _header(stamp_s, frame_id), "poses": poses})
 
 
 def path(xy_um, stamp_s: float, frame_id: str = "chip") -> bytes:
     """nav_msgs Path of points (N, 2) in um (each pose stamped alike, z = 0, identity orientation)."""
     header = _header(stamp_s, frame_id)
-    poses = [{"header": header, "pose": {"position": {"x": float(x), "y": float(y), "z": 0.0},
-                                         "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
-             for x, y in np.asarray(xy_um, float).reshape(-1, 2)]
+    poses = [
+        {
+            "header": header,
+            "pose": {
+                "position": {"x": float(x), "y": float(y), "z": 0.0},
+                "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0},
+            },
+        }
+        for x, y in np.asarray(xy_um, float).reshape(-1, 2)
+    ]
     return encode(PATH, {"header": header, "poses": poses})
 
 
@@ -251,23 +287,31 @@ def compressed_png(png: bytes, stamp_s: float, frame_id: str = "chip") -> bytes:
 
 def twist(sample: Sample, stamp_s: float, device: str) -> bytes:
     """TwistStamped of a device sample's tip velocity (mm/s -> m/s; no angular part)."""
-    return encode(TWIST_STAMPED, {"header": _header(stamp_s, device),
-                                  "twist": {"linear": _vector(np.asarray(sample.velocity_mm_s) * 1e-3),
-                                            "angular": _vector((0.0, 0.0, 0.0))}})
+    return encode(
+        TWIST_STAMPED,
+        {
+            "header": _header(stamp_s, device),
+            "twist": {"linear": _vector(np.asarray(sample.velocity_mm_s) * 1e-3), "angular": _vector((0.0, 0.0, 0.0))},
+        },
+    )
 
 
 def joy(buttons: int, stamp_s: float, device: str, n_buttons: int = 8) -> bytes:
     """Joy with a sample's raw button bits as ``n_buttons`` 0/1 entries (bit 0 first)."""
     if buttons >> n_buttons:
         n_buttons = buttons.bit_length()
-    return encode(JOY, {"header": _header(stamp_s, device), "axes": [],
-                        "buttons": [(buttons >> bit) & 1 for bit in range(n_buttons)]})
+    return encode(
+        JOY,
+        {"header": _header(stamp_s, device), "axes": [], "buttons": [(buttons >> bit) & 1 for bit in range(n_buttons)]},
+    )
 
 
 def wrench(force_n, stamp_s: float, device: str) -> bytes:
     """WrenchStamped of a (3,) force in N for a device (no torque)."""
-    return encode(WRENCH_STAMPED, {"header": _header(stamp_s, device),
-                                   "wrench": {"force": _vector(force_n), "torque": _vector((0.0, 0.0, 0.0))}})
+    return encode(
+        WRENCH_STAMPED,
+        {"header": _header(stamp_s, device), "wrench": {"force": _vector(force_n), "torque": _vector((0.0, 0.0, 0.0))}},
+    )
 
 
 def float64(value: float) -> bytes:
@@ -355,7 +399,7 @@ def _check_path(message, topic: str) -> None:
 def _check_compressed_image(message, topic: str) -> None:
     _check_header(message, topic)
     if message.format != "png" or bytes(message.data[:8]) != PNG_SIGNATURE:
-        _fail(topic, "the chip's image must be a PNG (format \"png\")")
+        _fail(topic, 'the chip\'s image must be a PNG (format "png")')
     if len(message.data) > LIMITS.image_bytes:
         _fail(topic, f"image larger than {LIMITS.image_bytes} bytes")
 
@@ -399,10 +443,13 @@ def _check_string(message, topic: str) -> None:
         except ValueError:
             _fail(topic, "not JSON")
         if topic == EVENTS and (not isinstance(payload, dict) or not isinstance(payload.get("event"), str)):
-            _fail(topic, "event must be a JSON object with an \"event\" string")
-        if topic == TRIAL and (not isinstance(payload, dict) or payload.get("event") != "trial_start"
-                               or not isinstance(payload.get("trial"), int)):
-            _fail(topic, "the current trial must be a trial_start event with an integer \"trial\"")
+            _fail(topic, 'event must be a JSON object with an "event" string')
+        if topic == TRIAL and (
+            not isinstance(payload, dict)
+            or payload.get("event") != "trial_start"
+            or not isinstance(payload.get("trial"), int)
+        ):
+            _fail(topic, 'the current trial must be a trial_start event with an integer "trial"')
         if topic == SESSION:
             _check_session(payload, topic)
     if topic == COMMAND:
@@ -415,7 +462,7 @@ def _check_command(text: str, topic: str) -> None:
     except ValueError:
         _fail(topic, "command is not JSON")
     if not isinstance(payload, dict) or payload.get("command") not in COMMANDS:
-        _fail(topic, f"command must be a JSON object with \"command\" one of {', '.join(COMMANDS)}")
+        _fail(topic, f'command must be a JSON object with "command" one of {", ".join(COMMANDS)}')
     expected = {"command", "mode"} if payload["command"] == "mode" else {"command"}
     if set(payload) != expected:
         _fail(topic, f"command {payload['command']!r} takes the fields {sorted(expected)}, got {sorted(payload)}")
@@ -427,11 +474,15 @@ def _check_session(payload, topic: str) -> None:
     """The session description's fields that a reader relies on (``session_description``)."""
     chip = payload.get("chip") if isinstance(payload, dict) else None
     if not isinstance(chip, dict) or not isinstance(chip.get("name"), str):
-        _fail(topic, "session must be a JSON object with a \"chip\" object naming the chip")
+        _fail(topic, 'session must be a JSON object with a "chip" object naming the chip')
     if not re.fullmatch(r"[0-9a-f]{64}", str(chip.get("content_hash", ""))):
         _fail(topic, "chip content_hash must be 64 hex digits (SHA-256)")
-    for key, where in (("pixel_size_um", chip), ("channel_height_um", chip), ("goal_tolerance_um", payload),
-                       ("tick_s", payload)):
+    for key, where in (
+        ("pixel_size_um", chip),
+        ("channel_height_um", chip),
+        ("goal_tolerance_um", payload),
+        ("tick_s", payload),
+    ):
         value = where.get(key)
         if not isinstance(value, (int, float)) or not (0 < value < LIMITS.position_um):
             _fail(topic, f"{key} must be a positive number, got {str(value)[:40]}")
@@ -442,9 +493,16 @@ def _check_session(payload, topic: str) -> None:
         _fail(topic, "handle_spheres must list sphere indices")
 
 
-_CHECKS = {POSE_ARRAY: _check_pose_array, TWIST_STAMPED: _check_twist, WRENCH_STAMPED: _check_wrench,
-           JOY: _check_joy, FLOAT64: _check_float64, STRING: _check_string, PATH: _check_path,
-           COMPRESSED_IMAGE: _check_compressed_image}
+_CHECKS = {
+    POSE_ARRAY: _check_pose_array,
+    TWIST_STAMPED: _check_twist,
+    WRENCH_STAMPED: _check_wrench,
+    JOY: _check_joy,
+    FLOAT64: _check_float64,
+    STRING: _check_string,
+    PATH: _check_path,
+    COMPRESSED_IMAGE: _check_compressed_image,
+}
 
 
 # --- back to otgym's objects -----------------------------------------------------------
@@ -486,19 +544,25 @@ def sample_from(twist_message, buttons: int, time_s: float, sequence: int) -> Sa
     return Sample(time_s, sequence, np.zeros(3), velocity_mm_s(twist_message), buttons)
 
 
-def tick_messages(record: TickRecord, devices: list[str], sphere_xy_um, stamp_s: float,
-                  mode: str | None = None) -> list[tuple[str, bytes]]:
+def tick_messages(
+    record: TickRecord, devices: list[str], sphere_xy_um, stamp_s: float, mode: str | None = None
+) -> list[tuple[str, bytes]]:
     """(topic, CDR) of what the simulator publishes after one tick: traps, phase, alpha,
     the mode only when ``mode`` is given (the caller gives it at a trial's first tick and
     when it changes: ``/otgym/mode`` is latched, not sent every tick), bodies (every
     sphere's centre; after the others, so that a subscriber that acts on it has seen the
     tick's traps and phase, or at worst the previous tick's) and the feedback force for
     each device (``devices`` in the order of the record's ``feedback_n`` rows)."""
-    messages = [(TRAPS, pose_array(record.trap_xy_um, stamp_s)), (PHASE, string(PHASES[record.phase])),
-                (ALPHA, float64(record.alpha))]
+    messages = [
+        (TRAPS, pose_array(record.trap_xy_um, stamp_s)),
+        (PHASE, string(PHASES[record.phase])),
+        (ALPHA, float64(record.alpha)),
+    ]
     messages += [] if mode is None else [(MODE, string(mode))]
     messages += [(BODIES, pose_array(sphere_xy_um, stamp_s))]
-    messages += [(feedback_topic(name), wrench(force, stamp_s, name)) for name, force in zip(devices, record.feedback_n)]
+    messages += [
+        (feedback_topic(name), wrench(force, stamp_s, name)) for name, force in zip(devices, record.feedback_n)
+    ]
     return messages
 
 
@@ -508,10 +572,14 @@ def session_description(task: InteractiveTask, devices: list[str]) -> dict:
     ``sphere_kind`` (one of ``SPHERE_KINDS`` per sphere, the order of ``/otgym/bodies``),
     ``handle_spheres`` (the spheres the traps hold, in trap order) and ``devices``."""
     model = task.scene.model
-    return {"chip": {**task.chip.metadata(), "content_hash": task.chip.content_hash},
-            "goal_tolerance_um": float(task.config.goal_tolerance_um), "tick_s": float(task.config.tick_s),
-            "sphere_kind": [SPHERE_KINDS[int(model.body_kinds[b])] for b in model.sphere_body],
-            "handle_spheres": [int(i) for i in task.trap_sphere], "devices": list(devices)}
+    return {
+        "chip": {**task.chip.metadata(), "content_hash": task.chip.content_hash},
+        "goal_tolerance_um": float(task.config.goal_tolerance_um),
+        "tick_s": float(task.config.tick_s),
+        "sphere_kind": [SPHERE_KINDS[int(model.body_kinds[b])] for b in model.sphere_body],
+        "handle_spheres": [int(i) for i in task.trap_sphere],
+        "devices": list(devices),
+    }
 
 
 def chip_png(chip) -> bytes:
@@ -525,5 +593,8 @@ def session_messages(task: InteractiveTask, devices: list[str], stamp_s: float) 
     """(topic, CDR) of what describes a session, sent once at its start (latched):
     ``/otgym/session`` (``session_description``), ``/otgym/chip`` (``chip_png``) and
     ``/otgym/route`` (the planned route, um)."""
-    return [(SESSION, string(json.dumps(session_description(task, devices), sort_keys=True))),
-            (CHIP, compressed_png(chip_png(task.chip), stamp_s)), (ROUTE, path(task.route_um, stamp_s))]
+    return [
+        (SESSION, string(json.dumps(session_description(task, devices), sort_keys=True))),
+        (CHIP, compressed_png(chip_png(task.chip), stamp_s)),
+        (ROUTE, path(task.route_um, stamp_s)),
+    ]

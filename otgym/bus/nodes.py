@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -61,9 +61,16 @@ class RemoteDevice(Device):
     with the twist's own stamp (the device's lowest-latency feedback, and its round
     trip), besides the force published at each tick."""
 
-    def __init__(self, node: Node, name: str, clock: Callable[[], float] = time.monotonic,
-                 force_limit_n: float = REMOTE_FORCE_LIMIT_N, *, answer_twists: bool = False,
-                 on_sample: Callable[[Sample], None] | None = None):
+    def __init__(
+        self,
+        node: Node,
+        name: str,
+        clock: Callable[[], float] = time.monotonic,
+        force_limit_n: float = REMOTE_FORCE_LIMIT_N,
+        *,
+        answer_twists: bool = False,
+        on_sample: Callable[[Sample], None] | None = None,
+    ):
         self.node, self.name, self.clock = node, msg.check_name(name), clock
         self.caps = DeviceCaps(f"remote {name}", 3, force_limit_n, (160.0, 120.0, 70.0), 1000.0)
         self.answer_twists, self.on_sample = answer_twists, on_sample
@@ -133,10 +140,16 @@ class RemoteAutonomy:
     they arrived within ``timeout_s`` (by ``clock``), else None (``InteractiveLoop``'s
     ``autonomy``)."""
 
-    def __init__(self, node: Node, n_traps: int, clock: Callable[[], float] = time.monotonic,
-                 timeout_s: float = AUTONOMY_TIMEOUT_S, *,
-                 on_update: Callable[[float, np.ndarray], None] | None = None,
-                 on_alive: Callable[[bool], None] | None = None):
+    def __init__(
+        self,
+        node: Node,
+        n_traps: int,
+        clock: Callable[[], float] = time.monotonic,
+        timeout_s: float = AUTONOMY_TIMEOUT_S,
+        *,
+        on_update: Callable[[float, np.ndarray], None] | None = None,
+        on_alive: Callable[[bool], None] | None = None,
+    ):
         self.node, self.n_traps, self.clock, self.timeout_s = node, n_traps, clock, timeout_s
         self.on_update, self.on_alive = on_update, on_alive
         """Also told of each accepted answer (arrival time, increments) and each change of liveliness."""
@@ -176,8 +189,14 @@ class RemoteAutonomy:
             return self._latest[1]
 
 
-def run_autonomy_node(node: Node, task: InteractiveTask, stop: threading.Event, cruise_speed_um_s: float = 5.0,
-                      max_speed_um_s: float = 20.0, navigator=None) -> int:
+def run_autonomy_node(
+    node: Node,
+    task: InteractiveTask,
+    stop: threading.Event,
+    cruise_speed_um_s: float = 5.0,
+    max_speed_um_s: float = 20.0,
+    navigator=None,
+) -> int:
     """An autonomy as a node: on each ``/otgym/bodies`` from the simulator, the task's
     observation rebuilt from the latest bodies, traps and phase
     (``otgym.runtime.layout.observation_from_spheres``; time from the bodies' stamps
@@ -190,8 +209,14 @@ def run_autonomy_node(node: Node, task: InteractiveTask, stop: threading.Event, 
     at once. A navigator slower than the ticks answers the newest bodies only. Until
     ``stop`` is set; returns the answers published."""
     if navigator is None:
-        navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, task.config.tick_s,
-                                   cruise_speed_um_s, max_speed_um_s=max_speed_um_s)
+        navigator = RouteNavigator(
+            task.route_um,
+            task.route_arc_um,
+            task.offsets_um,
+            task.config.tick_s,
+            cruise_speed_um_s,
+            max_speed_um_s=max_speed_um_s,
+        )
     layout = layout_of(task)
     latest: dict[str, object] = {}
     fresh = threading.Condition()
@@ -202,6 +227,7 @@ def run_autonomy_node(node: Node, task: InteractiveTask, stop: threading.Event, 
                 latest[name] = message
                 if name == "bodies":
                     fresh.notify()
+
         return on_message
 
     def on_event(topic, message, data) -> None:
@@ -231,8 +257,9 @@ def run_autonomy_node(node: Node, task: InteractiveTask, stop: threading.Event, 
             continue  # not this task's simulator
         stamp_s = msg.stamp_s(bodies)
         trial_began_s = stamp_s if trial_began_s is None else trial_began_s
-        seen, route_index = observation_from_spheres(layout, spheres, trap_xy, msg.PHASES.index(phase.data),
-                                                     stamp_s - trial_began_s, route_index)
+        seen, route_index = observation_from_spheres(
+            layout, spheres, trap_xy, msg.PHASES.index(phase.data), stamp_s - trial_began_s, route_index
+        )
         increments = np.asarray(navigator.increments(seen), float)[0]
         node.publish(msg.AUTONOMY, msg.pose_array(increments, stamp_s, "chip"))
         answered += 1

@@ -28,7 +28,7 @@ from __future__ import annotations
 import functools
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 from otgym.bus import messages as msg
 from otgym.bus.nodes import AUTONOMY_TIMEOUT_S, RemoteAutonomy, RemoteDevice
@@ -41,11 +41,11 @@ from otgym.teleop.takeover import TakeoverDevice
 
 class BusSink:
     """A session's ticks and events as the sim publishes them, handed to ``send`` as
-    lists of (topic, CDR): the session's description, chip and route once at its start
-    (latched topics), every tick's traps, phase, alpha and bodies, the mode at a trial's
-    first tick and when it changes (``messages.tick_messages``; each device's feedback
-    is its ``RemoteDevice`` 's to publish), every event on ``/otgym/trial/events``, and
-each ``trial_start`` also on the latched ``/otgym/trial/current``."""
+        lists of (topic, CDR): the session's description, chip and route once at its start
+        (latched topics), every tick's traps, phase, alpha and bodies, the mode at a trial's
+        first tick and when it changes (``messages.tick_messages``; each device's feedback
+        is its ``RemoteDevice`` 's to publish), every event on ``/otgym/trial/events``, and
+    each ``trial_start`` also on the latched ``/otgym/trial/current``."""
 
     def __init__(self, send: Callable[[list[tuple[str, bytes]]], None]):
         self.send = send
@@ -131,9 +131,20 @@ def build_task(chip: str = "default"):
     return InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=load_chip(chip))))
 
 
-def run_sim_node(node: Node, task, devices: list[str], mode: str, seed: int, stop: threading.Event,
-                 duration_s: float | None = None, remote_autonomy: bool = False, *, takeover: list[str] = (),
-                 participant: str = "P1", hold_between_trials: bool = False) -> int:
+def run_sim_node(
+    node: Node,
+    task,
+    devices: list[str],
+    mode: str,
+    seed: int,
+    stop: threading.Event,
+    duration_s: float | None = None,
+    remote_autonomy: bool = False,
+    *,
+    takeover: list[str] = (),
+    participant: str = "P1",
+    hold_between_trials: bool = False,
+) -> int:
     """The sim node with its session ticking in this process, until ``stop`` is set, a
     ``quit`` command, or ``duration_s`` of simulated time spent; returns the ticks run.
     With ``remote_autonomy`` dP_r comes from an autonomy node (``RemoteAutonomy``),
@@ -144,8 +155,17 @@ def run_sim_node(node: Node, task, devices: list[str], mode: str, seed: int, sto
     remotes = [RemoteDevice(node, name) for name in names]
     autonomy = RemoteAutonomy(node, task.n_traps) if remote_autonomy else None
     sink = BusSink(lambda messages: [node.publish(topic, data) for topic, data in messages])
-    session = Session(task, plan_bindings(plan, remotes, stylus_feedback(task)), participant, mode, seed, duration_s,
-                      sink=sink, autonomy=autonomy, hold_between_trials=hold_between_trials)
+    session = Session(
+        task,
+        plan_bindings(plan, remotes, stylus_feedback(task)),
+        participant,
+        mode,
+        seed,
+        duration_s,
+        sink=sink,
+        autonomy=autonomy,
+        hold_between_trials=hold_between_trials,
+    )
     follow_commands(node, session, stop.set)
     session.start()
     try:
@@ -166,23 +186,43 @@ def sim_worker_setup(chip: str, plan, remote_autonomy: bool, forwarded, outbox) 
     messages to the bus side, and the forwarded autonomy."""
     autonomy = ForwardedAutonomy(AUTONOMY_TIMEOUT_S) if remote_autonomy else None
     task = build_task(chip)
-    return WorkerParts(task, plan_bindings(plan, list(forwarded), stylus_feedback(task)), sink=BusSink(outbox),
-                       autonomy=autonomy)
+    return WorkerParts(
+        task, plan_bindings(plan, list(forwarded), stylus_feedback(task)), sink=BusSink(outbox), autonomy=autonomy
+    )
 
 
-def serve_sim_node(node: Node, devices: list[str], mode: str, seed: int, stop: threading.Event,
-                   duration_s: float | None = None, remote_autonomy: bool = False, *, chip: str = "default",
-                   takeover: list[str] = (), participant: str = "P1", hold_between_trials: bool = False,
-                   on_ready: Callable[[], None] | None = None) -> dict:
+def serve_sim_node(
+    node: Node,
+    devices: list[str],
+    mode: str,
+    seed: int,
+    stop: threading.Event,
+    duration_s: float | None = None,
+    remote_autonomy: bool = False,
+    *,
+    chip: str = "default",
+    takeover: list[str] = (),
+    participant: str = "P1",
+    hold_between_trials: bool = False,
+    on_ready: Callable[[], None] | None = None,
+) -> dict:
     """The sim node with its session in a worker process (see the module's docstring),
     until ``stop`` is set, a ``quit`` command, the duration spent, or the worker fails
     (``WorkerError``); returns the worker's counts (ticks, late_ticks, trials).
     ``on_ready`` is called once the session runs and the node listens to its devices."""
     names, plan = device_plan(devices, takeover)
     remotes = [RemoteDevice(node, name, answer_twists=True) for name in names]
-    spec = WorkerSpec(functools.partial(sim_worker_setup, chip, plan, remote_autonomy), participant, mode, seed,
-                      duration_s, forwarded_caps=tuple(r.caps for r in remotes), forwarded_haptics=True,
-                      hold_between_trials=hold_between_trials, snapshots=False)
+    spec = WorkerSpec(
+        functools.partial(sim_worker_setup, chip, plan, remote_autonomy),
+        participant,
+        mode,
+        seed,
+        duration_s,
+        forwarded_caps=tuple(r.caps for r in remotes),
+        forwarded_haptics=True,
+        hold_between_trials=hold_between_trials,
+        snapshots=False,
+    )
 
     def publish(messages) -> None:
         for topic, data in messages:

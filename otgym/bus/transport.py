@@ -46,7 +46,7 @@ from __future__ import annotations
 import json
 import logging
 import threading
-from typing import Callable
+from collections.abc import Callable
 
 import zenoh
 import zenoh.ext
@@ -76,8 +76,9 @@ def topic_of(key: str) -> str:
     return "/" + key
 
 
-def zenoh_config(role: str, listen: list[str] | None = None, connect: list[str] | None = None,
-                 config_file: str | None = None) -> zenoh.Config:
+def zenoh_config(
+    role: str, listen: list[str] | None = None, connect: list[str] | None = None, config_file: str | None = None
+) -> zenoh.Config:
     """The session configuration of a node of ``role`` (see the module's docstring)."""
     if role not in ROLES:
         raise ValueError(f"unknown node role {role!r}; choose one of {', '.join(ROLES)}")
@@ -87,8 +88,10 @@ def zenoh_config(role: str, listen: list[str] | None = None, connect: list[str] 
     default_connect = [] if role == "sim" else [SIM_ENDPOINT]
     config.insert_json5("mode", '"peer"')
     config.insert_json5("timestamping/enabled", "true")  # latched topics' publishers need it
-    for key, given, default in (("listen/endpoints", listen, default_listen),
-                                ("connect/endpoints", connect, default_connect)):
+    for key, given, default in (
+        ("listen/endpoints", listen, default_listen),
+        ("connect/endpoints", connect, default_connect),
+    ):
         if given or config.get_json(key) == unset.get_json(key):
             config.insert_json5(key, json.dumps(list(given or default)))
     if config.get_json("scouting/multicast/enabled") == unset.get_json("scouting/multicast/enabled"):
@@ -96,8 +99,7 @@ def zenoh_config(role: str, listen: list[str] | None = None, connect: list[str] 
     drop_key = "transport/link/tx/queue/congestion_control/drop/wait_before_drop"
     if config.get_json(drop_key) == unset.get_json(drop_key):
         config.insert_json5(drop_key, str(WAIT_BEFORE_DROP_US))
-    config.insert_json5("connect/retry",
-                        '{"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 2}')
+    config.insert_json5("connect/retry", '{"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 2}')
     return config
 
 
@@ -105,8 +107,14 @@ class Node:
     """A zenoh session for one node: ``publish``, checked ``subscribe``, its liveliness
     token, and ``watch`` for other nodes' tokens. ``close`` withdraws everything."""
 
-    def __init__(self, role: str, name: str, listen: list[str] | None = None, connect: list[str] | None = None,
-                 config_file: str | None = None):
+    def __init__(
+        self,
+        role: str,
+        name: str,
+        listen: list[str] | None = None,
+        connect: list[str] | None = None,
+        config_file: str | None = None,
+    ):
         msg.check_name(name)
         self.role, self.name = role, name
         self.session = zenoh.open(zenoh_config(role, listen, connect, config_file))
@@ -126,14 +134,20 @@ class Node:
         if publisher is None:
             if topic in msg.LATCHED:
                 publisher = zenoh.ext.declare_advanced_publisher(  # rare and not to be lost: blocks when congested
-                    self.session, key_of(topic), congestion_control=zenoh.CongestionControl.BLOCK,
-                    cache=zenoh.ext.CacheConfig(1), publisher_detection=True)
+                    self.session,
+                    key_of(topic),
+                    congestion_control=zenoh.CongestionControl.BLOCK,
+                    cache=zenoh.ext.CacheConfig(1),
+                    publisher_detection=True,
+                )
             elif topic in NOT_TO_DROP:
-                publisher = self.session.declare_publisher(key_of(topic),
-                                                           congestion_control=zenoh.CongestionControl.BLOCK)
+                publisher = self.session.declare_publisher(
+                    key_of(topic), congestion_control=zenoh.CongestionControl.BLOCK
+                )
             else:
                 publisher = self.session.declare_publisher(
-                    key_of(topic), congestion_control=zenoh.CongestionControl.DROP, express=True)
+                    key_of(topic), congestion_control=zenoh.CongestionControl.DROP, express=True
+                )
             self._publishers[topic] = publisher
         publisher.put(data)
 
@@ -161,8 +175,9 @@ class Node:
 
         if topic_pattern in msg.LATCHED or "*" in topic_pattern:
             history = zenoh.ext.HistoryConfig(detect_late_publishers=True)
-            self._handles.append(zenoh.ext.declare_advanced_subscriber(self.session, key_of(topic_pattern), on_sample,
-                                                                       history=history))
+            self._handles.append(
+                zenoh.ext.declare_advanced_subscriber(self.session, key_of(topic_pattern), on_sample, history=history)
+            )
         else:
             self._handles.append(self.session.declare_subscriber(key_of(topic_pattern), on_sample))
 
@@ -174,8 +189,9 @@ class Node:
             name = str(sample.key_expr).rsplit("/", 1)[-1]
             on_change(name, sample.kind == zenoh.SampleKind.PUT)
 
-        self._handles.append(self.session.liveliness().declare_subscriber(f"otgym/node/{role}/*", on_sample,
-                                                                          history=True))
+        self._handles.append(
+            self.session.liveliness().declare_subscriber(f"otgym/node/{role}/*", on_sample, history=True)
+        )
 
     def close(self) -> None:
         self.session.close()

@@ -17,7 +17,6 @@ app = typer.Typer(
 )
 
 
-
 @app.callback()
 def _root() -> None:
     """otgym: optical-tweezer microrobotics simulator, planner and learning gym."""

@@ -49,8 +49,9 @@ def key_figures(chip, fields) -> list[str]:
         f"5-95 % {np.percentile(widths, 5):.1f}-{np.percentile(widths, 95):.1f} um",
     ]
     for port in chip.ports:
-        lines.append(f"{port.kind} {port.name!r} at ({port.xy_um[0]:g}, {port.xy_um[1]:g}) um: "
-                     f"{port.flow_rate_um3_s:g} um^3/s")
+        lines.append(
+            f"{port.kind} {port.name!r} at ({port.xy_um[0]:g}, {port.xy_um[1]:g}) um: {port.flow_rate_um3_s:g} um^3/s"
+        )
     if corners_in_fluid.any():
         lines.append(
             f"flow speed in the focal plane (mid-height, x{fields.mid_height_factor:.3f} the depth average): "
@@ -88,8 +89,16 @@ def write_figure(chip, fields, out: Path) -> Path:
         step = max(1, int(round(2.0 / chip.pixel_size_um)))
         x = np.arange(0, velocity.shape[1], step) * chip.pixel_size_um
         y = np.arange(0, velocity.shape[0], step) * chip.pixel_size_um
-        flow_ax.streamplot(x, y, velocity[::step, ::step, 0], velocity[::step, ::step, 1], color="w",
-                           linewidth=0.6, density=1.6, arrowsize=0.7)
+        flow_ax.streamplot(
+            x,
+            y,
+            velocity[::step, ::step, 0],
+            velocity[::step, ::step, 1],
+            color="w",
+            linewidth=0.6,
+            density=1.6,
+            arrowsize=0.7,
+        )
     flow_ax.set_xlim(0, width_um)
     flow_ax.set_ylim(height_um, 0)
     flow_ax.set_title("flow speed in the focal plane (um/s) and streamlines")

@@ -39,25 +39,38 @@ def register(app: typer.Typer) -> None:
     def demo(
         out: Path = typer.Option(Path("results"), "--out", help="Folder for the results (created if needed)."),
         policy: str = typer.Option("pretrained", "--policy", help="Speed-control policy file or 'pretrained'."),
-        episodes: int = typer.Option(DEMO_EPISODES, "--episodes",
-                                     help=f"Speed-control episodes per policy (RL, G1..G6, untrained), "
-                                          f"{_range('episodes')}; `otgym evaluate` runs the full {FULL_EPISODES}."),
-        speed_um_s: float = typer.Option(4.0, help=f"Constant speed of the whole-path transport, um/s, "
-                                                   f"{_range('speed_um_s')}."),
-        runs: int = typer.Option(DEMO_RUNS, help=f"Whole-path transports simulated at once (own noise and "
-                                                 f"obstacles), {_range('runs')}."),
+        episodes: int = typer.Option(
+            DEMO_EPISODES,
+            "--episodes",
+            help=f"Speed-control episodes per policy (RL, G1..G6, untrained), "
+            f"{_range('episodes')}; `otgym evaluate` runs the full {FULL_EPISODES}.",
+        ),
+        speed_um_s: float = typer.Option(
+            4.0, help=f"Constant speed of the whole-path transport, um/s, {_range('speed_um_s')}."
+        ),
+        runs: int = typer.Option(
+            DEMO_RUNS, help=f"Whole-path transports simulated at once (own noise and obstacles), {_range('runs')}."
+        ),
         seed: int = typer.Option(1, help=f"Random seed of the episodes, runs and study, {_range('seed')}."),
-        study_participants: int = typer.Option(StudyConfig.participants, "--study-participants",
-                                               help=f"Simulated participants of the shared-control study, "
-                                                    f"{_range('study_participants')}; 0 leaves the study out."),
-        study_trials: int = typer.Option(StudyConfig.trials, "--study-trials",
-                                         help=f"Trials per participant and mode, {_range('study_trials')}."),
-        study_time_limit_s: float = typer.Option(StudyConfig.time_limit_s, "--study-time-limit-s",
-                                                 help=f"Simulated seconds after which a study trial ends "
-                                                      f"unfinished, {_range('study_time_limit_s')}."),
-        sequential: bool = typer.Option(False, "--sequential",
-                                        help="Run the study on its own, right after the planning, "
-                                             "instead of beside the other stages."),
+        study_participants: int = typer.Option(
+            StudyConfig.participants,
+            "--study-participants",
+            help=f"Simulated participants of the shared-control study, "
+            f"{_range('study_participants')}; 0 leaves the study out.",
+        ),
+        study_trials: int = typer.Option(
+            StudyConfig.trials, "--study-trials", help=f"Trials per participant and mode, {_range('study_trials')}."
+        ),
+        study_time_limit_s: float = typer.Option(
+            StudyConfig.time_limit_s,
+            "--study-time-limit-s",
+            help=f"Simulated seconds after which a study trial ends unfinished, {_range('study_time_limit_s')}.",
+        ),
+        sequential: bool = typer.Option(
+            False,
+            "--sequential",
+            help="Run the study on its own, right after the planning, instead of beside the other stages.",
+        ),
     ) -> None:
         """Plan on the default chip (Table I), evaluate the pretrained speed controller
         against constant speeds (Table II, safety violins), carry the cell along the
@@ -67,12 +80,25 @@ def register(app: typer.Typer) -> None:
         from otgym.experiments.demo import demo_config, run_demo
 
         began = time.perf_counter()
-        config = demo_config(policy, episodes, speed_um_s, runs, seed, study_participants, study_trials,
-                             study_time_limit_s, background_study=not sequential)
+        config = demo_config(
+            policy,
+            episodes,
+            speed_um_s,
+            runs,
+            seed,
+            study_participants,
+            study_trials,
+            study_time_limit_s,
+            background_study=not sequential,
+        )
         _use_persistent_jax_cache()
         console = Console(soft_wrap=True)
-        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                   TimeElapsedColumn())
+        columns = (
+            TextColumn("{task.description}"),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total}"),
+            TimeElapsedColumn(),
+        )
         with ExitStack() as stack:
             bars = {}  # the progress bars, started with the first stage: nothing shows before the checks pass
 
@@ -100,32 +126,54 @@ def register(app: typer.Typer) -> None:
             summary = run_demo(config, out, stage, report, detail)
         console.print((out / "speed_control" / "table.md").read_text(), markup=False)
         safety, limits, transport = summary["safety"]["RL"], summary["limits"], summary["transport"]
-        console.print(f"RL safety over {safety['samples']} force samples of {summary['episodes']} episodes: contact "
-                      f"force < {limits['force_pn']:g} pN in {safety['force_below_limit']:.2%} of them, handle within "
-                      f"{limits['distance_um']:g} um in {safety['distance_within_limit']:.2%}", highlight=False)
-        console.print(f"whole path: {transport['reached_goal']} of {transport['runs']} runs carried the cell "
-                      f"{transport['path_length_um']} um at {transport['speed_um_s']:g} um/s", highlight=False)
+        console.print(
+            f"RL safety over {safety['samples']} force samples of {summary['episodes']} episodes: contact "
+            f"force < {limits['force_pn']:g} pN in {safety['force_below_limit']:.2%} of them, handle within "
+            f"{limits['distance_um']:g} um in {safety['distance_within_limit']:.2%}",
+            highlight=False,
+        )
+        console.print(
+            f"whole path: {transport['reached_goal']} of {transport['runs']} runs carried the cell "
+            f"{transport['path_length_um']} um at {transport['speed_um_s']:g} um/s",
+            highlight=False,
+        )
         written = "plan/, speed_control/, transport/"
         study = summary["shared_control"]
         if study is not None:
             from otgym.study.paper_fig8 import PAPER_FIG8
 
             size = study["size"]
-            console.print(f"shared-control study (Fig. 8), {size['participants']} simulated participants x "
-                          f"{size['trials_per_mode']} trial{'s' * (size['trials_per_mode'] > 1)} per mode, cut at "
-                          f"{size['time_limit_s']:g} s (details in report.md):", highlight=False)
+            console.print(
+                f"shared-control study (Fig. 8), {size['participants']} simulated participants x "
+                f"{size['trials_per_mode']} trial{'s' * (size['trials_per_mode'] > 1)} per mode, cut at "
+                f"{size['time_limit_s']:g} s (details in report.md):",
+                highlight=False,
+            )
             for row in study["modes"]:
                 paper = PAPER_FIG8.get(row["mode"], {})
-                rate = (f"{row['avoided_rate']:.0%}, 95 % CI {row['avoided_rate_ci_low']:.0%}-"
-                        f"{row['avoided_rate_ci_high']:.0%}" if row["obstacles_encountered"] else "-")
-                time_s = ("" if row["completion_time_mean_s"] is None
-                          else f", mean time {row['completion_time_mean_s']:.1f} s")
-                console.print(f"  {row['mode']}: obstacles avoided {row['obstacles_avoided']} of "
-                              f"{row['obstacles_encountered']} ({rate}), goal reached in {row['goals_reached']} of "
-                              f"{row['trials']} trials{time_s}"
-                              + (f" (paper: {paper['success_mean']:.0%} avoided, {paper['time_mean_s']:g} s)"
-                                 if paper else ""), highlight=False)
+                rate = (
+                    f"{row['avoided_rate']:.0%}, 95 % CI {row['avoided_rate_ci_low']:.0%}-"
+                    f"{row['avoided_rate_ci_high']:.0%}"
+                    if row["obstacles_encountered"]
+                    else "-"
+                )
+                time_s = (
+                    ""
+                    if row["completion_time_mean_s"] is None
+                    else f", mean time {row['completion_time_mean_s']:.1f} s"
+                )
+                console.print(
+                    f"  {row['mode']}: obstacles avoided {row['obstacles_avoided']} of "
+                    f"{row['obstacles_encountered']} ({rate}), goal reached in {row['goals_reached']} of "
+                    f"{row['trials']} trials{time_s}"
+                    + (f" (paper: {paper['success_mean']:.0%} avoided, {paper['time_mean_s']:g} s)" if paper else ""),
+                    highlight=False,
+                )
             written += ", shared_control/"
-        console.print(f"otgym demo wrote {out}/report.md, summary.json, {written} in "
-                      f"{time.perf_counter() - began:.0f} s (small samples; full size: otgym evaluate, "
-                      f"otgym experiment shared-control)", markup=False, highlight=False)
+        console.print(
+            f"otgym demo wrote {out}/report.md, summary.json, {written} in "
+            f"{time.perf_counter() - began:.0f} s (small samples; full size: otgym evaluate, "
+            f"otgym experiment shared-control)",
+            markup=False,
+            highlight=False,
+        )

@@ -14,11 +14,17 @@ def register(app: typer.Typer) -> None:
     @app.command()
     def evaluate(
         policy: str = typer.Option(..., "--policy", help="Policy file (policy.npz from otgym train) or 'pretrained'."),
-        episodes: int = typer.Option(256, "--episodes", help="Episodes per policy (the same seeded episodes for each)."),
+        episodes: int = typer.Option(
+            256, "--episodes", help="Episodes per policy (the same seeded episodes for each)."
+        ),
         out: Path = typer.Option(Path("results/evaluate"), "--out", help="Folder for the results."),
         seed: int = typer.Option(1, help="Random seed of the episodes."),
-        repeats: int = typer.Option(1, "--repeats", help="Batches of --episodes to pool, seeds SEED .. SEED+R-1 "
-                                    "(e.g. --episodes 256 --repeats 4: 1024 episodes over 4 seeds)."),
+        repeats: int = typer.Option(
+            1,
+            "--repeats",
+            help="Batches of --episodes to pool, seeds SEED .. SEED+R-1 "
+            "(e.g. --episodes 256 --repeats 4: 1024 episodes over 4 seeds).",
+        ),
     ) -> None:
         """Table II: ASR, ATCT and success rate of RL and constant speeds G1..Gn, and the safety figure."""
         if episodes < 1:
@@ -32,7 +38,8 @@ def register(app: typer.Typer) -> None:
         from otgym.envs import transport as tr
         from otgym.envs.presets import preset
         from otgym.experiments.report import reference_verdict
-        from otgym.experiments.speed_control_eval import evaluate as run, write_results
+        from otgym.experiments.speed_control_eval import evaluate as run
+        from otgym.experiments.speed_control_eval import write_results
         from otgym.rl.policy import load_policy, policy_meta, resolve_policy
 
         path = resolve_policy(policy)
@@ -45,12 +52,15 @@ def register(app: typer.Typer) -> None:
                 console.print(f"batch {done}/{total} done (seed {seed + done - 1})")
 
         with console.status("planning, compiling and running the episodes"):
-            evaluation = run(spc.make_params(task), q_params, meta["hidden"], episodes, seed, repeats=repeats,
-                             progress=progress)
+            evaluation = run(
+                spc.make_params(task), q_params, meta["hidden"], episodes, seed, repeats=repeats, progress=progress
+            )
         limits = task.force_band_pn[1], task.deviation_limit_um
         rows, safety, checks = write_results(evaluation, out, *limits)
         console.print((out / "table.md").read_text())
         console.print(reference_verdict(checks, rows))
-        console.print(f"safety of RL: force < {limits[0]:g} pN in {safety['RL']['force_below_limit']:.2%} of samples, "
-                      f"handle within {limits[1]:g} um in {safety['RL']['distance_within_limit']:.2%}")
+        console.print(
+            f"safety of RL: force < {limits[0]:g} pN in {safety['RL']['force_below_limit']:.2%} of samples, "
+            f"handle within {limits[1]:g} um in {safety['RL']['distance_within_limit']:.2%}"
+        )
         console.print(f"wrote {out}/table.csv, table.md, safety.png, safety.json, acceptance.json ({len(rows)} rows)")

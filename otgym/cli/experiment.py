@@ -13,28 +13,41 @@ def register(app: typer.Typer) -> None:
 
     @experiment.command("shared-control")
     def shared_control(
-        participants: int = typer.Option(8, "--participants",
-                                         help="Simulated participants (the statistical tests need 2 or more; with "
-                                              "one, summary.md says that no test is possible)."),
+        participants: int = typer.Option(
+            8,
+            "--participants",
+            help="Simulated participants (the statistical tests need 2 or more; with "
+            "one, summary.md says that no test is possible).",
+        ),
         trials: int = typer.Option(8, "--trials", help="Trials per participant and mode."),
-        modes: str = typer.Option("manual,autonomous,shared", "--modes",
-                                  help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive)."),
+        modes: str = typer.Option(
+            "manual,autonomous,shared",
+            "--modes",
+            help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive).",
+        ),
         seed: int = typer.Option(0, "--seed", help="Seed of the participants and scenarios."),
         chip: str = typer.Option("default", "--chip", help="Chip name or PNG."),
         time_limit_s: float = typer.Option(300.0, "--time-limit-s", help="A trial not done by then ends unfinished."),
-        shared_autonomy: str = typer.Option("route", "--shared-autonomy",
-                                            help="Shared control's dP_r: route (the route navigator) or mpc."),
+        shared_autonomy: str = typer.Option(
+            "route", "--shared-autonomy", help="Shared control's dP_r: route (the route navigator) or mpc."
+        ),
         mpc_rollouts: int = typer.Option(32, "--mpc-rollouts", help="The MPC's rollouts per replan."),
-        mpc_plan_steps: int = typer.Option(24, "--mpc-plan-steps",
-                                           help="The MPC's plan length in 0.1 s steps (horizon: one more)."),
+        mpc_plan_steps: int = typer.Option(
+            24, "--mpc-plan-steps", help="The MPC's plan length in 0.1 s steps (horizon: one more)."
+        ),
         out: Path = typer.Option(..., "--out", help="Folder for trials.csv, summary.*, stats.json, fig8.png."),
     ) -> None:
         """Manual, autonomous, shared and model-predictive control on the same seeded
         scenarios: success (obstacles avoided / encountered) and completion time per
         mode (Fig. 8 a, b)."""
         from otgym.experiments.output_folder import check_out_dir
-        from otgym.experiments.shared_control import (check_arguments, mpc_summary, parse_modes, run_experiment,
-                                                       write_experiment)
+        from otgym.experiments.shared_control import (
+            check_arguments,
+            mpc_summary,
+            parse_modes,
+            run_experiment,
+            write_experiment,
+        )
         from otgym.runtime.mpc import MPCConfig
         from otgym.runtime.task import InteractiveConfig
 
@@ -50,10 +63,21 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--mpc-rollouts/--mpc-plan-steps: {error}") from None
         check_out_dir(out)
         stats = {}
-        frame = run_experiment(participants, trials, chosen, seed, chip, report=lambda line: print(line, flush=True),
-                               time_limit_s=time_limit_s, shared_autonomy=shared_autonomy, mpc_config=mpc_config,
-                               mpc_stats=stats)
-        checks = write_experiment(frame, out, mpc_summary(stats, mpc_config, InteractiveConfig().tick_s) if stats else None)
+        frame = run_experiment(
+            participants,
+            trials,
+            chosen,
+            seed,
+            chip,
+            report=lambda line: print(line, flush=True),
+            time_limit_s=time_limit_s,
+            shared_autonomy=shared_autonomy,
+            mpc_config=mpc_config,
+            mpc_stats=stats,
+        )
+        checks = write_experiment(
+            frame, out, mpc_summary(stats, mpc_config, InteractiveConfig().tick_s) if stats else None
+        )
         print((out / "summary.md").read_text())
         for name, passed in checks.items():
             print(f"{'PASS' if passed else 'FAIL'}  {name}")
@@ -62,22 +86,31 @@ def register(app: typer.Typer) -> None:
             from otgym.experiments.route_bound import ROUTE_SPEED_UM_S, run_route_bound, write_route_bound
 
             print("route-keeping bound (the earliest passage on these scenarios, perfect foresight):", flush=True)
-            summary = write_route_bound(run_route_bound(trials, seed, [ROUTE_SPEED_UM_S], chip,
-                                                        report=lambda line: print(line, flush=True)), out)
+            summary = write_route_bound(
+                run_route_bound(trials, seed, [ROUTE_SPEED_UM_S], chip, report=lambda line: print(line, flush=True)),
+                out,
+            )
             best = summary[f"{ROUTE_SPEED_UM_S:g}"]
-            print(f"      at {ROUTE_SPEED_UM_S:g} um/s: {best['earliest_mean_s']:.1f} s on average, "
-                  f"{best['earliest_over_free']:.3f}x the unobstructed route (see route_bound.md)")
+            print(
+                f"      at {ROUTE_SPEED_UM_S:g} um/s: {best['earliest_mean_s']:.1f} s on average, "
+                f"{best['earliest_over_free']:.3f}x the unobstructed route (see route_bound.md)"
+            )
             bound = ", route_bound.csv/.json/.md"
-        print(f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
-              + (", mpc.json" if stats else "") + bound)
+        print(
+            f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
+            + (", mpc.json" if stats else "")
+            + bound
+        )
 
     @experiment.command("route-bound")
     def route_bound(
         trials: int = typer.Option(8, "--trials", help="Scenarios: those of trials 0..N-1 of the study's seed."),
         seed: int = typer.Option(0, "--seed", help="The study's seed (scenarios seed * 10000 + trial)."),
-        speeds_um_s: str = typer.Option("5,8", "--speeds-um-s",
-                                        help="Comma-separated speed limits in um/s (5: the autonomy's cruise; "
-                                             "8: a person's hurried pace)."),
+        speeds_um_s: str = typer.Option(
+            "5,8",
+            "--speeds-um-s",
+            help="Comma-separated speed limits in um/s (5: the autonomy's cruise; 8: a person's hurried pace).",
+        ),
         chip: str = typer.Option("default", "--chip", help="Chip name or PNG."),
         out: Path = typer.Option(..., "--out", help="Folder for route_bound.csv, .json and .md."),
     ) -> None:

@@ -43,8 +43,13 @@ class NodeProcesses:
     def start(self, label: str, arguments: list[str]) -> None:
         out = open(self._folder / f"{label}.out", "w")
         err = open(self._folder / f"{label}.err", "w")
-        self.children[label] = subprocess.Popen([sys.executable, "-m", "otgym", "node", *arguments], stdout=out,
-                                                stderr=err, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+        self.children[label] = subprocess.Popen(
+            [sys.executable, "-m", "otgym", "node", *arguments],
+            stdout=out,
+            stderr=err,
+            stdin=subprocess.DEVNULL,
+            preexec_fn=_die_with_parent,
+        )
         out.close()
         err.close()
 
@@ -71,8 +76,9 @@ class NodeProcesses:
         waiting = set(self.children)
         while waiting:
             waiting = {label for label in waiting if "ready:" not in self._text(label, "out")}
-            failed = self.failure() or next((f"the {label} node ended before it was ready" for label in waiting
-                                             if self.ended(label)), None)
+            failed = self.failure() or next(
+                (f"the {label} node ended before it was ready" for label in waiting if self.ended(label)), None
+            )
             if failed:
                 raise RuntimeError(failed)
             if time.monotonic() > deadline:
@@ -126,4 +132,3 @@ def free_loopback_endpoint() -> str:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         return f"tcp/127.0.0.1:{probe.getsockname()[1]}"
-

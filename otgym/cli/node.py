@@ -27,37 +27,65 @@ def register(app: typer.Typer) -> None:
     @app.command("node")
     def node(
         role: str = typer.Argument(..., help="sim, device, recorder, autonomy or ui."),
-        name: str = typer.Option("device0", "--name", help="device node: its name on the bus; sim node: the device "
-                                                           "names it drives (robot i by the i-th), comma-separated; "
-                                                           "ui node: the device nodes whose feedback and loss it "
-                                                           "shows (robot i by the i-th; '' for none)."),
-        device: str = typer.Option(None, "--device",
-                                   help="device node: its driver (keyboard, gamepad, touch, simulated, replay; "
-                                        "default simulated); ui node: what the window sends as ui0, ui1 "
-                                        "(keyboard, gamepad, mouse; default keyboard)."),
-        device_name: str = typer.Option(None, "--device-name", help="device node with --device touch: the Touch's "
-                                                                    "name in Touch Setup."),
-        replay: Path = typer.Option(None, "--replay", help="device node with --device replay: the CSV to play (looped)."),
-        takeover: str = typer.Option(None, "--takeover", help="sim node: devices (comma-separated, robot i by the "
-                                                               "i-th) that take robot i over while their clutch is "
-                                                               "held: a ui node's mouse (ui0,ui1)."),
+        name: str = typer.Option(
+            "device0",
+            "--name",
+            help="device node: its name on the bus; sim node: the device "
+            "names it drives (robot i by the i-th), comma-separated; "
+            "ui node: the device nodes whose feedback and loss it "
+            "shows (robot i by the i-th; '' for none).",
+        ),
+        device: str = typer.Option(
+            None,
+            "--device",
+            help="device node: its driver (keyboard, gamepad, touch, simulated, replay; "
+            "default simulated); ui node: what the window sends as ui0, ui1 "
+            "(keyboard, gamepad, mouse; default keyboard).",
+        ),
+        device_name: str = typer.Option(
+            None, "--device-name", help="device node with --device touch: the Touch's name in Touch Setup."
+        ),
+        replay: Path = typer.Option(
+            None, "--replay", help="device node with --device replay: the CSV to play (looped)."
+        ),
+        takeover: str = typer.Option(
+            None,
+            "--takeover",
+            help="sim node: devices (comma-separated, robot i by the "
+            "i-th) that take robot i over while their clutch is "
+            "held: a ui node's mouse (ui0,ui1).",
+        ),
         mode: str = typer.Option("shared", "--mode", help="sim node: manual, shared or autonomous."),
         participant: str = typer.Option("P1", "--participant", help="sim node: the participant ID of its trials."),
-        hold: bool = typer.Option(False, "--hold", help="sim node: after each trial wait for a next_trial command "
-                                                        "(a ui node's questionnaires)."),
+        hold: bool = typer.Option(
+            False,
+            "--hold",
+            help="sim node: after each trial wait for a next_trial command (a ui node's questionnaires).",
+        ),
         chip: str = typer.Option("default", "--chip", help="sim, autonomy, ui nodes: chip name or PNG."),
-        autonomy: str = typer.Option("local", "--autonomy", help="sim node: dP_r from its own navigator (local) "
-                                                                 "or from an autonomy node (remote)."),
+        autonomy: str = typer.Option(
+            "local",
+            "--autonomy",
+            help="sim node: dP_r from its own navigator (local) or from an autonomy node (remote).",
+        ),
         seed: int = typer.Option(0, "--seed", help="sim node: trial t meets scenario seed * 10000 + t."),
-        duration: float = typer.Option(None, "--duration", help="sim node: seconds of simulated time (default: until stopped)."),
+        duration: float = typer.Option(
+            None, "--duration", help="sim node: seconds of simulated time (default: until stopped)."
+        ),
         listen: list[str] = typer.Option(None, "--listen", help="zenoh endpoint to listen on (repeatable)."),
         connect: list[str] = typer.Option(None, "--connect", help="zenoh endpoint to connect to (repeatable)."),
         zenoh_config: Path = typer.Option(None, "--zenoh-config", help="zenoh config file (TLS, user/password)."),
-        out: Path = typer.Option(None, "--out", help="recorder node: folder for session.mcap; ui node: for "
-                                                     "trials.csv and questionnaires.csv."),
+        out: Path = typer.Option(
+            None,
+            "--out",
+            help="recorder node: folder for session.mcap; ui node: for trials.csv and questionnaires.csv.",
+        ),
         no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="ui node: no questionnaires."),
-        navigator: str = typer.Option("route", "--navigator", help="autonomy node: route (the route navigator) or "
-                                                                   "mpc (the model-predictive navigator)."),
+        navigator: str = typer.Option(
+            "route",
+            "--navigator",
+            help="autonomy node: route (the route navigator) or mpc (the model-predictive navigator).",
+        ),
     ) -> None:
         """Run one node of the distributed runtime until stopped."""
         from otgym.bus import messages as msg
@@ -85,13 +113,31 @@ def register(app: typer.Typer) -> None:
         stop = threading.Event()
         for signum in (signal.SIGTERM, signal.SIGINT):
             signal.signal(signum, lambda *_: stop.set())
-        endpoints = dict(listen=list(listen or []), connect=list(connect or []),
-                         config_file=str(zenoh_config) if zenoh_config else None)
+        endpoints = dict(
+            listen=list(listen or []),
+            connect=list(connect or []),
+            config_file=str(zenoh_config) if zenoh_config else None,
+        )
         {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy, "ui": _ui}[role](
-            stop, endpoints, name=name, names=names, device=device, replay=replay, mode=mode, seed=seed,
-            duration=duration, out=out, remote_autonomy=autonomy == "remote", takeover=takeovers,
-            participant=participant.strip(), hold=hold, chip=chip, device_name=device_name,
-            questionnaire=not no_questionnaire, navigator=navigator)
+            stop,
+            endpoints,
+            name=name,
+            names=names,
+            device=device,
+            replay=replay,
+            mode=mode,
+            seed=seed,
+            duration=duration,
+            out=out,
+            remote_autonomy=autonomy == "remote",
+            takeover=takeovers,
+            participant=participant.strip(),
+            hold=hold,
+            chip=chip,
+            device_name=device_name,
+            questionnaire=not no_questionnaire,
+            navigator=navigator,
+        )
 
 
 def _ready(text: str) -> None:
@@ -142,8 +188,10 @@ def _recorder(stop, endpoints, *, out, **_):
         _ready(f"recorder into {path}")
         while not stop.wait(0.25):
             recorder.flush()
-    print(f"recorder: {sum(recorder.counts.values())} messages, {sum(node.dropped.values())} dropped, into {path}",
-          flush=True)
+    print(
+        f"recorder: {sum(recorder.counts.values())} messages, {sum(node.dropped.values())} dropped, into {path}",
+        flush=True,
+    )
 
 
 def _ui(stop, endpoints, *, names, device, chip, out, questionnaire, **_):
@@ -162,8 +210,9 @@ def _ui(stop, endpoints, *, names, device, chip, out, questionnaire, **_):
     with Node("ui", "ui", **endpoints) as node:
         _ready(f"ui ({device})")
         try:
-            app = run_window(node, layout, device, names if device == "mouse" else [], out,
-                             questionnaire=questionnaire, stop=stop)
+            app = run_window(
+                node, layout, device, names if device == "mouse" else [], out, questionnaire=questionnaire, stop=stop
+            )
         except DeviceError as error:
             raise ValueError(str(error)) from None
     print(f"ui: wrote {app.trials_written} trial(s) to {out / 'trials.csv'}", flush=True)
@@ -180,19 +229,22 @@ def _autonomy(stop, endpoints, *, chip, navigator, **_):
     if navigator == "mpc":
         from otgym.runtime.mpc_navigator import MPCNavigator
 
-        print("building the model-predictive navigator (its model, grip calibration and first compile take about "
-              "a minute on 2 cores) ...", flush=True)
+        print(
+            "building the model-predictive navigator (its model, grip calibration and first compile take about "
+            "a minute on 2 cores) ...",
+            flush=True,
+        )
         planner = MPCNavigator(task)
         planner.warm_up()
     with Node("autonomy", "autonomy", **endpoints) as node:
         _ready(f"autonomy ({'model-predictive' if planner else 'route'} navigator)")
         answered = run_autonomy_node(node, task, stop, navigator=planner)
-        print(f"autonomy: {answered} ticks answered; dropped {sum(node.dropped.values())} malformed messages",
-              flush=True)
+        print(
+            f"autonomy: {answered} ticks answered; dropped {sum(node.dropped.values())} malformed messages", flush=True
+        )
 
 
-def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, takeover, participant, hold, chip,
-         **_):
+def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, takeover, participant, hold, chip, **_):
     from otgym.bus.sim_node import serve_sim_node
     from otgym.bus.transport import Node
     from otgym.cli.app import report_worker_error
@@ -203,17 +255,34 @@ def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, takeo
     load_chip(chip)  # a bad chip is an error line before anything starts
     print("starting the simulation in its own process ...", flush=True)
     with Node("sim", "sim", **endpoints) as node:
-        ready = functools.partial(_ready, f"sim for devices {', '.join(names)}"
-                                  + (f", taken over by {', '.join(takeover)}" if takeover else "")
-                                  + (" with a remote autonomy" if remote_autonomy else ""))
+        ready = functools.partial(
+            _ready,
+            f"sim for devices {', '.join(names)}"
+            + (f", taken over by {', '.join(takeover)}" if takeover else "")
+            + (" with a remote autonomy" if remote_autonomy else ""),
+        )
         try:
-            stats = serve_sim_node(node, names, mode, seed, stop, duration, remote_autonomy, chip=chip,
-                                   takeover=takeover, participant=participant, hold_between_trials=hold,
-                                   on_ready=ready)
+            stats = serve_sim_node(
+                node,
+                names,
+                mode,
+                seed,
+                stop,
+                duration,
+                remote_autonomy,
+                chip=chip,
+                takeover=takeover,
+                participant=participant,
+                hold_between_trials=hold,
+                on_ready=ready,
+            )
         except DeviceError as error:
             raise ValueError(str(error)) from None
         except WorkerError as error:
             report_worker_error(error)
-        print(f"sim: {stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts; dropped "
-              f"{sum(node.dropped.values())} malformed messages", flush=True)
+        print(
+            f"sim: {stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts; dropped "
+            f"{sum(node.dropped.values())} malformed messages",
+            flush=True,
+        )
     sys.stdout.flush()

@@ -26,8 +26,9 @@ def register(app: typer.Typer) -> None:
             None, "--margin-um", help="Safety margin in um added to the radius (default: sqrt(2) pixels)."
         ),
         manual: Path = typer.Option(
-            None, "--manual", help="Recorded manual trajectory, CSV with columns x_um,y_um "
-            "(default: a simulated human operator)."
+            None,
+            "--manual",
+            help="Recorded manual trajectory, CSV with columns x_um,y_um (default: a simulated human operator).",
         ),
         out: Path = typer.Option(..., "--out", help="Folder for the results."),
         seed: int = typer.Option(0, "--seed", help="Seed of the simulated operator."),

@@ -20,15 +20,24 @@ def register(app: typer.Typer) -> None:
         device: str = typer.Option("keyboard", "--device", help="keyboard, gamepad, touch or simulated."),
         participant: str = typer.Option("P1", "--participant", help="Participant ID written with every trial."),
         seed: int = typer.Option(0, "--seed", help="Trial t meets scenario seed * 10000 + t."),
-        duration: float = typer.Option(None, "--duration", help="Seconds of simulated time in all (default: until Esc)."),
+        duration: float = typer.Option(
+            None, "--duration", help="Seconds of simulated time in all (default: until Esc)."
+        ),
         no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="No questionnaires after trials."),
         screenshot: Path = typer.Option(None, "--screenshot", help="Save the last frame as this PNG."),
         headless: bool = typer.Option(False, "--headless", help="No window (SDL dummy drivers); for tests and CI."),
-        distributed: bool = typer.Option(False, "--distributed", help="Run the sim, device, recorder (and autonomy) "
-                                                                      "as local node processes on loopback, the "
-                                                                      "window as the ui node."),
-        navigator: str = typer.Option("route", "--navigator", help="With --distributed: the autonomy node's "
-                                                                   "navigator, route or mpc (model-predictive)."),
+        distributed: bool = typer.Option(
+            False,
+            "--distributed",
+            help="Run the sim, device, recorder (and autonomy) "
+            "as local node processes on loopback, the "
+            "window as the ui node.",
+        ),
+        navigator: str = typer.Option(
+            "route",
+            "--navigator",
+            help="With --distributed: the autonomy node's navigator, route or mpc (model-predictive).",
+        ),
         out: Path = typer.Option(..., "--out", help="Folder for trials.csv, session.mcap (and questionnaires.csv)."),
     ) -> None:
         """The interactive task in a window: global and microscope views, cues, keys 1/2/3
@@ -52,8 +61,10 @@ def register(app: typer.Typer) -> None:
         if navigator not in ("route", "mpc"):
             raise ValueError(f"--navigator must be route or mpc, got {navigator!r}")
         if navigator == "mpc" and not distributed:
-            raise ValueError("--navigator mpc needs --distributed: its replans (about 74 ms each) run in the "
-                             "autonomy node's own process, not in the simulation's")
+            raise ValueError(
+                "--navigator mpc needs --distributed: its replans (about 74 ms each) run in the "
+                "autonomy node's own process, not in the simulation's"
+            )
         if headless:
             os.environ["SDL_VIDEODRIVER"] = "dummy"
             os.environ["SDL_AUDIODRIVER"] = "dummy"
@@ -71,14 +82,23 @@ def _check_screenshot_folder(screenshot: Path | None, out: Path) -> None:
     raise ValueError(f"--screenshot {screenshot}: folder {screenshot.parent} does not exist")
 
 
-def run_play(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
-             questionnaire: bool, screenshot: Path | None, out: Path) -> None:
+def run_play(
+    chip: str,
+    mode: str,
+    device: str,
+    participant: str,
+    seed: int,
+    duration_s: float | None,
+    questionnaire: bool,
+    screenshot: Path | None,
+    out: Path,
+) -> None:
     """The window in this process, the session in its own (``otgym.runtime.worker``)."""
     import functools
 
+    from otgym.cli.app import report_worker_error
     from otgym.experiments.output_folder import check_out_dir
     from otgym.record.mcap_file import session_path
-    from otgym.cli.app import report_worker_error
     from otgym.runtime.worker import SessionProcess, WorkerError, WorkerSpec
     from otgym.sim.chip import load_chip
     from otgym.teleop.device import DeviceError, start_devices
@@ -111,8 +131,14 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
             remove_empty_out()
             raise ValueError(str(error)) from None
         recording_path = session_path(out)
-        spec = WorkerSpec(functools.partial(play_setup, chip, device, recording_path), participant, mode, seed,
-                          duration_s, forwarded_caps=tuple(d.caps for d in windowed))
+        spec = WorkerSpec(
+            functools.partial(play_setup, chip, device, recording_path),
+            participant,
+            mode,
+            seed,
+            duration_s,
+            forwarded_caps=tuple(d.caps for d in windowed),
+        )
         session = SessionProcess(spec)
         print(f"starting the simulation on chip {chip_data.name!r} in its own process ...", flush=True)
         try:
@@ -132,11 +158,15 @@ def run_play(chip: str, mode: str, device: str, participant: str, seed: int, dur
         frames = np.asarray(app.frame_times_s[1:]) if len(app.frame_times_s) > 1 else None
         stats = session.stats or {}
         if frames is not None:
-            print(f"{len(frames)} frames, median {1 / np.median(frames):.0f} fps "
-                  f"({app.frames_with_new_state} with a new simulation state); "
-                  f"{stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts")
-        print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {recording_path}"
-              + (f"; screenshot {screenshot}" if screenshot is not None else ""))
+            print(
+                f"{len(frames)} frames, median {1 / np.median(frames):.0f} fps "
+                f"({app.frames_with_new_state} with a new simulation state); "
+                f"{stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts"
+            )
+        print(
+            f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {recording_path}"
+            + (f"; screenshot {screenshot}" if screenshot is not None else "")
+        )
     finally:
         for each in windowed:
             each.stop()
@@ -155,10 +185,16 @@ def node_plan(device: str, endpoint: str) -> tuple[list[tuple[str, list[str]]], 
     if device in ("keyboard", "gamepad"):
         return [], ["--name", "ui0,ui1"], device, []
     if device == "simulated":
-        return ([("device0", ["device", "--device", "simulated", "--name", "device0", *connect])],
-                ["--name", "device0", "--takeover", "ui0,ui1"], "mouse", ["device0"])
-    nodes = [(f"device{i}", ["device", "--device", "touch", "--device-name", touch, "--name", f"device{i}",
-                             *connect]) for i, touch in enumerate(TOUCH_NAMES)]
+        return (
+            [("device0", ["device", "--device", "simulated", "--name", "device0", *connect])],
+            ["--name", "device0", "--takeover", "ui0,ui1"],
+            "mouse",
+            ["device0"],
+        )
+    nodes = [
+        (f"device{i}", ["device", "--device", "touch", "--device-name", touch, "--name", f"device{i}", *connect])
+        for i, touch in enumerate(TOUCH_NAMES)
+    ]
     return nodes, ["--name", "device0,device1", "--takeover", "ui0,ui1"], "mouse", ["device0", "device1"]
 
 
@@ -167,8 +203,17 @@ RECORDER_DRAIN_S = 10.0
 have the session's last message."""
 
 
-def _window_over_nodes(nodes, endpoint: str, layout, window_kind: str, shown: list[str], out: Path,
-                       questionnaire: bool, screenshot: Path | None, failed: list[str]):
+def _window_over_nodes(
+    nodes,
+    endpoint: str,
+    layout,
+    window_kind: str,
+    shown: list[str],
+    out: Path,
+    questionnaire: bool,
+    screenshot: Path | None,
+    failed: list[str],
+):
     """The window as the ui node until it closes, a node fails (its line appended to
     ``failed``) or the sim ends; then the sim's own end is awaited."""
     import threading
@@ -194,8 +239,9 @@ def _window_over_nodes(nodes, endpoint: str, layout, window_kind: str, shown: li
     threading.Thread(target=watch, name="otgym-nodes-watch", daemon=True).start()
     with Node("ui", "ui", connect=[endpoint]) as node:
         try:
-            app = run_window(node, layout, window_kind, shown, out, questionnaire=questionnaire,
-                             screenshot=screenshot, stop=stop)
+            app = run_window(
+                node, layout, window_kind, shown, out, questionnaire=questionnaire, screenshot=screenshot, stop=stop
+            )
         except DeviceError as error:  # e.g. no gamepad: the nodes stop all the same
             raise ValueError(str(error)) from None
         finally:
@@ -208,8 +254,18 @@ def _window_over_nodes(nodes, endpoint: str, layout, window_kind: str, shown: li
     return app
 
 
-def run_distributed(chip: str, mode: str, device: str, participant: str, seed: int, duration_s: float | None,
-                    questionnaire: bool, screenshot: Path | None, out: Path, navigator: str = "route") -> None:
+def run_distributed(
+    chip: str,
+    mode: str,
+    device: str,
+    participant: str,
+    seed: int,
+    duration_s: float | None,
+    questionnaire: bool,
+    screenshot: Path | None,
+    out: Path,
+    navigator: str = "route",
+) -> None:
     """The sim, device, recorder (and, in shared or autonomous mode, autonomy) nodes as
     local processes on a loopback port; this process is the ui node (the window).
     All stop when the window closes or when one of them fails (one ``error:`` line,
@@ -232,8 +288,20 @@ def run_distributed(chip: str, mode: str, device: str, participant: str, seed: i
     endpoint = free_loopback_endpoint()
     device_nodes, sim_devices, window_kind, shown = node_plan(device, endpoint)
     remote_autonomy = mode in ("shared", "autonomous")
-    sim = ["sim", "--listen", endpoint, "--mode", mode, "--seed", str(seed), "--participant", participant,
-           "--chip", chip, *sim_devices]
+    sim = [
+        "sim",
+        "--listen",
+        endpoint,
+        "--mode",
+        mode,
+        "--seed",
+        str(seed),
+        "--participant",
+        participant,
+        "--chip",
+        chip,
+        *sim_devices,
+    ]
     sim += (["--duration", repr(duration_s)] if duration_s is not None else []) + (["--hold"] if questionnaire else [])
     sim += ["--autonomy", "remote"] if remote_autonomy else []
     nodes = NodeProcesses()
@@ -263,12 +331,15 @@ def run_distributed(chip: str, mode: str, device: str, participant: str, seed: i
                 failed.append(str(error))
         if not failed:
             print("nodes ready; the window opens", flush=True)
-            app = _window_over_nodes(nodes, endpoint, layout, window_kind, shown, out, questionnaire, screenshot,
-                                     failed)
+            app = _window_over_nodes(
+                nodes, endpoint, layout, window_kind, shown, out, questionnaire, screenshot, failed
+            )
     finally:
         nodes.stop_all(order=["sim", "autonomy", *[label for label, _ in device_nodes], "recorder"])
     if failed:
         print(f"error: {failed[0]}", file=sys.stderr)
         raise SystemExit(1)
-    print(f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {out}/session*.mcap"
-          + (f"; screenshot {screenshot}" if screenshot is not None else ""))
+    print(
+        f"wrote {app.trials_written} trial(s) to {out / 'trials.csv'}; recording {out}/session*.mcap"
+        + (f"; screenshot {screenshot}" if screenshot is not None else "")
+    )

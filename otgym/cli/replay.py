@@ -15,11 +15,17 @@ def register(app: typer.Typer) -> None:
     @app.command("replay")
     def replay(
         file: Path = typer.Argument(..., help="An MCAP recording (otgym play's session.mcap or a recorder node's)."),
-        out: Path = typer.Option(None, "--out", help="Folder for PNG frames of the global view (none without it); "
-                                                     "with --video, the folder for the MP4."),
+        out: Path = typer.Option(
+            None,
+            "--out",
+            help="Folder for PNG frames of the global view (none without it); with --video, the folder for the MP4.",
+        ),
         every: int = typer.Option(25, "--every", help="PNG frames: one per this many ticks (25: 0.5 s at 50 Hz)."),
-        video: bool = typer.Option(False, "--video", help="Write an MP4 (H.264) instead of PNG frames: FILE's name "
-                                                          "with .mp4, beside FILE or in --out."),
+        video: bool = typer.Option(
+            False,
+            "--video",
+            help="Write an MP4 (H.264) instead of PNG frames: FILE's name with .mp4, beside FILE or in --out.",
+        ),
         fps: float = typer.Option(25.0, "--fps", help="Video frames per second."),
         speed: float = typer.Option(1.0, "--speed", help="Video speed: 1 plays simulated time in real time."),
         width: int = typer.Option(960, "--width", help="Frame width in pixels (the height follows the chip)."),
@@ -50,15 +56,21 @@ def register(app: typer.Typer) -> None:
         print(f"{file}: {info['messages']} messages over {info['duration_s']:.2f} s, {state}")
         for topic, count in info["counts"].items():
             print(f"  {topic:40s} {count:8d}")
-        print(f"trials: {info['trials']} started, {len(info['ended_by'])} finished"
-              + (f" ({', '.join(str(e) for e in info['ended_by'])})" if info["ended_by"] else ""))
+        print(
+            f"trials: {info['trials']} started, {len(info['ended_by'])} finished"
+            + (f" ({', '.join(str(e) for e in info['ended_by'])})" if info["ended_by"] else "")
+        )
         if out is None and not video:
             return
         scene = session_scene(recording)
         print(f"note: {scene.chip_note}" if scene.chip_note else f"chip: {scene.chip.name}")
         console = Console()
-        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} frames"),
-                   TimeElapsedColumn())
+        columns = (
+            TextColumn("{task.description}"),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total} frames"),
+            TimeElapsedColumn(),
+        )
         started = time.perf_counter()
         with Progress(*columns, console=console, transient=True) as progress:
             bar = progress.add_task("encoding" if video else "drawing", total=None)
@@ -73,8 +85,10 @@ def register(app: typer.Typer) -> None:
                 frames = render_frames(recording, out, every, width, report)
         wall_s = time.perf_counter() - started
         if video:
-            print(f"wrote {target}: {made['frames']} frames, {made['width']}x{made['height']}, H.264 at "
-                  f"{made['fps']:g} fps ({made['simulated_s']:.2f} s of simulated time at {speed:g}x) in "
-                  f"{wall_s:.1f} s")
+            print(
+                f"wrote {target}: {made['frames']} frames, {made['width']}x{made['height']}, H.264 at "
+                f"{made['fps']:g} fps ({made['simulated_s']:.2f} s of simulated time at {speed:g}x) in "
+                f"{wall_s:.1f} s"
+            )
         else:
             print(f"wrote {len(frames)} frame(s) to {out} in {wall_s:.1f} s")

@@ -16,12 +16,18 @@ def register(app: typer.Typer) -> None:
 
     @study.command("analyze")
     def analyze(
-        sources: list[Path] = typer.Argument(..., help="Session folders (trials.csv and, where answers were "
-                                                       "given, questionnaires.csv; without trials.csv, its "
-                                                       "session*.mcap recordings) or MCAP files; participant "
-                                                       "ids unique across them."),
-        out: Path = typer.Option(..., "--out", help="Folder for fig8.png, questionnaire_scores.csv, summary.md, "
-                                                    "summary.csv, stats.json, analysis.json."),
+        sources: list[Path] = typer.Argument(
+            ...,
+            help="Session folders (trials.csv and, where answers were "
+            "given, questionnaires.csv; without trials.csv, its "
+            "session*.mcap recordings) or MCAP files; participant "
+            "ids unique across them.",
+        ),
+        out: Path = typer.Option(
+            ...,
+            "--out",
+            help="Folder for fig8.png, questionnaire_scores.csv, summary.md, summary.csv, stats.json, analysis.json.",
+        ),
     ) -> None:
         """Success and completion time per mode (Fig. 8 a, b) and, where answers were
         recorded, NASA-TLX and UEQ-S per mode (Fig. 8 c, d), with paired tests."""

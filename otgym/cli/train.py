@@ -30,8 +30,12 @@ def register(app: typer.Typer) -> None:
         config = DQNConfig(n_envs=envs, total_env_steps=steps)
         check_out_dir(out)
         console = Console()
-        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} chunks"),
-                   TimeElapsedColumn())
+        columns = (
+            TextColumn("{task.description}"),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total} chunks"),
+            TimeElapsedColumn(),
+        )
         with Progress(*columns, console=console, transient=True) as progress:
             bar = progress.add_task("planning and compiling", total=config.n_chunks)
 
@@ -40,7 +44,9 @@ def register(app: typer.Typer) -> None:
 
             result = run_training(task, config, seed, report)
         summary = write_training(result, out)
-        console.print(f"[bold]otgym train[/bold] ({preset}): {summary['episodes']} episodes, "
-                      f"{summary['env_steps']} steps in {summary['wall_s']} s; final mean return "
-                      f"{summary['final_mean_return']}")
+        console.print(
+            f"[bold]otgym train[/bold] ({preset}): {summary['episodes']} episodes, "
+            f"{summary['env_steps']} steps in {summary['wall_s']} s; final mean return "
+            f"{summary['final_mean_return']}"
+        )
         console.print(f"wrote {out}/policy.npz, learning_curve.png, training.json")

@@ -40,8 +40,9 @@ def dense_path(points_um, dtype=jnp.float32) -> DensePath:
 
 def point_at(path: DensePath, arc_um):
     s = jnp.clip(arc_um, 0.0, path.length_um)
-    return jnp.stack([jnp.interp(s, path.arc_um, path.points_um[:, 0]),
-                      jnp.interp(s, path.arc_um, path.points_um[:, 1])], axis=-1)
+    return jnp.stack(
+        [jnp.interp(s, path.arc_um, path.points_um[:, 0]), jnp.interp(s, path.arc_um, path.points_um[:, 1])], axis=-1
+    )
 
 
 def heading_at(path: DensePath, arc_um, lookaround_um: float = 2.0):
@@ -54,8 +55,9 @@ def heading_at(path: DensePath, arc_um, lookaround_um: float = 2.0):
 
 def _rotate(vectors, angle):
     cos, sin = jnp.cos(angle), jnp.sin(angle)
-    return jnp.stack([cos * vectors[..., 0] - sin * vectors[..., 1],
-                      sin * vectors[..., 0] + cos * vectors[..., 1]], axis=-1)
+    return jnp.stack(
+        [cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]], axis=-1
+    )
 
 
 def formation_offsets(trap_xy_um, centre_um, heading_rad):

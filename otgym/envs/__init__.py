@@ -8,4 +8,3 @@ versions (``gymnasium.make_vec("otgym/SpeedControl-v0", num_envs=8)``,
 from otgym.envs.presets import PRESETS, TaskConfig, preset
 
 __all__ = ["PRESETS", "TaskConfig", "preset"]
-

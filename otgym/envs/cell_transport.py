@@ -49,8 +49,9 @@ def step_batch(key, state: TransportState, action, params: TransportParams):
     heading = fm.heading_at(params.path, state.arc_um)
     tangent = jnp.stack([jnp.cos(heading), jnp.sin(heading)], axis=-1)
     speed = jnp.clip(jnp.sum(jnp.mean(robot_velocity, axis=1) * tangent, axis=-1), 0.0, None)
-    return tr.advance_batch(key, params, state, velocity, lambda scene_state: _cell_arc(params, state, scene_state),
-                            speed)
+    return tr.advance_batch(
+        key, params, state, velocity, lambda scene_state: _cell_arc(params, state, scene_state), speed
+    )
 
 
 reset, step = tr.single_environment(reset_batch, step_batch)

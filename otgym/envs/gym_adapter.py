@@ -22,7 +22,7 @@ from otgym.envs.presets import preset
 TASKS = {"speed_control": speed_control, "cell_transport": cell_transport}
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _compiled(task: str, preset_name: str):
     module = TASKS[task]
     params = module.make_params(preset(preset_name))
@@ -78,15 +78,21 @@ class _TransportEnv(gym.Env):
         scene = self.params.scene
         model = scene.model
         if self._renderer is None:
-            self._renderer = SceneRenderer(scene.config.chip if not isinstance(scene.config.chip, str)
-                                           else _chip(scene.config.chip), size_px=(600, 400))
+            self._renderer = SceneRenderer(
+                scene.config.chip if not isinstance(scene.config.chip, str) else _chip(scene.config.chip),
+                size_px=(600, 400),
+            )
         physics = jax.device_get(self._state.scene.physics)
         handles = np.zeros(len(model.sphere_body), bool)
         handles[list(model.trap_sphere)] = True
-        frame = self._renderer.render(np.asarray(ph.sphere_positions_um(model, physics.pose)),
-                                      np.asarray(model.sphere_radius_um),
-                                      np.array([model.body_kinds[b] for b in model.sphere_body]), handles,
-                                      np.asarray(physics.trap_xy_um), np.asarray(self.params.path.points_um))
+        frame = self._renderer.render(
+            np.asarray(ph.sphere_positions_um(model, physics.pose)),
+            np.asarray(model.sphere_radius_um),
+            np.array([model.body_kinds[b] for b in model.sphere_body]),
+            handles,
+            np.asarray(physics.trap_xy_um),
+            np.asarray(self.params.path.points_um),
+        )
         if self.render_mode == "rgb_array":
             return frame
         import matplotlib.pyplot as plt
@@ -124,7 +130,8 @@ class SpeedControlEnv(_TransportEnv):
 
     def _checked_action(self, action):
         integer = isinstance(action, (int, np.integer)) or (
-            isinstance(action, np.ndarray) and action.ndim == 0 and np.issubdtype(action.dtype, np.integer))
+            isinstance(action, np.ndarray) and action.ndim == 0 and np.issubdtype(action.dtype, np.integer)
+        )
         if not integer or not 0 <= int(action) < self.action_space.n:
             raise ValueError(f"action must be an integer in 0..{self.action_space.n - 1}, got {action!r}")
         return int(action)

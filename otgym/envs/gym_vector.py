@@ -57,7 +57,7 @@ from otgym.envs import gym_adapter, transport
 INFO_KEYS = ("progress", "success", "failed", "time_s", "contact_force_pn", "trap_distance_um")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _compiled_batch(task: str, preset_name: str):
     """(params, reset(key, params, n_envs), step(key, state, actions, params)) of a
     task, jitted; ``step`` steps every environment and auto-resets the finished ones,
@@ -195,16 +195,23 @@ class CellTransportVectorEnv(_TransportVectorEnv):
         try:
             array = np.asarray(actions, np.float32)
         except (TypeError, ValueError) as error:
-            raise ValueError(f"actions must be a float array of shape ({self.num_envs}, 2, 2), got {actions!r}") from error
+            raise ValueError(
+                f"actions must be a float array of shape ({self.num_envs}, 2, 2), got {actions!r}"
+            ) from error
         if array.shape != (self.num_envs, 2, 2):
-            raise ValueError(f"actions must have shape ({self.num_envs}, 2, 2) (environment, robot, x/y velocity "
-                             f"in um/s), got {array.shape}")
+            raise ValueError(
+                f"actions must have shape ({self.num_envs}, 2, 2) (environment, robot, x/y velocity "
+                f"in um/s), got {array.shape}"
+            )
         if not np.all(np.isfinite(array)):
-            raise ValueError(f"actions must be finite, got NaN or inf in environments "
-                             f"{np.flatnonzero(~np.all(np.isfinite(array), axis=(1, 2))).tolist()}")
+            raise ValueError(
+                f"actions must be finite, got NaN or inf in environments "
+                f"{np.flatnonzero(~np.all(np.isfinite(array), axis=(1, 2))).tolist()}"
+            )
         if not self.action_space.contains(array):
             limit = self.params.config.max_robot_speed_um_s
             outside = np.flatnonzero(np.any(np.abs(array) > limit, axis=(1, 2))).tolist()
-            raise ValueError(f"action components must lie in [-{limit}, {limit}] um/s, got values outside in "
-                             f"environments {outside}")
+            raise ValueError(
+                f"action components must lie in [-{limit}, {limit}] um/s, got values outside in environments {outside}"
+            )
         return array

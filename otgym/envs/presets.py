@@ -105,16 +105,37 @@ class TaskConfig:
 
 
 def paper() -> TaskConfig:
-    scene = SceneConfig(trap_law=ph.TrapLaw.paper(), dt_s=4e-3, viscosity_pa_s=1.0e-3, flow_scale=0.04,
-                        obstacle_motion=ObstacleMotion(speed_um_s=0.2), min_obstacle_distance_um=80.0)
-    return TaskConfig(name="paper", scene=scene, start_um=(285.0, 160.0), goal_um=(15.0, 40.0), segment_um=15.0,
-                      speed_levels_um_s=PAPER_SPEEDS_UM_S, max_steps=300, max_robot_speed_um_s=1.0)
+    scene = SceneConfig(
+        trap_law=ph.TrapLaw.paper(),
+        dt_s=4e-3,
+        viscosity_pa_s=1.0e-3,
+        flow_scale=0.04,
+        obstacle_motion=ObstacleMotion(speed_um_s=0.2),
+        min_obstacle_distance_um=80.0,
+    )
+    return TaskConfig(
+        name="paper",
+        scene=scene,
+        start_um=(285.0, 160.0),
+        goal_um=(15.0, 40.0),
+        segment_um=15.0,
+        speed_levels_um_s=PAPER_SPEEDS_UM_S,
+        max_steps=300,
+        max_robot_speed_um_s=1.0,
+    )
 
 
 def realistic() -> TaskConfig:
-    return TaskConfig(name="realistic", scene=SceneConfig(), start_um=(15.0, 40.0), goal_um=(285.0, 160.0),
-                      segment_um=40.0, speed_levels_um_s=(2.0, 4.0, 6.0, 8.0, 10.0, 12.0), max_steps=100,
-                      max_robot_speed_um_s=15.0)
+    return TaskConfig(
+        name="realistic",
+        scene=SceneConfig(),
+        start_um=(15.0, 40.0),
+        goal_um=(285.0, 160.0),
+        segment_um=40.0,
+        speed_levels_um_s=(2.0, 4.0, 6.0, 8.0, 10.0, 12.0),
+        max_steps=100,
+        max_robot_speed_um_s=15.0,
+    )
 
 
 PRESETS = {"paper": paper, "realistic": realistic}

@@ -38,7 +38,8 @@ def step_batch(key, state: TransportState, action, params: TransportParams):
     speed = levels[jnp.clip(jnp.asarray(action, jnp.int32), 0, config.n_actions - 1)]
     next_arc = jnp.minimum(state.arc_um + speed * period, tr.segment_end(params, state))
     velocity = jax.vmap(lambda traps, arc: fm.formation_velocity(params.path, params.offsets_um, traps, arc, period))(
-        state.scene.physics.trap_xy_um, next_arc)
+        state.scene.physics.trap_xy_um, next_arc
+    )
     return tr.advance_batch(key, params, state, velocity, lambda _: next_arc, speed)
 
 

@@ -74,11 +74,19 @@ def make_params(config: TaskConfig) -> TransportParams:
         chosen = np.random.default_rng(0).choice(len(spots), OBSTACLE_SPOTS, replace=False)
         scene = scene.replace(obstacle_candidates_um=jnp.asarray(spots[np.sort(chosen)]))
     chip = config.scene.chip if isinstance(config.scene.chip, Chip) else load_chip(config.scene.chip)
-    plan = plan_path(chip.image, chip.pixel_size_um, config.start_um, config.goal_um,
-                     robot_radius_um=scene.assembly_radius_um, threshold=0.5)
+    plan = plan_path(
+        chip.image,
+        chip.pixel_size_um,
+        config.start_um,
+        config.goal_um,
+        robot_radius_um=scene.assembly_radius_um,
+        threshold=0.5,
+    )
     path = fm.dense_path(plan.smoothed_um)
     if float(path.length_um) < config.segment_um:
-        raise ValueError(f"planned path ({float(path.length_um):.1f} um) is shorter than segment_um={config.segment_um}")
+        raise ValueError(
+            f"planned path ({float(path.length_um):.1f} um) is shorter than segment_um={config.segment_um}"
+        )
     heading = fm.heading_at(path, 0.0)
     state = sc.reset_at(scene, jax.random.PRNGKey(0), path.points_um[0], heading)
     offsets = fm.formation_offsets(state.physics.trap_xy_um, path.points_um[0], heading)
@@ -95,19 +103,21 @@ def reset_batch(key, params: TransportParams, n_envs: int):
     start_key, scene_key = jax.random.split(key)
     room = params.path.length_um - params.config.segment_um
     starts = jax.random.uniform(start_key, (n_envs,), params.path.arc_um.dtype) * room
-    scene_state = jax.vmap(lambda k, s: sc.reset_at(params.scene, k, fm.point_at(params.path, s),
-                                                    fm.heading_at(params.path, s)))(
-        jax.random.split(scene_key, n_envs), starts)
+    scene_state = jax.vmap(
+        lambda k, s: sc.reset_at(params.scene, k, fm.point_at(params.path, s), fm.heading_at(params.path, s))
+    )(jax.random.split(scene_key, n_envs), starts)
     zeros = jnp.zeros_like(starts)
-    state = TransportState(scene_state, starts, starts, zeros, jnp.zeros((n_envs, 2), starts.dtype),
-                           jnp.zeros(n_envs, jnp.int32))
+    state = TransportState(
+        scene_state, starts, starts, zeros, jnp.zeros((n_envs, 2), starts.dtype), jnp.zeros(n_envs, jnp.int32)
+    )
     return observe_batch(params, state), state
 
 
 def _rotate(vectors, angle):
     cos, sin = jnp.cos(angle), jnp.sin(angle)
-    return jnp.stack([cos * vectors[..., 0] + sin * vectors[..., 1],
-                      -sin * vectors[..., 0] + cos * vectors[..., 1]], axis=-1)  # into a frame at ``angle``
+    return jnp.stack(
+        [cos * vectors[..., 0] + sin * vectors[..., 1], -sin * vectors[..., 0] + cos * vectors[..., 1]], axis=-1
+    )  # into a frame at ``angle``
 
 
 def _observe(params: TransportParams, state: TransportState):
@@ -127,22 +137,30 @@ def _observe(params: TransportParams, state: TransportState):
         obstacles = np.asarray(scene.obstacles)
         relative = pose[obstacles, :2] - cell_xy
         nearest = jnp.argmin(jnp.linalg.norm(relative, axis=-1))
-        velocity = state.scene.obstacle_propulsion_um_s[nearest] + model.flow.velocity_um_s(
-            pose[obstacles[0] + nearest, None, :2])[0]
-        obstacle = jnp.concatenate([jnp.clip(_rotate(relative[nearest], heading) / OBSTACLE_SCALE_UM, -1, 1),
-                                    _rotate(velocity, heading) / top_speed])
+        velocity = (
+            state.scene.obstacle_propulsion_um_s[nearest]
+            + model.flow.velocity_um_s(pose[obstacles[0] + nearest, None, :2])[0]
+        )
+        obstacle = jnp.concatenate(
+            [
+                jnp.clip(_rotate(relative[nearest], heading) / OBSTACLE_SCALE_UM, -1, 1),
+                _rotate(velocity, heading) / top_speed,
+            ]
+        )
     else:
         obstacle = jnp.zeros(4, pose.dtype)
     progress = (state.arc_um - state.start_arc_um) / config.segment_um
-    return jnp.concatenate([
-        jnp.stack([progress, state.speed_um_s / top_speed]),
-        _rotate(cell_xy - centre, heading),
-        trap_vectors.reshape(-1),
-        state.contact_force_pn / config.force_band_pn[1],
-        flow,
-        turn[None],
-        obstacle,
-    ]).astype(jnp.float32)
+    return jnp.concatenate(
+        [
+            jnp.stack([progress, state.speed_um_s / top_speed]),
+            _rotate(cell_xy - centre, heading),
+            trap_vectors.reshape(-1),
+            state.contact_force_pn / config.force_band_pn[1],
+            flow,
+            turn[None],
+            obstacle,
+        ]
+    ).astype(jnp.float32)
 
 
 def observe_batch(params: TransportParams, state: TransportState):
@@ -159,14 +177,16 @@ def reward_terms(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal
     fraction = events.trap_distance_um / config.scene.trap_law.escape_distance
     margin = jnp.sum(jnp.maximum(fraction - weights.trap_margin_fraction, 0.0), axis=-1) / 0.1
     zeros = jnp.zeros(force.shape[:-1], force.dtype)
-    return {"time": zeros + weights.time,
-            "speed": zeros + weights.speed * speed / max(config.speed_levels_um_s),
-            "force_in_band": weights.force_in_band * jnp.all(in_band, axis=-1),
-            "force_out_of_band": weights.force_out_of_band * jnp.sum(~in_band, axis=-1),
-            "handle_deviation": weights.handle_deviation * deviation,
-            "trap_margin": weights.trap_margin * margin,
-            "failure": jnp.where(failed, weights.failure, 0.0),
-            "goal": jnp.where(goal, weights.goal, 0.0)}
+    return {
+        "time": zeros + weights.time,
+        "speed": zeros + weights.speed * speed / max(config.speed_levels_um_s),
+        "force_in_band": weights.force_in_band * jnp.all(in_band, axis=-1),
+        "force_out_of_band": weights.force_out_of_band * jnp.sum(~in_band, axis=-1),
+        "handle_deviation": weights.handle_deviation * deviation,
+        "trap_margin": weights.trap_margin * margin,
+        "failure": jnp.where(failed, weights.failure, 0.0),
+        "goal": jnp.where(goal, weights.goal, 0.0),
+    }
 
 
 def _reward(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal):
@@ -185,13 +205,19 @@ def advance_batch(key, params: TransportParams, state: TransportState, trap_velo
     terminated = failed | goal
     truncated = (new.steps >= params.config.max_steps) & ~terminated
     reward = _reward(params.config, events, speed_um_s, failed, goal)
-    info = {"success": goal, "failed": failed, "progress": (arc - state.start_arc_um) / params.config.segment_um,
-            "time_s": new.steps * params.config.scene.control_period_s, "events": events}
+    info = {
+        "success": goal,
+        "failed": failed,
+        "progress": (arc - state.start_arc_um) / params.config.segment_um,
+        "time_s": new.steps * params.config.scene.control_period_s,
+        "events": events,
+    }
     return observe_batch(params, new), new, reward.astype(jnp.float32), terminated, truncated, info
 
 
 def auto_reset(key, params: TransportParams, obs, state: TransportState, done):
     """Replace finished environments by fresh episodes (computed only when any is done)."""
+
     def fresh(_):
         new_obs, new_state = reset_batch(key, params, done.shape[0])
         pick = lambda a, b: jnp.where(done.reshape(done.shape + (1,) * (a.ndim - 1)), a, b)  # noqa: E731

@@ -27,8 +27,9 @@ import json
 import math
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 from otgym.experiments.output_folder import check_out_dir
 
@@ -87,8 +88,9 @@ class StudyConfig:
 
         check_range("--study-participants", self.participants, *SIZE_RANGES["study_participants"])
         check_range("--study-trials", self.trials, *SIZE_RANGES["study_trials"])
-        check_range("--study-time-limit-s", self.time_limit_s, *SIZE_RANGES["study_time_limit_s"], integer=False,
-                    unit=" s")
+        check_range(
+            "--study-time-limit-s", self.time_limit_s, *SIZE_RANGES["study_time_limit_s"], integer=False, unit=" s"
+        )
         unknown = [mode for mode in self.modes if mode not in MODES]
         if unknown or not self.modes or len(set(self.modes)) != len(self.modes):
             raise ValueError(f"study modes must be distinct ones of {', '.join(MODES)}, got {', '.join(self.modes)}")
@@ -115,8 +117,12 @@ def check_range(name: str, value, low, high, integer: bool = True, unit: str = "
     if integer:
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
-    elif (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
-          or not low < value <= high):
+    elif (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or not low < value <= high
+    ):
         raise ValueError(f"{name} must lie in ({low:g}, {high:g}]{unit}, got {value!r}")
 
 
@@ -136,8 +142,7 @@ class DemoConfig:
         check_range("--episodes", self.episodes, *SIZE_RANGES["episodes"])
         check_range("--seed", self.seed, *SIZE_RANGES["seed"])
         check_range("--runs", self.transport.n_runs, *SIZE_RANGES["runs"])
-        check_range("--speed-um-s", self.transport.speed_um_s, *SIZE_RANGES["speed_um_s"], integer=False,
-                    unit=" um/s")
+        check_range("--speed-um-s", self.transport.speed_um_s, *SIZE_RANGES["speed_um_s"], integer=False, unit=" um/s")
         check_range("transport seed", self.transport.seed, *SIZE_RANGES["seed"])
 
 
@@ -147,10 +152,17 @@ def _transport(**options) -> TransportDemo:
     return TransportDemo(**options)
 
 
-def demo_config(policy: str = "pretrained", episodes: int = DEMO_EPISODES, speed_um_s: float = 4.0,
-                runs: int = DEMO_RUNS, seed: int = 1, study_participants: int = StudyConfig.participants,
-                study_trials: int = StudyConfig.trials,
-                study_time_limit_s: float = StudyConfig.time_limit_s, background_study: bool = True) -> DemoConfig:
+def demo_config(
+    policy: str = "pretrained",
+    episodes: int = DEMO_EPISODES,
+    speed_um_s: float = 4.0,
+    runs: int = DEMO_RUNS,
+    seed: int = 1,
+    study_participants: int = StudyConfig.participants,
+    study_trials: int = StudyConfig.trials,
+    study_time_limit_s: float = StudyConfig.time_limit_s,
+    background_study: bool = True,
+) -> DemoConfig:
     """The demo's configuration from the command line's values (study_participants 0
     leaves the study out); every value checked against ``SIZE_RANGES`` first, so a bad
     one is named with its valid range."""
@@ -159,28 +171,41 @@ def demo_config(policy: str = "pretrained", episodes: int = DEMO_EPISODES, speed
     check_range("--runs", runs, *SIZE_RANGES["runs"])
     check_range("--speed-um-s", speed_um_s, *SIZE_RANGES["speed_um_s"], integer=False, unit=" um/s")
     check_range("--seed", seed, *SIZE_RANGES["seed"])
-    study = None if study_participants == 0 else StudyConfig(study_participants, study_trials,
-                                                             time_limit_s=study_time_limit_s)
-    return DemoConfig(policy=policy, episodes=episodes, seed=seed, study=study, background_study=background_study,
-                      transport=_transport(speed_um_s=float(speed_um_s), n_runs=runs, seed=seed))
+    study = (
+        None
+        if study_participants == 0
+        else StudyConfig(study_participants, study_trials, time_limit_s=study_time_limit_s)
+    )
+    return DemoConfig(
+        policy=policy,
+        episodes=episodes,
+        seed=seed,
+        study=study,
+        background_study=background_study,
+        transport=_transport(speed_um_s=float(speed_um_s), n_runs=runs, seed=seed),
+    )
 
 
 def stage_names(config: DemoConfig) -> list[str]:
     """The demo's stages in the order they start, one progress line each, with their
     sizes. The study, when there is one, starts second and runs in the background."""
     transport = config.transport
-    names = ["planning on the default chip (Table I)",
-             f"speed control: RL, G1..G6 and untrained, {config.episodes} episodes each (Table II, Fig. 7; "
-             f"the full {FULL_EPISODES}: otgym evaluate)",
-             f"carrying the cell along the whole path: {transport.n_runs} run{'s' * (transport.n_runs > 1)} at "
-             f"{transport.speed_um_s:g} um/s"]
+    names = [
+        "planning on the default chip (Table I)",
+        f"speed control: RL, G1..G6 and untrained, {config.episodes} episodes each (Table II, Fig. 7; "
+        f"the full {FULL_EPISODES}: otgym evaluate)",
+        f"carrying the cell along the whole path: {transport.n_runs} run{'s' * (transport.n_runs > 1)} at "
+        f"{transport.speed_um_s:g} um/s",
+    ]
     if config.study is not None:
         study = config.study
-        names.insert(1, f"shared-control study (Fig. 8): {study.participants} simulated participants x "
-                        f"{study.trials} trial{'s' * (study.trials > 1)} x {len(study.modes)} modes in one batch, "
-                        f"trials cut at {study.time_limit_s:g} s of simulated time (the full study: otgym experiment "
-                        f"shared-control)"
-                        + (", in the background" if config.background_study else ""))
+        names.insert(
+            1,
+            f"shared-control study (Fig. 8): {study.participants} simulated participants x "
+            f"{study.trials} trial{'s' * (study.trials > 1)} x {len(study.modes)} modes in one batch, "
+            f"trials cut at {study.time_limit_s:g} s of simulated time (the full study: otgym experiment "
+            f"shared-control)" + (", in the background" if config.background_study else ""),
+        )
     return names
 
 
@@ -216,9 +241,13 @@ class _Background:
         return value
 
 
-def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = lambda _: None,
-             progress: Callable[[int, int], None] | None = None,
-             detail: Callable[[str], None] = lambda _: None) -> dict:
+def run_demo(
+    config: DemoConfig,
+    out_dir: Path,
+    stage: Callable[[str], None] = lambda _: None,
+    progress: Callable[[int, int], None] | None = None,
+    detail: Callable[[str], None] = lambda _: None,
+) -> dict:
     """Run the stages into ``out_dir``; ``stage(text)`` announces each (``stage_names``),
     ``progress(done, total)`` follows the transport's control steps and ``detail(text)``
     the study's batches (from the study's thread when it runs in the background).
@@ -274,8 +303,15 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
         study = _Background(study_work)
     try:
         transport = config.transport
-        metrics = write_plan(chip.image, chip.pixel_size_um, transport.start_um, transport.goal_um, out_dir / "plan",
-                             robot_radius_um=PLAN_ROBOT_RADIUS_UM, threshold=0.5)
+        metrics = write_plan(
+            chip.image,
+            chip.pixel_size_um,
+            transport.start_um,
+            transport.goal_um,
+            out_dir / "plan",
+            robot_radius_um=PLAN_ROBOT_RADIUS_UM,
+            threshold=0.5,
+        )
         timings["plan_s"] = time.perf_counter() - start
         if config.study is not None and not config.background_study:
             announce(2)
@@ -306,28 +342,38 @@ def run_demo(config: DemoConfig, out_dir: Path, stage: Callable[[str], None] = l
                 pass
         raise
 
-    sections = [report.speed_control_section(rows, safety, checks, *limits, task.name, full_episodes=FULL_EPISODES),
-                report.planning_section(metrics), report.transport_section(transport_summary)]
+    sections = [
+        report.speed_control_section(rows, safety, checks, *limits, task.name, full_episodes=FULL_EPISODES),
+        report.planning_section(metrics),
+        report.transport_section(transport_summary),
+    ]
     study_summary = None
     if config.study is not None:
         study_summary, timings["shared_control_s"] = study_result
         sections.append(report.shared_control_section(study_summary["modes"], study_summary["size"]))
     total = time.perf_counter() - began
     beside = " (the study ran beside the planning, the speed control and the transport)" if study is not None else ""
-    header = (f"Policy `{policy_path.name}` (preset `{task.name}`, trained {meta.get('env_steps', '?')} steps), "
-              f"seed {config.seed}. The demo runs small samples to fit about two minutes on two cores; each "
-              f"section gives its sample size and the command of its full-size run. Wall times: " +
-              ", ".join(f"{name[:-2].replace('_', ' ')} {seconds:.0f} s" for name, seconds in timings.items()) +
-              f"{beside}; {total:.0f} s in all.")
+    header = (
+        f"Policy `{policy_path.name}` (preset `{task.name}`, trained {meta.get('env_steps', '?')} steps), "
+        f"seed {config.seed}. The demo runs small samples to fit about two minutes on two cores; each "
+        f"section gives its sample size and the command of its full-size run. Wall times: "
+        + ", ".join(f"{name[:-2].replace('_', ' ')} {seconds:.0f} s" for name, seconds in timings.items())
+        + f"{beside}; {total:.0f} s in all."
+    )
     report.write_report(out_dir / "report.md", sections, header)
     rl = next(row for row in rows if row["policy"] == "RL")
-    summary = {"table_ii": rows, "safety": safety, "transport": transport_summary,
-               "table_i": {name: dataclasses.asdict(row) for name, row in metrics.items()},
-               "rl_asr": rl["ASR"], "rl_atct_s": rl["ATCT_s"], "episodes": config.episodes,
-               "limits": {"force_pn": limits[0], "distance_um": limits[1]},
-               "shared_control": study_summary,
-               "timings_s": {**{name: round(seconds, 1) for name, seconds in timings.items()},
-                             "total_s": round(total, 1)}}
+    summary = {
+        "table_ii": rows,
+        "safety": safety,
+        "transport": transport_summary,
+        "table_i": {name: dataclasses.asdict(row) for name, row in metrics.items()},
+        "rl_asr": rl["ASR"],
+        "rl_atct_s": rl["ATCT_s"],
+        "episodes": config.episodes,
+        "limits": {"force_pn": limits[0], "distance_um": limits[1]},
+        "shared_control": study_summary,
+        "timings_s": {**{name: round(seconds, 1) for name, seconds in timings.items()}, "total_s": round(total, 1)},
+    }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary
 
@@ -343,14 +389,29 @@ def run_study(study: StudyConfig, seed: int, out_dir: Path, detail: Callable[[st
     from otgym.runtime.task import InteractiveConfig
 
     out_dir = Path(out_dir)
-    trials = run_experiment(study.participants, study.trials, list(study.modes), seed, "default",
-                            report=lambda line: detail(line.strip()), time_limit_s=study.time_limit_s, one_batch=True,
-                            scenario_per_participant=True)
+    trials = run_experiment(
+        study.participants,
+        study.trials,
+        list(study.modes),
+        seed,
+        "default",
+        report=lambda line: detail(line.strip()),
+        time_limit_s=study.time_limit_s,
+        one_batch=True,
+        scenario_per_participant=True,
+    )
     checks = write_experiment(trials, out_dir)
-    size = {"participants": study.participants, "trials_per_mode": study.trials, "modes": list(study.modes),
-            "time_limit_s": study.time_limit_s, "seed": seed,
-            "scenarios": sorted(int(s) for s in trials["scenario"].unique()), "scenario_per_participant": True,
-            "one_batch": True, "encounter_gap_um": InteractiveConfig().encounter_gap_um}
+    size = {
+        "participants": study.participants,
+        "trials_per_mode": study.trials,
+        "modes": list(study.modes),
+        "time_limit_s": study.time_limit_s,
+        "seed": seed,
+        "scenarios": sorted(int(s) for s in trials["scenario"].unique()),
+        "scenario_per_participant": True,
+        "one_batch": True,
+        "encounter_gap_um": InteractiveConfig().encounter_gap_um,
+    }
     return {"size": size, "modes": read_summary(out_dir / "summary.csv"), "acceptance": checks}
 
 
@@ -360,5 +421,7 @@ def read_summary(path: Path) -> list[dict]:
     import pandas as pd
 
     table = pd.read_csv(path)
-    return [{key: (None if isinstance(value, float) and math.isnan(value) else value) for key, value in row.items()}
-            for row in table.to_dict("records")]
+    return [
+        {key: (None if isinstance(value, float) and math.isnan(value) else value) for key, value in row.items()}
+        for row in table.to_dict("records")
+    ]

@@ -22,18 +22,24 @@ import argparse
 import functools
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pandas as pd
 
-from otgym.runtime.mpc_policy import (ClonedPolicy, DAggerNavigator, PolicyNavigator, RecordingMPCNavigator, dagger,
-                                      train)
-from otgym.study.summary import summarize
+from otgym.planning.human import sample_population
+from otgym.runtime.mpc_policy import (
+    ClonedPolicy,
+    DAggerNavigator,
+    PolicyNavigator,
+    RecordingMPCNavigator,
+    dagger,
+    train,
+)
 from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
 from otgym.runtime.trials import TrialSpec, run_trials
-from otgym.planning.human import sample_population
+from otgym.study.summary import summarize
 
 
 def _task(time_limit_s: float = 300.0) -> InteractiveTask:
@@ -100,12 +106,14 @@ def _fit(f, a, epochs: int) -> ClonedPolicy:
     """Train on a random 80 % and print the normalised MSE on the other 20 % (against
     the mean predictor's); a random split of the same trajectories, so optimistic."""
     order = np.random.default_rng(0).permutation(len(f))
-    held, fit = order[: len(f) // 5], order[len(f) // 5:]
+    held, fit = order[: len(f) // 5], order[len(f) // 5 :]
     policy = train(f[fit], a[fit], epochs=epochs)
     err = np.mean(((policy(f[held]) - a[held]) / policy.action_std) ** 2)
     base = np.mean(((a[fit].mean(0) - a[held]) / policy.action_std) ** 2)
-    print(f"held-out normalised MSE {err:.4f} (mean predictor {base:.4f}), {len(fit)} fit / {len(held)} held out",
-          flush=True)
+    print(
+        f"held-out normalised MSE {err:.4f} (mean predictor {base:.4f}), {len(fit)} fit / {len(held)} held out",
+        flush=True,
+    )
     return policy
 
 
@@ -116,7 +124,7 @@ def _dagger(args) -> None:
 
     def collect(policy, round_):
         first = args.first + round_ * args.scenarios
-        beta = args.beta * args.decay ** round_
+        beta = args.beta * args.decay**round_
         holder = {}
 
         def factory(*a, **k):
@@ -124,25 +132,39 @@ def _dagger(args) -> None:
             return holder["nav"]
 
         began = time.perf_counter()
-        print(f"round {round_ + 1}: the clone on scenarios {first}-{first + args.scenarios - 1} (beta {beta:g})",
-              flush=True)
-        rows = pd.DataFrame(_trials(task, range(first, first + args.scenarios), 0, factory, {},
-                                    pairs=lambda: _kept(holder)))
+        print(
+            f"round {round_ + 1}: the clone on scenarios {first}-{first + args.scenarios - 1} (beta {beta:g})",
+            flush=True,
+        )
+        rows = pd.DataFrame(
+            _trials(task, range(first, first + args.scenarios), 0, factory, {}, pairs=lambda: _kept(holder))
+        )
         nav = holder["nav"]
         taken = np.concatenate(nav.taken) if nav.taken else np.zeros(0, bool)
         share = taken.mean() if len(taken) else 0.0
-        print(f"round {round_ + 1}: {len(taken)} states labelled by the MPC ({share:.0%} "
-              f"executed its action); the rollouts: goal {int(rows['reached_goal'].sum())} of {len(rows)}, "
-              f"wall {time.perf_counter() - began:.0f} s", flush=True)
+        print(
+            f"round {round_ + 1}: {len(taken)} states labelled by the MPC ({share:.0%} "
+            f"executed its action); the rollouts: goal {int(rows['reached_goal'].sum())} of {len(rows)}, "
+            f"wall {time.perf_counter() - began:.0f} s",
+            flush=True,
+        )
         return np.concatenate(nav.features), np.concatenate(nav.actions)
 
-    rounds = dagger(ClonedPolicy.load(args.policy), data["features"], data["actions"], collect, args.iterations,
-                    fit=lambda f, a: _fit(f, a, args.epochs))
+    rounds = dagger(
+        ClonedPolicy.load(args.policy),
+        data["features"],
+        data["actions"],
+        collect,
+        args.iterations,
+        fit=lambda f, a: _fit(f, a, args.epochs),
+    )
     for round_, policy, features, actions in rounds:
         np.savez(out / f"dagger{round_ + 1}.data.npz", features=features, actions=actions)
         policy.save(out / f"dagger{round_ + 1}.policy.npz")
-        print(f"round {round_ + 1}: {len(features)} pairs in all -> {out}/dagger{round_ + 1}.{{data,policy}}.npz",
-              flush=True)
+        print(
+            f"round {round_ + 1}: {len(features)} pairs in all -> {out}/dagger{round_ + 1}.{{data,policy}}.npz",
+            flush=True,
+        )
 
 
 def main(argv=None) -> int:
@@ -163,10 +185,18 @@ def main(argv=None) -> int:
     aggregate.add_argument("--iterations", type=_positive, default=1)
     aggregate.add_argument("--scenarios", type=_positive, default=8)
     aggregate.add_argument("--first", type=int, default=900100)
-    aggregate.add_argument("--beta", type=_fraction, default=0.0,
-                           help="probability that a labelled decision executes the MPC's action in round 1")
-    aggregate.add_argument("--decay", type=_fraction, default=1.0,
-                           help="beta of round i is beta * decay ** (i - 1) (Ross et al.'s beta_i = p ** (i - 1))")
+    aggregate.add_argument(
+        "--beta",
+        type=_fraction,
+        default=0.0,
+        help="probability that a labelled decision executes the MPC's action in round 1",
+    )
+    aggregate.add_argument(
+        "--decay",
+        type=_fraction,
+        default=1.0,
+        help="beta of round i is beta * decay ** (i - 1) (Ross et al.'s beta_i = p ** (i - 1))",
+    )
     aggregate.add_argument("--label-every", type=_positive, default=5)
     aggregate.add_argument("--epochs", type=_positive, default=200)
     aggregate.add_argument("--time-limit", type=float, default=300.0)
@@ -188,8 +218,7 @@ def main(argv=None) -> int:
             holder["nav"] = RecordingMPCNavigator(*a, **k)
             return holder["nav"]
 
-        _trials(_task(), range(args.first, args.first + args.scenarios), 0, factory, {},
-                pairs=lambda: _kept(holder))
+        _trials(_task(), range(args.first, args.first + args.scenarios), 0, factory, {}, pairs=lambda: _kept(holder))
         nav = holder["nav"]
         np.savez(args.out, features=np.concatenate(nav.features), actions=np.concatenate(nav.actions))
         print(f"{sum(len(f) for f in nav.features)} pairs -> {args.out}")
@@ -208,7 +237,9 @@ def main(argv=None) -> int:
         frame = pd.DataFrame(rows)
         print(summarize(frame).T.to_string())
         seconds, sizes = np.asarray(stats["replan_seconds"]), np.asarray(stats["environments_planned"])
-        print(f"decision time per environment {1e3 * seconds.sum() / sizes.sum():.3f} ms; wall {time.perf_counter() - began:.0f} s")
+        print(
+            f"decision time per environment {1e3 * seconds.sum() / sizes.sum():.3f} ms; wall {time.perf_counter() - began:.0f} s"
+        )
         frame.to_csv(args.policy + (".mpc" if args.mpc else "") + f".seed{args.seed}.csv", index=False)
     return 0
 

@@ -41,8 +41,9 @@ class Candidate:
         return self.successes, -self.mean_time_s
 
 
-def train_and_select(task: TaskConfig, config: DQNConfig, seeds, params=None, episodes: int = VALIDATION_EPISODES,
-                     log=print) -> tuple[Candidate, list[Candidate]]:
+def train_and_select(
+    task: TaskConfig, config: DQNConfig, seeds, params=None, episodes: int = VALIDATION_EPISODES, log=print
+) -> tuple[Candidate, list[Candidate]]:
     """Train each seed, validate each on the same ``episodes`` episodes, return the best
     and all candidates."""
     params = spc.make_params(task) if params is None else params
@@ -53,8 +54,10 @@ def train_and_select(task: TaskConfig, config: DQNConfig, seeds, params=None, ep
         won = validation.success[0]
         mean_time = float(validation.time_s[0][won].mean()) if won.any() else float("inf")
         candidates.append(Candidate(seed, result, int(won.sum()), mean_time))
-        log(f"seed {seed}: trained {result.env_steps} steps in {result.wall_s:.0f} s; validation "
-            f"{int(won.sum())}/{episodes} completed, mean time {mean_time:.2f} s")
+        log(
+            f"seed {seed}: trained {result.env_steps} steps in {result.wall_s:.0f} s; validation "
+            f"{int(won.sum())}/{episodes} completed, mean time {mean_time:.2f} s"
+        )
     return max(candidates, key=Candidate.score), candidates
 
 
@@ -68,13 +71,20 @@ def main(argv=None) -> None:
     task = paper()
     config = DQNConfig(total_env_steps=args.steps)
     best, candidates = train_and_select(task, config, args.seeds)
-    meta = {**best.result.meta, "validation_seed": VALIDATION_SEED, "validation_episodes": VALIDATION_EPISODES,
-            "validation_successes": best.successes, "validation_mean_time_s": round(best.mean_time_s, 3),
-            "candidate_seeds": [c.seed for c in candidates],
-            "candidate_successes": [c.successes for c in candidates]}
+    meta = {
+        **best.result.meta,
+        "validation_seed": VALIDATION_SEED,
+        "validation_episodes": VALIDATION_EPISODES,
+        "validation_successes": best.successes,
+        "validation_mean_time_s": round(best.mean_time_s, 3),
+        "candidate_seeds": [c.seed for c in candidates],
+        "candidate_successes": [c.successes for c in candidates],
+    }
     save_policy(args.out, best.result.q_params, meta)
-    print(f"kept seed {best.seed}; wrote {args.out} ({time.perf_counter() - start:.0f} s in all, "
-          f"{np.sum([c.result.wall_s for c in candidates]):.0f} s training)")
+    print(
+        f"kept seed {best.seed}; wrote {args.out} ({time.perf_counter() - start:.0f} s in all, "
+        f"{np.sum([c.result.wall_s for c in candidates]):.0f} s training)"
+    )
 
 
 if __name__ == "__main__":

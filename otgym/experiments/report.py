@@ -20,18 +20,27 @@ def planning_section(metrics: dict[str, PathMetrics]) -> list[str]:
     the B-spline path so that the rows compare across units."""
     ours_reference = metrics["B-spline"].length_um
     paper_reference = PAPER_TABLE_I["B-spline"][0]
-    lines = ["## Path planning (paper Table I)", "",
-             "| path | length (um) | length / B-spline | mean curvature (1/um) | angular deviation (deg) | "
-             "paper: length / B-spline | paper: mean curvature | paper: angular deviation (deg) |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        "## Path planning (paper Table I)",
+        "",
+        "| path | length (um) | length / B-spline | mean curvature (1/um) | angular deviation (deg) | "
+        "paper: length / B-spline | paper: mean curvature | paper: angular deviation (deg) |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
     for name, row in metrics.items():
         paper = PAPER_TABLE_I.get(name, (None, None, None))
         paper_ratio = None if paper[0] is None else paper[0] / paper_reference
-        lines.append(f"| {name} | {row.length_um:.1f} | {row.length_um / ours_reference:.3f} | "
-                     f"{row.mean_curvature_per_um:.4g} | {row.angular_deviation_deg:.4g} | "
-                     f"{number(paper_ratio, '.3f')} | {number(paper[1], '.5g')} | {number(paper[2], '.5g')} |")
-    lines += ["", "Curvatures depend on the sampling step (ours 0.25 um, the paper's unpublished), so compare "
-              "the order of the rows, not the values. Figures: `plan/paths.png`, `plan/spectrum.png`.", ""]
+        lines.append(
+            f"| {name} | {row.length_um:.1f} | {row.length_um / ours_reference:.3f} | "
+            f"{row.mean_curvature_per_um:.4g} | {row.angular_deviation_deg:.4g} | "
+            f"{number(paper_ratio, '.3f')} | {number(paper[1], '.5g')} | {number(paper[2], '.5g')} |"
+        )
+    lines += [
+        "",
+        "Curvatures depend on the sampling step (ours 0.25 um, the paper's unpublished), so compare "
+        "the order of the rows, not the values. Figures: `plan/paths.png`, `plan/spectrum.png`.",
+        "",
+    ]
     return lines
 
 
@@ -44,16 +53,25 @@ def reference_verdict(checks: dict, rows: list[dict]) -> str:
     name = checks["reference"]
     outcome = "faster" if checks["beats_reference"] else "not significantly faster"
     atct = "none completed" if reference["ATCT_s"] is None else f"{reference['ATCT_s']:.2f} s"
-    return (f"The fastest constant speed at least as safe is {name} (success {reference['success_rate']:.3f}, "
-            f"ATCT {atct}). On the episodes both completed RL finished first in "
-            f"{checks['faster_episodes']} and later in {checks['slower_episodes']} (one-sided sign test "
-            f"p = {checks['speed_p']:.2g}): RL is {outcome}. Episodes only RL lost: {checks['rl_only_lost']}, only "
-            f"{name} lost: {checks['reference_only_lost']} (McNemar's exact test, p = {checks['safety_p']:.2g} that "
-            f"RL loses more often).")
+    return (
+        f"The fastest constant speed at least as safe is {name} (success {reference['success_rate']:.3f}, "
+        f"ATCT {atct}). On the episodes both completed RL finished first in "
+        f"{checks['faster_episodes']} and later in {checks['slower_episodes']} (one-sided sign test "
+        f"p = {checks['speed_p']:.2g}): RL is {outcome}. Episodes only RL lost: {checks['rl_only_lost']}, only "
+        f"{name} lost: {checks['reference_only_lost']} (McNemar's exact test, p = {checks['safety_p']:.2g} that "
+        f"RL loses more often)."
+    )
 
 
-def speed_control_section(rows: list[dict], safety: dict, checks: dict, force_limit_pn: float,
-                          distance_limit_um: float, preset: str, full_episodes: int | None = None) -> list[str]:
+def speed_control_section(
+    rows: list[dict],
+    safety: dict,
+    checks: dict,
+    force_limit_pn: float,
+    distance_limit_um: float,
+    preset: str,
+    full_episodes: int | None = None,
+) -> list[str]:
     """Table II (ours beside the paper's), the comparison with the fastest constant speed
     as safe as RL (``checks``: ``speed_control_eval.acceptance``) and the safety figures
     of the trained policy; ``full_episodes``: the size of the full evaluation (``otgym
@@ -62,16 +80,31 @@ def speed_control_section(rows: list[dict], safety: dict, checks: dict, force_li
     episodes = rl["episodes"]
     size = f"every policy runs the same {episodes} seeded episodes"
     if full_episodes is not None and episodes < full_episodes:
-        size += (f", a small sample that fits the demo's time (the full evaluation: `otgym evaluate --policy "
-                 f"pretrained --episodes {full_episodes}`)")
-    lines = ["## Learned speed control (paper Table II)", "", f"Preset `{preset}`; {size}.", "",
-             *table_ii_markdown(rows)]
-    quicker = [row for row in rows if row["policy"] != "RL" and row["ATCT_s"] is not None
-               and rl["ATCT_s"] is not None and row["ATCT_s"] < rl["ATCT_s"]]
+        size += (
+            f", a small sample that fits the demo's time (the full evaluation: `otgym evaluate --policy "
+            f"pretrained --episodes {full_episodes}`)"
+        )
+    lines = [
+        "## Learned speed control (paper Table II)",
+        "",
+        f"Preset `{preset}`; {size}.",
+        "",
+        *table_ii_markdown(rows),
+    ]
+    quicker = [
+        row
+        for row in rows
+        if row["policy"] != "RL"
+        and row["ATCT_s"] is not None
+        and rl["ATCT_s"] is not None
+        and row["ATCT_s"] < rl["ATCT_s"]
+    ]
     won = round(rl["success_rate"] * episodes)
     low, high = wilson_interval(won, episodes)
-    verdict = (f"RL: ASR {rl['ASR']:.3f}, success {won} of {episodes} episodes ({rl['success_rate']:.3f}, 95 % "
-               f"Wilson interval [{low:.3f}, {high:.3f}]). " + reference_verdict(checks, rows))
+    verdict = (
+        f"RL: ASR {rl['ASR']:.3f}, success {won} of {episodes} episodes ({rl['success_rate']:.3f}, 95 % "
+        f"Wilson interval [{low:.3f}, {high:.3f}]). " + reference_verdict(checks, rows)
+    )
 
     def describe(group: list[dict]) -> str:
         return ", ".join(f"{row['policy']} ({row['ATCT_s']:.2f} s, success {row['success_rate']:.3f})" for row in group)
@@ -83,36 +116,57 @@ def speed_control_section(rows: list[dict], safety: dict, checks: dict, force_li
     if kept:
         verdict += f" Constant speeds with a shorter ATCT that lost none of these {episodes}: {describe(kept)}."
     after, before = safety["RL"], safety["untrained"]
-    lines += ["", verdict, "", "### Safety (paper Fig. 7)", "",
-              "| policy | force < " + f"{force_limit_pn:g} pN | handle within {distance_limit_um:g} um | "
-              "median handle distance (um) | 99th percentile (um) | samples |",
-              "|---|---:|---:|---:|---:|---:|"]
+    lines += [
+        "",
+        verdict,
+        "",
+        "### Safety (paper Fig. 7)",
+        "",
+        "| policy | force < " + f"{force_limit_pn:g} pN | handle within {distance_limit_um:g} um | "
+        "median handle distance (um) | 99th percentile (um) | samples |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for name, values in (("before training (random speeds)", before), ("after training (RL)", after)):
-        lines.append(f"| {name} | {values['force_below_limit']:.2%} | {values['distance_within_limit']:.2%} | "
-                     f"{values['distance_median_um']:.3f} | {values['distance_p99_um']:.3f} | {values['samples']} |")
-    lines += ["", f"Samples: every control step of the {episodes} episodes per policy (force per robot, distance "
-              f"per handle). Paper: {PAPER_SAFETY}. Figure: `speed_control/safety.png`.", ""]
+        lines.append(
+            f"| {name} | {values['force_below_limit']:.2%} | {values['distance_within_limit']:.2%} | "
+            f"{values['distance_median_um']:.3f} | {values['distance_p99_um']:.3f} | {values['samples']} |"
+        )
+    lines += [
+        "",
+        f"Samples: every control step of the {episodes} episodes per policy (force per robot, distance "
+        f"per handle). Paper: {PAPER_SAFETY}. Figure: `speed_control/safety.png`.",
+        "",
+    ]
     if not checks["distance_safe"]:
-        lines += [f"The handle-distance limit of {distance_limit_um:g} um was kept in {after['distance_within_limit']:.1%} "
-                  f"of RL's steps and {before['distance_within_limit']:.1%} of the random speeds': in this run the "
-                  f"median handle sat {after['distance_median_um']:.3f} um from its trap under RL "
-                  f"({before['distance_median_um']:.3f} um under random speeds; 99th percentiles "
-                  f"{after['distance_p99_um']:.3f} and {before['distance_p99_um']:.3f} um)"
-                  + (": the limit lies inside where the traps hold the handles at these speeds."
-                     if min(after["distance_median_um"], before["distance_median_um"]) > distance_limit_um else "."),
-                  ""]
+        lines += [
+            f"The handle-distance limit of {distance_limit_um:g} um was kept in {after['distance_within_limit']:.1%} "
+            f"of RL's steps and {before['distance_within_limit']:.1%} of the random speeds': in this run the "
+            f"median handle sat {after['distance_median_um']:.3f} um from its trap under RL "
+            f"({before['distance_median_um']:.3f} um under random speeds; 99th percentiles "
+            f"{after['distance_p99_um']:.3f} and {before['distance_p99_um']:.3f} um)"
+            + (
+                ": the limit lies inside where the traps hold the handles at these speeds."
+                if min(after["distance_median_um"], before["distance_median_um"]) > distance_limit_um
+                else "."
+            ),
+            "",
+        ]
     return lines
 
 
 def transport_section(summary: dict) -> list[str]:
     """The whole-path transport at constant speed (realistic preset)."""
-    return ["## Whole-path transport (realistic preset, constant speed)", "",
-            f"{summary['reached_goal']} of {summary['runs']} runs (each its own noise and obstacles; `--runs` "
-            f"sets how many) carried the cell the whole "
-            f"{summary['path_length_um']} um path at {summary['speed_um_s']:g} um/s "
-            f"(mean fraction completed {summary['mean_completed_fraction']:.3f}); outcomes: "
-            f"{', '.join(summary['outcomes'])}. Mean contact force {summary['mean_contact_force_pn']} pN, "
-            f"largest {summary['max_contact_force_pn']} pN. Figure: `transport/transport.png`.", ""]
+    return [
+        "## Whole-path transport (realistic preset, constant speed)",
+        "",
+        f"{summary['reached_goal']} of {summary['runs']} runs (each its own noise and obstacles; `--runs` "
+        f"sets how many) carried the cell the whole "
+        f"{summary['path_length_um']} um path at {summary['speed_um_s']:g} um/s "
+        f"(mean fraction completed {summary['mean_completed_fraction']:.3f}); outcomes: "
+        f"{', '.join(summary['outcomes'])}. Mean contact force {summary['mean_contact_force_pn']} pN, "
+        f"largest {summary['max_contact_force_pn']} pN. Figure: `transport/transport.png`.",
+        "",
+    ]
 
 
 def _percent(value: float | None, spec: str = ".1f") -> str:
@@ -131,30 +185,41 @@ def _goals(row: dict) -> str:
     """Goals reached of a mode's trials, with the rate's 95 % Wilson interval."""
     goals, trials = int(row["goals_reached"]), int(row["trials"])
     low, high = wilson_interval(goals, trials)
-    return (f"{goals} of {trials} ({_percent(goals / trials, '.0f')} % [{_percent(low, '.0f')}, "
-            f"{_percent(high, '.0f')}])")
+    return (
+        f"{goals} of {trials} ({_percent(goals / trials, '.0f')} % [{_percent(low, '.0f')}, {_percent(high, '.0f')}])"
+    )
 
 
 def _study_design(size: dict) -> str:
     """What was run: participants, trials, scenarios and the cut, in one sentence."""
     participants, trials = size["participants"], size["trials_per_mode"]
     per_mode, scenarios = participants * trials, sorted(size["scenarios"])
-    named = (f"scenario {scenarios[0]}" if len(scenarios) == 1 else
-             f"scenarios {scenarios[0]}-{scenarios[-1]}" if scenarios == list(range(scenarios[0], scenarios[-1] + 1))
-             else "scenarios " + ", ".join(str(s) for s in scenarios))
+    named = (
+        f"scenario {scenarios[0]}"
+        if len(scenarios) == 1
+        else f"scenarios {scenarios[0]}-{scenarios[-1]}"
+        if scenarios == list(range(scenarios[0], scenarios[-1] + 1))
+        else "scenarios " + ", ".join(str(s) for s in scenarios)
+    )
     if size.get("scenario_per_participant") and len(scenarios) > 1:
-        where = (f"each participant on {'a seeded scenario' if trials == 1 else 'seeded scenarios'} of their own "
-                 f"({named}; every mode on the same, so the modes are compared within participant and scenario)")
+        where = (
+            f"each participant on {'a seeded scenario' if trials == 1 else 'seeded scenarios'} of their own "
+            f"({named}; every mode on the same, so the modes are compared within participant and scenario)"
+        )
     else:
-        where = (f"every mode with the same participants on the same "
-                 f"{'seeded scenario' if len(scenarios) == 1 else f'{len(scenarios)} seeded scenarios'} ({named})")
+        where = (
+            f"every mode with the same participants on the same "
+            f"{'seeded scenario' if len(scenarios) == 1 else f'{len(scenarios)} seeded scenarios'} ({named})"
+        )
     batch = ", all trials simulated together in one batch" if size.get("one_batch") else ""
-    return (f"A small study that fits the demo's time: {participants} simulated participants x {trials} "
-            f"trial{'s' * (trials > 1)} = {per_mode} trials per mode, {where}{batch}, each trial cut at "
-            f"{size['time_limit_s']:g} s of simulated time. The scenarios are the full experiment's seeded ones in "
-            f"order, not chosen by their outcome. The paper had 8 participants x 8 trials per mode; the full study "
-            f"is `otgym experiment shared-control` (8 x 8, trials up to 300 s). With {per_mode} trials per mode "
-            f"the intervals are wide: compare the ordering, not the values.")
+    return (
+        f"A small study that fits the demo's time: {participants} simulated participants x {trials} "
+        f"trial{'s' * (trials > 1)} = {per_mode} trials per mode, {where}{batch}, each trial cut at "
+        f"{size['time_limit_s']:g} s of simulated time. The scenarios are the full experiment's seeded ones in "
+        f"order, not chosen by their outcome. The paper had 8 participants x 8 trials per mode; the full study "
+        f"is `otgym experiment shared-control` (8 x 8, trials up to 300 s). With {per_mode} trials per mode "
+        f"the intervals are wide: compare the ordering, not the values."
+    )
 
 
 def shared_control_section(modes: list[dict], size: dict) -> list[str]:
@@ -168,44 +233,69 @@ def shared_control_section(modes: list[dict], size: dict) -> list[str]:
     mean over participants of their trials that reached the goal. Every sentence is
     computed from these numbers."""
     limit = size["time_limit_s"]
-    lines = ["## Shared control: manual, autonomous, shared (paper Fig. 8), a small study", "",
-             _study_design(size), "",
-             "| mode | trials | obstacles avoided / encountered | success % [95 % CI] | paper success % | "
-             "reached the goal [95 % CI] | completion time (s) | paper time (s) | trap losses |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        "## Shared control: manual, autonomous, shared (paper Fig. 8), a small study",
+        "",
+        _study_design(size),
+        "",
+        "| mode | trials | obstacles avoided / encountered | success % [95 % CI] | paper success % | "
+        "reached the goal [95 % CI] | completion time (s) | paper time (s) | trap losses |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
     rates = {}
     for row in modes:
         rate, low, high = _pooled_success(row)
         rates[row["mode"]] = (rate, low, high)
         paper = PAPER_FIG8.get(row["mode"])
         success = "- (no obstacle met)" if rate is None else f"{_percent(rate)} [{_percent(low)}, {_percent(high)}]"
-        time_s = "-" if row["completion_time_mean_s"] is None else (
-            f"{row['completion_time_mean_s']:.1f}" +
-            ("" if row["completion_time_sd_s"] is None else f" ± {row['completion_time_sd_s']:.1f}"))
-        paper_success = "-" if paper is None else f"{_percent(paper['success_mean'], '.0f')} ± " \
-                                                  f"{_percent(paper['success_sd'], '.0f')}"
+        time_s = (
+            "-"
+            if row["completion_time_mean_s"] is None
+            else (
+                f"{row['completion_time_mean_s']:.1f}"
+                + ("" if row["completion_time_sd_s"] is None else f" ± {row['completion_time_sd_s']:.1f}")
+            )
+        )
+        paper_success = (
+            "-"
+            if paper is None
+            else f"{_percent(paper['success_mean'], '.0f')} ± {_percent(paper['success_sd'], '.0f')}"
+        )
         paper_time = "-" if paper is None else f"{paper['time_mean_s']:.1f} ± {paper['time_sd_s']:.1f}"
-        lines.append(f"| {row['mode']} | {row['trials']} | {row['obstacles_avoided']} / "
-                     f"{row['obstacles_encountered']} | {success} | {paper_success} | {_goals(row)} | {time_s} | "
-                     f"{paper_time} | {row['trap_losses']} |")
-    lines += ["", *_success_sentences(rates), *_ending_sentences(modes, limit), *_time_sentences(modes, limit), "",
-              "Success: obstacles avoided / encountered" + (
-                  f" (an obstacle counts as encountered once it comes within {size['encounter_gap_um']:g} um of "
-                  f"the assembly)" if size.get("encounter_gap_um") else "") +
-              ", pooled over the mode's trials (the paper's metric), with 95 % Wilson "
-              "intervals; these treat every obstacle as independent, but a trial's obstacles share its participant "
-              "and scenario, so the true uncertainty is wider still. Reached the goal: trials, with the rate's 95 % "
-              "Wilson interval. Completion time: mean ± SD over participants of their trials that reached "
-              "the goal. Paper: Sec. III-C, mean ± SD. Files: `shared_control/trials.csv` (one row per trial), "
-              "`summary.md` (with the repeated-measures ANOVA and Holm-corrected paired tests, of little power "
-              f"with {size['participants']} participants), `stats.json`, `fig8.png`, `acceptance.json` (the "
-              "paper's ordering, checked on this small sample).", ""]
+        lines.append(
+            f"| {row['mode']} | {row['trials']} | {row['obstacles_avoided']} / "
+            f"{row['obstacles_encountered']} | {success} | {paper_success} | {_goals(row)} | {time_s} | "
+            f"{paper_time} | {row['trap_losses']} |"
+        )
+    lines += [
+        "",
+        *_success_sentences(rates),
+        *_ending_sentences(modes, limit),
+        *_time_sentences(modes, limit),
+        "",
+        "Success: obstacles avoided / encountered"
+        + (
+            f" (an obstacle counts as encountered once it comes within {size['encounter_gap_um']:g} um of the assembly)"
+            if size.get("encounter_gap_um")
+            else ""
+        )
+        + ", pooled over the mode's trials (the paper's metric), with 95 % Wilson "
+        "intervals; these treat every obstacle as independent, but a trial's obstacles share its participant "
+        "and scenario, so the true uncertainty is wider still. Reached the goal: trials, with the rate's 95 % "
+        "Wilson interval. Completion time: mean ± SD over participants of their trials that reached "
+        "the goal. Paper: Sec. III-C, mean ± SD. Files: `shared_control/trials.csv` (one row per trial), "
+        "`summary.md` (with the repeated-measures ANOVA and Holm-corrected paired tests, of little power "
+        f"with {size['participants']} participants), `stats.json`, `fig8.png`, `acceptance.json` (the "
+        "paper's ordering, checked on this small sample).",
+        "",
+    ]
     return lines
 
 
 def _success_sentences(rates: dict) -> list[str]:
-    measured = sorted(((mode, value) for mode, value in rates.items() if value[0] is not None),
-                      key=lambda item: -item[1][0])
+    measured = sorted(
+        ((mode, value) for mode, value in rates.items() if value[0] is not None), key=lambda item: -item[1][0]
+    )
     if not measured:
         return ["No trial met an obstacle before it ended, so success is undefined here."]
 
@@ -221,11 +311,18 @@ def _success_sentences(rates: dict) -> list[str]:
     paper_order = sorted((mode for mode in rates if mode in PAPER_FIG8), key=lambda m: -PAPER_FIG8[m]["success_mean"])
     paper = ordering([(mode, PAPER_FIG8[mode]["success_mean"]) for mode in paper_order])
     text = f"Success ordering here: {ours}; the paper's: {paper}."
-    separated = [f"{a} and {b}" for i, (a, (_, low_a, high_a)) in enumerate(measured)
-                 for b, (_, low_b, high_b) in measured[i + 1:] if low_a > high_b or low_b > high_a]
+    separated = [
+        f"{a} and {b}"
+        for i, (a, (_, low_a, high_a)) in enumerate(measured)
+        for b, (_, low_b, high_b) in measured[i + 1 :]
+        if low_a > high_b or low_b > high_a
+    ]
     if len(measured) > 1:
-        text += (" The 95 % intervals of every pair of modes overlap: this sample does not separate them."
-                 if not separated else f" Separated by their 95 % intervals: {', '.join(separated)}.")
+        text += (
+            " The 95 % intervals of every pair of modes overlap: this sample does not separate them."
+            if not separated
+            else f" Separated by their 95 % intervals: {', '.join(separated)}."
+        )
     unmet = [mode for mode, value in rates.items() if value[0] is None]
     if unmet:
         text += f" {', '.join(unmet).capitalize()}: no obstacle met before the trials ended, so no success rate."
@@ -258,19 +355,33 @@ def _ending_sentences(modes: list[dict], limit: float) -> list[str]:
 
 def _time_sentences(modes: list[dict], limit: float) -> list[str]:
     if not any(row["goals_reached"] for row in modes):
-        return [f"No trial reached the goal within the {limit:g} s limit, so there is no completion time to set "
-                f"beside the paper's; the full study has them."]
+        return [
+            f"No trial reached the goal within the {limit:g} s limit, so there is no completion time to set "
+            f"beside the paper's; the full study has them."
+        ]
     timed = [row for row in modes if row["completion_time_mean_s"] is not None and row["mode"] in PAPER_FIG8]
-    text = "Completion time against the paper's: " + ", ".join(
-        f"{row['mode']} {row['completion_time_mean_s']:.1f} s against {PAPER_FIG8[row['mode']]['time_mean_s']:g} s "
-        f"({row['completion_time_mean_s'] / PAPER_FIG8[row['mode']]['time_mean_s']:.2f} x)" for row in timed) + "."
+    text = (
+        "Completion time against the paper's: "
+        + ", ".join(
+            f"{row['mode']} {row['completion_time_mean_s']:.1f} s against {PAPER_FIG8[row['mode']]['time_mean_s']:g} s "
+            f"({row['completion_time_mean_s'] / PAPER_FIG8[row['mode']]['time_mean_s']:.2f} x)"
+            for row in timed
+        )
+        + "."
+    )
     if not timed:
         text = ""
-    cut = [row["mode"] for row in modes if row["completion_time_mean_s"] is not None
-           and int(row["trials"]) - int(row["goals_reached"]) - int(row["trap_losses"]) > 0]
+    cut = [
+        row["mode"]
+        for row in modes
+        if row["completion_time_mean_s"] is not None
+        and int(row["trials"]) - int(row["goals_reached"]) - int(row["trap_losses"]) > 0
+    ]
     if cut:
-        text += (f" Trials of {', '.join(cut)} still running at {limit:g} s are left out of the times, which "
-                 f"favours the fast ones.")
+        text += (
+            f" Trials of {', '.join(cut)} still running at {limit:g} s are left out of the times, which "
+            f"favours the fast ones."
+        )
     return [text.strip()] if text.strip() else []
 
 

@@ -48,8 +48,7 @@ def collect(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed:
             obs, state, active = carry
             random_key, step_key = jax.random.split(step_key)
             greedy = jnp.argmax(network.apply(q_params, obs), axis=-1)
-            action = jnp.where(random_policy, jax.random.randint(random_key, greedy.shape, 0, config.n_actions),
-                               greedy)
+            action = jnp.where(random_policy, jax.random.randint(random_key, greedy.shape, 0, config.n_actions), greedy)
             obs, state, _, terminated, truncated, info = spc.step_batch(step_key, state, action, params)
             terms = tr.reward_terms(config, info["events"], levels[action], info["failed"], info["success"])
             return (obs, state, active & ~(terminated | truncated)), (active, terms)
@@ -60,8 +59,10 @@ def collect(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed:
 
     active, terms = jax.device_get(run(jax.random.PRNGKey(seed)))
     halves = {"RL": slice(0, n_episodes), "random": slice(n_episodes, 2 * n_episodes)}
-    return {policy: {name: np.asarray(values)[:, half][active[:, half]] for name, values in terms.items()}
-            for policy, half in halves.items()}
+    return {
+        policy: {name: np.asarray(values)[:, half][active[:, half]] for name, values in terms.items()}
+        for policy, half in halves.items()
+    }
 
 
 def summarize(samples: dict) -> list[dict]:
@@ -71,19 +72,31 @@ def summarize(samples: dict) -> list[dict]:
     for policy, terms in samples.items():
         total = sum(np.abs(values).sum() for values in terms.values())
         for name, values in terms.items():
-            rows.append({"policy": policy, "term": name, "steps": int(values.size),
-                         "binds": float(np.mean(values != 0)), "mean": float(values.mean()),
-                         "min": float(values.min()), "max": float(values.max()),
-                         "share_of_abs_reward": float(np.abs(values).sum() / total)})
+            rows.append(
+                {
+                    "policy": policy,
+                    "term": name,
+                    "steps": int(values.size),
+                    "binds": float(np.mean(values != 0)),
+                    "mean": float(values.mean()),
+                    "min": float(values.min()),
+                    "max": float(values.max()),
+                    "share_of_abs_reward": float(np.abs(values).sum() / total),
+                }
+            )
     return rows
 
 
 def markdown(rows: list[dict]) -> list[str]:
-    lines = ["| policy | term | steps | binds (fraction of steps) | mean | min | max | share of abs. reward |",
-             "|---|---|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        "| policy | term | steps | binds (fraction of steps) | mean | min | max | share of abs. reward |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for row in rows:
-        lines.append(f"| {row['policy']} | {row['term']} | {row['steps']} | {row['binds']:.4f} | {row['mean']:.4g} | "
-                     f"{row['min']:.4g} | {row['max']:.4g} | {row['share_of_abs_reward']:.3f} |")
+        lines.append(
+            f"| {row['policy']} | {row['term']} | {row['steps']} | {row['binds']:.4f} | {row['mean']:.4g} | "
+            f"{row['min']:.4g} | {row['max']:.4g} | {row['share_of_abs_reward']:.3f} |"
+        )
     return lines
 
 
@@ -112,7 +125,7 @@ def write_figure(samples: dict, path: Path) -> None:
         axis.set_xlabel("weighted reward per step")
     axes.ravel()[0].set_ylabel("fraction of steps")
     axes.ravel()[0].legend()
-    for axis in axes.ravel()[len(names):]:
+    for axis in axes.ravel()[len(names) :]:
         axis.axis("off")
     fig.suptitle("Speed-control reward terms per step: trained policy and random speeds, same episodes")
     fig.tight_layout()
@@ -142,8 +155,11 @@ def main(argv=None) -> None:
         q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
     except (ValueError, OSError) as error:
         parser.error(str(error))
-    print(f"running {args.episodes} episodes for the policy and for random speeds (compile included, about a "
-          "minute for 256 on 2 cores)", flush=True)
+    print(
+        f"running {args.episodes} episodes for the policy and for random speeds (compile included, about a "
+        "minute for 256 on 2 cores)",
+        flush=True,
+    )
     samples = collect(spc.make_params(task), q_params, meta["hidden"], args.episodes, args.seed)
     rows = summarize(samples)
     with open(args.out / "reward_terms.csv", "w", newline="") as handle:

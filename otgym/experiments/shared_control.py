@@ -12,8 +12,8 @@ wall time of its replans)."""
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -29,6 +29,7 @@ MPC_ACCEPTANCE_RATE = 0.99
 """Issue 13: the MPC avoids at least this share of the obstacles it meets and reaches
 the goal in at least this share of its trials."""
 
+
 def parse_modes(text: str) -> list[str]:
     modes = [m.strip() for m in text.split(",") if m.strip()]
     unknown = [m for m in modes if m not in TRIAL_MODES]
@@ -42,18 +43,29 @@ def parse_modes(text: str) -> list[str]:
 def check_arguments(participants: int, trials: int, seed: int) -> None:
     """Refuse bad sizes before any work or any file."""
     if participants < 1:
-        raise ValueError(f"--participants must be at least 1 (2 or more for the repeated-measures tests), "
-                         f"got {participants}")
+        raise ValueError(
+            f"--participants must be at least 1 (2 or more for the repeated-measures tests), got {participants}"
+        )
     if trials < 1:
         raise ValueError(f"--trials must be at least 1, got {trials}")
     if not 0 <= seed < 2**32:
         raise ValueError(f"--seed must lie in [0, 2**32), got {seed}")
 
 
-def run_experiment(participants: int, trials: int, modes: list[str], seed: int, chip: str = "default",
-                   report: Callable[[str], None] = print, time_limit_s: float = 300.0, shared_autonomy: str = "route",
-                   mpc_config: MPCConfig = MPCConfig(), mpc_stats: dict | None = None,
-                   one_batch: bool = False, scenario_per_participant: bool = False) -> pd.DataFrame:
+def run_experiment(
+    participants: int,
+    trials: int,
+    modes: list[str],
+    seed: int,
+    chip: str = "default",
+    report: Callable[[str], None] = print,
+    time_limit_s: float = 300.0,
+    shared_autonomy: str = "route",
+    mpc_config: MPCConfig = MPCConfig(),
+    mpc_stats: dict | None = None,
+    one_batch: bool = False,
+    scenario_per_participant: bool = False,
+) -> pd.DataFrame:
     """All trials, one batch per mode (a batch runs until its slowest trial is done,
     mode ``i``'s with random seed ``seed + i``), or with ``one_batch`` every mode's
     trials in a single batch (seed ``seed``). A batch's cost per 20 ms tick grows
@@ -76,8 +88,12 @@ def run_experiment(participants: int, trials: int, modes: list[str], seed: int, 
     batches = [list(modes)] if one_batch else [[mode] for mode in modes]
     for index, batch in enumerate(batches):
         name = "+".join(batch)
-        specs = [TrialSpec(p, mode, t, seed * 10_000 + p * trials * scenario_per_participant + t) for mode in batch
-                 for p in range(participants) for t in range(trials)]
+        specs = [
+            TrialSpec(p, mode, t, seed * 10_000 + p * trials * scenario_per_participant + t)
+            for mode in batch
+            for p in range(participants)
+            for t in range(trials)
+        ]
         report(f"[{index + 1}/{len(batches)}] {', '.join(batch)}: {len(specs)} trials")
         last = [-1]
 
@@ -88,8 +104,16 @@ def run_experiment(participants: int, trials: int, modes: list[str], seed: int, 
                 report(f"      {name}: {fraction:.0%} of trials done")
 
         stats = {}
-        rows += run_trials(task, specs, people, seed=seed + index, progress=progress, shared_autonomy=shared_autonomy,
-                           mpc_config=mpc_config, mpc_stats=stats)
+        rows += run_trials(
+            task,
+            specs,
+            people,
+            seed=seed + index,
+            progress=progress,
+            shared_autonomy=shared_autonomy,
+            mpc_config=mpc_config,
+            mpc_stats=stats,
+        )
         if stats and mpc_stats is not None:
             mpc_stats[name] = stats
     frame = pd.DataFrame(rows)
@@ -109,38 +133,49 @@ def acceptance(summary: pd.DataFrame) -> dict:
         checks[f"mpc goal reached >= {MPC_ACCEPTANCE_RATE}"] = bool(mpc.goal_rate >= MPC_ACCEPTANCE_RATE)
         checks["mpc no trap loss"] = bool(mpc.trap_losses == 0)
         if "shared" in by_mode.index:
-            checks["mpc time <= shared time"] = bool(mpc.completion_time_mean_s
-                                                     <= by_mode.loc["shared"].completion_time_mean_s)
+            checks["mpc time <= shared time"] = bool(
+                mpc.completion_time_mean_s <= by_mode.loc["shared"].completion_time_mean_s
+            )
     if "shared" in by_mode.index:
         shared = by_mode.loc["shared"]
         checks["shared success >= 0.99"] = bool(shared.success_mean >= 0.99)
         if "manual" in by_mode.index:
             manual = by_mode.loc["manual"]
             checks["shared success >= manual's"] = bool(shared.success_mean >= manual.success_mean)
-            checks["manual time >= 2x shared time"] = bool(manual.completion_time_mean_s
-                                                           >= 2 * shared.completion_time_mean_s)
+            checks["manual time >= 2x shared time"] = bool(
+                manual.completion_time_mean_s >= 2 * shared.completion_time_mean_s
+            )
         if "autonomous" in by_mode.index:
             auto = by_mode.loc["autonomous"]
             checks["autonomous success below shared's by 0.1"] = bool(auto.success_mean <= shared.success_mean - 0.1)
             checks["shared time within 15 % of autonomous"] = bool(
-                abs(shared.completion_time_mean_s - auto.completion_time_mean_s) <= 0.15 * auto.completion_time_mean_s)
+                abs(shared.completion_time_mean_s - auto.completion_time_mean_s) <= 0.15 * auto.completion_time_mean_s
+            )
     return checks
 
 
 def mpc_summary(stats: dict, config: MPCConfig, tick_s: float) -> dict:
     """mpc.json: the controller's size and its replans' wall time (per mode that used it)."""
-    summary = {"rollouts": config.n_rollouts, "horizon_s": config.horizon_s, "replan_period_s": config.step_s,
-               "model_dt_s": config.model_dt_s, "tick_s": tick_s,
-               "physics_steps_per_environment_replan": config.substeps_per_replan, "modes": {}}
+    summary = {
+        "rollouts": config.n_rollouts,
+        "horizon_s": config.horizon_s,
+        "replan_period_s": config.step_s,
+        "model_dt_s": config.model_dt_s,
+        "tick_s": tick_s,
+        "physics_steps_per_environment_replan": config.substeps_per_replan,
+        "modes": {},
+    }
     for mode, mode_stats in stats.items():
         seconds = np.asarray(mode_stats["replan_seconds"], float)
         sizes = np.asarray(mode_stats["environments_planned"], float)
         per_env = seconds / np.maximum(sizes, 1)
         summary["modes"][mode] = {
-            "replans": int(mode_stats["replans"]), "environments_planned_mean": float(sizes.mean()) if sizes.size else 0,
+            "replans": int(mode_stats["replans"]),
+            "environments_planned_mean": float(sizes.mean()) if sizes.size else 0,
             "replan_wall_s_mean": float(seconds.mean()) if seconds.size else None,
             "replan_wall_s_per_environment_mean": float(per_env.mean()) if per_env.size else None,
-            "note": "batched trials replan many environments per call; benchmarks/mpc.py times one environment"}
+            "note": "batched trials replan many environments per call; benchmarks/mpc.py times one environment",
+        }
     return summary
 
 
@@ -154,7 +189,9 @@ def write_experiment(trials: pd.DataFrame, out: Path, mpc: dict | None = None) -
     summary = pd.read_csv(out / "summary.csv")
     checks = acceptance(summary)
     evidence = mpc_evidence(summary)
-    (out / "acceptance.json").write_text(json.dumps(json_safe({**checks, **({"mpc": evidence} if evidence else {})}), indent=2))
+    (out / "acceptance.json").write_text(
+        json.dumps(json_safe({**checks, **({"mpc": evidence} if evidence else {})}), indent=2)
+    )
     return checks
 
 
@@ -167,10 +204,17 @@ def mpc_evidence(summary: pd.DataFrame) -> dict | None:
         return None
     row = by_mode.loc["mpc"]
     shared_time = float(by_mode.loc["shared"].completion_time_mean_s) if "shared" in by_mode.index else None
-    return {"trials": int(row.trials), "obstacles_encountered": int(row.obstacles_encountered),
-            "obstacles_avoided": int(row.obstacles_avoided), "avoided_rate": float(row.avoided_rate),
-            "avoided_rate_ci95": [float(row.avoided_rate_ci_low), float(row.avoided_rate_ci_high)],
-            "goals_reached": int(row.goals_reached), "goal_rate": float(row.goal_rate),
-            "goal_rate_ci95": [float(row.goal_rate_ci_low), float(row.goal_rate_ci_high)],
-            "completion_time_mean_s": float(row.completion_time_mean_s), "shared_completion_time_mean_s": shared_time,
-            "trap_losses": int(row.trap_losses), "detachments": int(row.detachments)}
+    return {
+        "trials": int(row.trials),
+        "obstacles_encountered": int(row.obstacles_encountered),
+        "obstacles_avoided": int(row.obstacles_avoided),
+        "avoided_rate": float(row.avoided_rate),
+        "avoided_rate_ci95": [float(row.avoided_rate_ci_low), float(row.avoided_rate_ci_high)],
+        "goals_reached": int(row.goals_reached),
+        "goal_rate": float(row.goal_rate),
+        "goal_rate_ci95": [float(row.goal_rate_ci_low), float(row.goal_rate_ci_high)],
+        "completion_time_mean_s": float(row.completion_time_mean_s),
+        "shared_completion_time_mean_s": shared_time,
+        "trap_losses": int(row.trap_losses),
+        "detachments": int(row.detachments),
+    }

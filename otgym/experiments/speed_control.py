@@ -23,10 +23,13 @@ CURVE_WINDOW = 50
 
 
 def make_env(params: tr.TransportParams) -> Env:
-    return Env(reset=lambda key, n: spc.reset_batch(key, params, n),
-               step=lambda key, state, action: spc.step_batch(key, state, action, params),
-               auto_reset=lambda key, obs, state, done: tr.auto_reset(key, params, obs, state, done),
-               obs_size=tr.OBS_SIZE, n_actions=params.config.n_actions)
+    return Env(
+        reset=lambda key, n: spc.reset_batch(key, params, n),
+        step=lambda key, state, action: spc.step_batch(key, state, action, params),
+        auto_reset=lambda key, obs, state, done: tr.auto_reset(key, params, obs, state, done),
+        obs_size=tr.OBS_SIZE,
+        n_actions=params.config.n_actions,
+    )
 
 
 @dataclasses.dataclass
@@ -39,8 +42,13 @@ class TrainResult:
     meta: dict
 
 
-def train(task: TaskConfig, config: DQNConfig = DQNConfig(), seed: int = 0, progress=None,
-          params: tr.TransportParams | None = None) -> TrainResult:
+def train(
+    task: TaskConfig,
+    config: DQNConfig = DQNConfig(),
+    seed: int = 0,
+    progress=None,
+    params: tr.TransportParams | None = None,
+) -> TrainResult:
     """Train one seed chunk by chunk (each chunk one jitted call, the runner staying
     on the device); ``progress(done_chunks, n_chunks)`` after each."""
     start = time.perf_counter()
@@ -57,13 +65,26 @@ def train(task: TaskConfig, config: DQNConfig = DQNConfig(), seed: int = 0, prog
     jax.block_until_ready(runner.q_params)
     metrics = {name: np.concatenate([c[name] for c in chunks]) for name in chunks[0]}
     ended = metrics["episodes"] > 0
-    returns = np.repeat(metrics["return_sum"][ended] / metrics["episodes"][ended],
-                        metrics["episodes"][ended].astype(int))
-    meta = {"preset": task.name, "obs_size": tr.OBS_SIZE, "n_actions": task.n_actions,
-            "speed_levels_um_s": list(task.speed_levels_um_s), "hidden": list(config.hidden),
-            "env_steps": config.n_chunks * config.chunk_iters * config.n_envs, "seed": seed}
-    return TrainResult(jax.device_get(runner.q_params), returns, int(metrics["episodes"].sum()),
-                       meta["env_steps"], time.perf_counter() - start, meta)
+    returns = np.repeat(
+        metrics["return_sum"][ended] / metrics["episodes"][ended], metrics["episodes"][ended].astype(int)
+    )
+    meta = {
+        "preset": task.name,
+        "obs_size": tr.OBS_SIZE,
+        "n_actions": task.n_actions,
+        "speed_levels_um_s": list(task.speed_levels_um_s),
+        "hidden": list(config.hidden),
+        "env_steps": config.n_chunks * config.chunk_iters * config.n_envs,
+        "seed": seed,
+    }
+    return TrainResult(
+        jax.device_get(runner.q_params),
+        returns,
+        int(metrics["episodes"].sum()),
+        meta["env_steps"],
+        time.perf_counter() - start,
+        meta,
+    )
 
 
 def write_training(result: TrainResult, out_dir: Path) -> dict:
@@ -72,8 +93,12 @@ def write_training(result: TrainResult, out_dir: Path) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     save_policy(out_dir / "policy.npz", result.q_params, result.meta)
     _curve(result.episode_returns, out_dir / "learning_curve.png", result.meta["preset"])
-    summary = {"episodes": result.episodes, "env_steps": result.env_steps, "wall_s": round(result.wall_s, 1),
-               "final_mean_return": round(float(np.mean(result.episode_returns[-CURVE_WINDOW:])), 3)}
+    summary = {
+        "episodes": result.episodes,
+        "env_steps": result.env_steps,
+        "wall_s": round(result.wall_s, 1),
+        "final_mean_return": round(float(np.mean(result.episode_returns[-CURVE_WINDOW:])), 3),
+    }
     (out_dir / "training.json").write_text(json.dumps({**summary, **result.meta}, indent=2))
     return summary
 
@@ -89,7 +114,7 @@ def _curve(returns: np.ndarray, path: Path, preset: str) -> None:
     ax.plot(episodes, returns, lw=0.3, color="tab:blue", alpha=0.4, label="episode")
     if len(returns) >= CURVE_WINDOW:
         smooth = np.convolve(returns, np.ones(CURVE_WINDOW) / CURVE_WINDOW, mode="valid")
-        ax.plot(episodes[CURVE_WINDOW - 1:], smooth, color="tab:blue", label=f"mean of {CURVE_WINDOW}")
+        ax.plot(episodes[CURVE_WINDOW - 1 :], smooth, color="tab:blue", label=f"mean of {CURVE_WINDOW}")
     ax.set_xlabel("episode")
     ax.set_ylabel("cumulative reward per episode")
     ax.set_title(f"DQN speed control, preset {preset}")

@@ -29,6 +29,7 @@ from otgym.experiments.paper_tables import table_ii_markdown
 from otgym.rl.network import QNetwork
 from otgym.study.stats import wilson_interval
 
+
 @dataclasses.dataclass
 class Evaluation:
     names: list[str]
@@ -44,17 +45,27 @@ class Evaluation:
             won = self.success[p]
             atct = float(self.time_s[p][won].mean()) if won.any() else None
             low, high = wilson_interval(int(won.sum()), int(won.size))
-            yield {"policy": name, "speed_um_s": self.speeds_um_s[p], "ASR": float(self.progress[p].mean()),
-                   "ATCT_s": atct, "success_rate": float(won.mean()), "success_ci95_low": low,
-                   "success_ci95_high": high, "episodes": int(won.size)}
+            yield {
+                "policy": name,
+                "speed_um_s": self.speeds_um_s[p],
+                "ASR": float(self.progress[p].mean()),
+                "ATCT_s": atct,
+                "success_rate": float(won.mean()),
+                "success_ci95_low": low,
+                "success_ci95_high": high,
+                "episodes": int(won.size),
+            }
 
     def safety(self, name: str, force_limit_pn: float, distance_limit_um: float) -> dict:
         p = self.names.index(name)
-        return {"force_below_limit": float(np.mean(self.force_pn[p] < force_limit_pn)),
-                "distance_within_limit": float(np.mean(self.distance_um[p] <= distance_limit_um)),
-                "distance_median_um": float(np.median(self.distance_um[p])),
-                "distance_p99_um": float(np.percentile(self.distance_um[p], 99)),
-                "force_p99_pn": float(np.percentile(self.force_pn[p], 99)), "samples": int(self.force_pn[p].size)}
+        return {
+            "force_below_limit": float(np.mean(self.force_pn[p] < force_limit_pn)),
+            "distance_within_limit": float(np.mean(self.distance_um[p] <= distance_limit_um)),
+            "distance_median_um": float(np.median(self.distance_um[p])),
+            "distance_p99_um": float(np.percentile(self.distance_um[p], 99)),
+            "force_p99_pn": float(np.percentile(self.force_pn[p], 99)),
+            "samples": int(self.force_pn[p].size),
+        }
 
 
 SAFE_FRACTION = 0.99
@@ -81,10 +92,18 @@ def acceptance(evaluation: Evaluation, rl_safety: dict, significance: float = SI
     constant = [p for p, speed in enumerate(evaluation.speeds_um_s) if speed is not None]
     rl_rate = float(evaluation.success[rl].mean())
     as_safe = [p for p in constant if evaluation.success[p].mean() >= rl_rate]
-    checks = {"force_safe": rl_safety["force_below_limit"] >= SAFE_FRACTION,
-              "distance_safe": rl_safety["distance_within_limit"] >= SAFE_FRACTION,
-              "episodes": int(evaluation.success.shape[1]), "reference": None, "faster_episodes": 0,
-              "slower_episodes": 0, "speed_p": None, "rl_only_lost": 0, "reference_only_lost": 0, "safety_p": None}
+    checks = {
+        "force_safe": rl_safety["force_below_limit"] >= SAFE_FRACTION,
+        "distance_safe": rl_safety["distance_within_limit"] >= SAFE_FRACTION,
+        "episodes": int(evaluation.success.shape[1]),
+        "reference": None,
+        "faster_episodes": 0,
+        "slower_episodes": 0,
+        "speed_p": None,
+        "rl_only_lost": 0,
+        "reference_only_lost": 0,
+        "safety_p": None,
+    }
     if not as_safe:
         checks["beats_reference"] = True
         return checks
@@ -97,9 +116,16 @@ def acceptance(evaluation: Evaluation, rl_safety: dict, significance: float = SI
     reference_only = int(np.sum(evaluation.success[rl] & ~evaluation.success[reference]))
     discordant = rl_only + reference_only
     safety_p = binomtest(rl_only, discordant, 0.5, alternative="greater").pvalue if discordant else 1.0
-    checks.update(reference=evaluation.names[reference], faster_episodes=faster, slower_episodes=slower,
-                  speed_p=float(speed_p), rl_only_lost=rl_only, reference_only_lost=reference_only,
-                  safety_p=float(safety_p), beats_reference=bool(speed_p < significance))
+    checks.update(
+        reference=evaluation.names[reference],
+        faster_episodes=faster,
+        slower_episodes=slower,
+        speed_p=float(speed_p),
+        rl_only_lost=rl_only,
+        reference_only_lost=reference_only,
+        safety_p=float(safety_p),
+        beats_reference=bool(speed_p < significance),
+    )
     return checks
 
 
@@ -153,8 +179,16 @@ def make_rollout(params: tr.TransportParams, hidden, n_episodes: int, policies=N
     return jax.jit(rollout)
 
 
-def evaluate(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed: int = 0,
-             policies=None, repeats: int = 1, progress=None) -> Evaluation:
+def evaluate(
+    params: tr.TransportParams,
+    q_params,
+    hidden,
+    n_episodes: int,
+    seed: int = 0,
+    policies=None,
+    repeats: int = 1,
+    progress=None,
+) -> Evaluation:
     """Run the policies (indices as in ``make_rollout``; default RL, G1..Gn, untrained)
     on the same ``n_episodes`` seeded episodes; with ``repeats`` R > 1, on R batches of
     them (seeds ``seed`` .. ``seed + R - 1``, one compiled rollout), pooled.
@@ -173,8 +207,15 @@ def evaluate(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed
     pool = lambda field: np.concatenate([getattr(b, field) for b in batches], axis=1)  # noqa: E731
     samples = lambda field: [np.concatenate(parts) for parts in zip(*(getattr(b, field) for b in batches))]  # noqa: E731
     first = batches[0]
-    return Evaluation(first.names, first.speeds_um_s, pool("progress"), pool("success"), pool("time_s"),
-                      samples("force_pn"), samples("distance_um"))
+    return Evaluation(
+        first.names,
+        first.speeds_um_s,
+        pool("progress"),
+        pool("success"),
+        pool("time_s"),
+        samples("force_pn"),
+        samples("distance_um"),
+    )
 
 
 def _evaluate_batch(params, rollout, q_params, n_episodes, seed, policies) -> Evaluation:
@@ -184,11 +225,24 @@ def _evaluate_batch(params, rollout, q_params, n_episodes, seed, policies) -> Ev
     all_names = ["RL"] + [f"G{i + 1}" for i in range(n_levels)] + ["untrained"]
     all_speeds = [None] + list(config.speed_levels_um_s) + [None]
     shape = (len(policies), n_episodes)
-    per_policy = lambda samples: [samples[:, p * n_episodes:(p + 1) * n_episodes][  # noqa: E731
-        active[:, p * n_episodes:(p + 1) * n_episodes]].reshape(-1) for p in range(len(policies))]
-    return Evaluation([all_names[p] for p in policies], [all_speeds[p] for p in policies],
-                      np.asarray(progress).reshape(shape), np.asarray(success).reshape(shape),
-                      np.asarray(time_s).reshape(shape), per_policy(np.asarray(force)), per_policy(np.asarray(distance)))
+
+    def per_policy(samples):
+        return [
+            samples[:, p * n_episodes : (p + 1) * n_episodes][active[:, p * n_episodes : (p + 1) * n_episodes]].reshape(
+                -1
+            )
+            for p in range(len(policies))
+        ]
+
+    return Evaluation(
+        [all_names[p] for p in policies],
+        [all_speeds[p] for p in policies],
+        np.asarray(progress).reshape(shape),
+        np.asarray(success).reshape(shape),
+        np.asarray(time_s).reshape(shape),
+        per_policy(np.asarray(force)),
+        per_policy(np.asarray(distance)),
+    )
 
 
 def write_table(evaluation: Evaluation, out_dir: Path) -> list[dict]:
@@ -205,8 +259,9 @@ def write_table(evaluation: Evaluation, out_dir: Path) -> list[dict]:
     return rows
 
 
-def write_results(evaluation: Evaluation, out_dir: Path, force_limit_pn: float,
-                  distance_limit_um: float) -> tuple[list[dict], dict, dict]:
+def write_results(
+    evaluation: Evaluation, out_dir: Path, force_limit_pn: float, distance_limit_um: float
+) -> tuple[list[dict], dict, dict]:
     """Everything an evaluation writes into ``out_dir``: table.csv and table.md
     (``write_table``), safety.png, safety.json (RL and untrained) and acceptance.json
     (``acceptance`` plus ``passes``). Returns (rows, safety, checks)."""
@@ -230,9 +285,10 @@ def write_safety_figure(evaluation: Evaluation, path: Path, force_limit_pn: floa
 
     before, after = evaluation.names.index("untrained"), evaluation.names.index("RL")
     fig, axes = plt.subplots(1, 2, figsize=(9, 4))
-    for ax, samples, limit, label in ((axes[0], evaluation.force_pn, force_limit_pn, "robot-cell contact force (pN)"),
-                                      (axes[1], evaluation.distance_um, distance_limit_um,
-                                       "handle-to-trap distance (um)")):
+    for ax, samples, limit, label in (
+        (axes[0], evaluation.force_pn, force_limit_pn, "robot-cell contact force (pN)"),
+        (axes[1], evaluation.distance_um, distance_limit_um, "handle-to-trap distance (um)"),
+    ):
         data = [samples[before], samples[after]]
         ax.violinplot(data, showmedians=True)
         ax.boxplot(data, widths=0.12, showfliers=False)

@@ -24,9 +24,11 @@ from otgym.planning import plan_path, save_path_csv
 from otgym.sim import scene as sc
 from otgym.sim.chip import load_chip
 
-CSV_HEADER = ("t_s,arc_um,cell_x_um,cell_y_um,robot_a_x_um,robot_a_y_um,robot_a_theta_rad,"
-              "robot_b_x_um,robot_b_y_um,robot_b_theta_rad,contact_force_a_pn,contact_force_b_pn,"
-              "gap_a_um,gap_b_um,max_trap_distance_um,trap_lost,cell_detached,obstacle_collision,wall_collision")
+CSV_HEADER = (
+    "t_s,arc_um,cell_x_um,cell_y_um,robot_a_x_um,robot_a_y_um,robot_a_theta_rad,"
+    "robot_b_x_um,robot_b_y_um,robot_b_theta_rad,contact_force_a_pn,contact_force_b_pn,"
+    "gap_a_um,gap_b_um,max_trap_distance_um,trap_lost,cell_detached,obstacle_collision,wall_collision"
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,7 +50,8 @@ def _step_function(scene: sc.Scene, path: formation.DensePath, offsets, period_s
     @jax.jit
     def advance(states: sc.SceneState, arc_um, key):
         velocity = jax.vmap(lambda traps: formation.formation_velocity(path, offsets, traps, arc_um, period_s))(
-            states.physics.trap_xy_um)
+            states.physics.trap_xy_um
+        )
         return sc.step_batch(scene, states, velocity, key)
 
     return advance
@@ -63,15 +66,22 @@ def run(demo: TransportDemo, out_dir: Path, progress=None) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     scene = sc.build_scene(demo.scene)
     chip = load_chip(demo.scene.chip) if isinstance(demo.scene.chip, str) else demo.scene.chip
-    plan = plan_path(chip.image, chip.pixel_size_um, demo.start_um, demo.goal_um,
-                     robot_radius_um=scene.assembly_radius_um, threshold=0.5)
+    plan = plan_path(
+        chip.image,
+        chip.pixel_size_um,
+        demo.start_um,
+        demo.goal_um,
+        robot_radius_um=scene.assembly_radius_um,
+        threshold=0.5,
+    )
     save_path_csv(out_dir / "path.csv", plan.smoothed_um)
     path = formation.dense_path(plan.smoothed_um)
     period = demo.scene.control_period_s
     key, reset_key = jax.random.split(jax.random.PRNGKey(demo.seed))
     heading = formation.heading_at(path, 0.0)
     states = jax.vmap(lambda k: sc.reset_at(scene, k, path.points_um[0], heading))(
-        jax.random.split(reset_key, demo.n_runs))
+        jax.random.split(reset_key, demo.n_runs)
+    )
     offsets = formation.formation_offsets(states.physics.trap_xy_um[0], path.points_um[0], heading)
     advance = _step_function(scene, path, offsets, period)
     length = float(path.length_um)
@@ -123,8 +133,17 @@ def run(demo: TransportDemo, out_dir: Path, progress=None) -> dict:
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
     last_frame = np.asarray(ph.sphere_positions_um(scene.model, jnp.asarray(end_pose[shown])))
-    _figure(chip, scene, last_frame, end_traps[shown], plan, table,
-            [f[shown] for f in frames][: len(table) // 10 + 1], out_dir / "transport.png", summary)
+    _figure(
+        chip,
+        scene,
+        last_frame,
+        end_traps[shown],
+        plan,
+        table,
+        [f[shown] for f in frames][: len(table) // 10 + 1],
+        out_dir / "transport.png",
+        summary,
+    )
     return summary
 
 
@@ -132,10 +151,20 @@ def _row(scene, states, events, index, arc):
     pose = np.asarray(states.physics.pose[index], float)
     force = np.asarray(events.contact_force_pn[index], float)
     gap = np.asarray(events.cell_gap_um[index], float)
-    return [float(states.time_s[index]), arc, *pose[scene.payload, :2], *pose[0], *pose[1], *force, *gap,
-            float(np.max(events.trap_distance_um[index])), bool(np.any(events.trap_lost[index])),
-            bool(events.cell_detached[index]), bool(events.obstacle_collision[index]),
-            bool(events.wall_collision[index])]
+    return [
+        float(states.time_s[index]),
+        arc,
+        *pose[scene.payload, :2],
+        *pose[0],
+        *pose[1],
+        *force,
+        *gap,
+        float(np.max(events.trap_distance_um[index])),
+        bool(np.any(events.trap_lost[index])),
+        bool(events.cell_detached[index]),
+        bool(events.obstacle_collision[index]),
+        bool(events.wall_collision[index]),
+    ]
 
 
 def _failure(events, index) -> str:
@@ -158,8 +187,7 @@ def _figure(chip, scene, sphere_xy, trap_xy, plan, table, frames, path, summary)
     handles = np.zeros(len(kinds), bool)
     handles[list(model.trap_sphere)] = True
     renderer = SceneRenderer(chip, size_px=(900, 600))
-    image = renderer.render(sphere_xy, np.asarray(model.sphere_radius_um), kinds, handles, trap_xy,
-                            plan.smoothed_um)
+    image = renderer.render(sphere_xy, np.asarray(model.sphere_radius_um), kinds, handles, trap_xy, plan.smoothed_um)
     fig = plt.figure(figsize=(13, 5.2))
     ax = fig.add_axes([0.02, 0.08, 0.55, 0.86])
     ax.imshow(image)
@@ -168,8 +196,10 @@ def _figure(chip, scene, sphere_xy, trap_xy, plan, table, frames, path, summary)
     for sphere_xy in frames:  # faint snapshots every 2 s
         robot_px = renderer.to_px(sphere_xy[[s for s, b in enumerate(model.sphere_body) if b in scene.robots]])
         ax.scatter(robot_px[:, 0], robot_px[:, 1], s=2, color="tab:orange", alpha=0.35)
-    ax.set_title(f"Two robots carry a cell at {summary['speed_um_s']:g} um/s: "
-                 f"{summary['reached_goal']} of {summary['runs']} runs reached the goal (run {summary['shown_run']} shown)")
+    ax.set_title(
+        f"Two robots carry a cell at {summary['speed_um_s']:g} um/s: "
+        f"{summary['reached_goal']} of {summary['runs']} runs reached the goal (run {summary['shown_run']} shown)"
+    )
     ax.axis("off")
     ax.legend(loc="lower left")
     force_ax = fig.add_axes([0.63, 0.56, 0.35, 0.36])

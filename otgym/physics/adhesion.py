@@ -77,8 +77,9 @@ class Adhesion:
         for material, value in table.items():
             _check_material("hamaker_across_water_j material", material)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"Hamaker constant of {material!r} must be a non-negative number of joules, "
-                                 f"got {value!r}")
+                raise ValueError(
+                    f"Hamaker constant of {material!r} must be a non-negative number of joules, got {value!r}"
+                )
         _check_material("wall_material", self.wall_material)
         if not (isinstance(self.min_gap_um, (int, float)) and math.isfinite(self.min_gap_um) and self.min_gap_um > 0):
             raise ValueError(f"min_gap_um must be a positive number, got {self.min_gap_um!r}")
@@ -87,7 +88,7 @@ class Adhesion:
             raise ValueError(f"retardation_wavelength_um must be positive (inf: no retardation), got {wavelength!r}")
 
     @classmethod
-    def none(cls) -> "Adhesion":
+    def none(cls) -> Adhesion:
         """No van der Waals force at all."""
         return cls(hamaker_across_water_j=tuple((m, 0.0) for m in MATERIALS))
 

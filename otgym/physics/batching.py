@@ -32,12 +32,16 @@ def batch_through(one, batch):
             axes = tuple(jax.tree.map(lambda b: 0 if b else None, batched) for batched in in_batched)
             result = jax.vmap(one, in_axes=axes)(model, state, inputs, key)
         else:
-            def broadcast(tree, batched):
-                return jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
-                                    tree, batched)
 
-            result = batch(model, broadcast(state, state_batched), broadcast(inputs, inputs_batched),
-                           batch_key(key) if key_batched else key)
+            def broadcast(tree, batched):
+                return jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape), tree, batched)
+
+            result = batch(
+                model,
+                broadcast(state, state_batched),
+                broadcast(inputs, inputs_batched),
+                batch_key(key) if key_batched else key,
+            )
         return result, jax.tree.map(lambda _: True, result)
 
     return rule

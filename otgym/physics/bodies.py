@@ -34,8 +34,12 @@ class BodyKind(IntEnum):
     BEAD = 3
 
 
-DEFAULT_MATERIAL = {BodyKind.ROBOT: "polymer", BodyKind.CELL: "cell", BodyKind.OBSTACLE: "cell",
-                    BodyKind.BEAD: "polymer"}
+DEFAULT_MATERIAL = {
+    BodyKind.ROBOT: "polymer",
+    BodyKind.CELL: "cell",
+    BodyKind.OBSTACLE: "cell",
+    BodyKind.BEAD: "polymer",
+}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,9 +69,7 @@ class BodySpec:
         require_shape(f"{self.name}.offsets_um", offsets, (radii.size, 2))
         for index in self.handle_indices:
             if not 0 <= index < radii.size:
-                raise ValueError(
-                    f"{self.name}.handle_indices contains {index}, outside 0..{radii.size - 1}"
-                )
+                raise ValueError(f"{self.name}.handle_indices contains {index}, outside 0..{radii.size - 1}")
         object.__setattr__(self, "offsets_um", offsets)
         object.__setattr__(self, "radii_um", radii)
         object.__setattr__(self, "kind", BodyKind(self.kind))
@@ -97,8 +99,15 @@ def custom_body(
     material: str | None = None,
 ) -> BodySpec:
     """Define your own design: any cluster of spheres, any subset of them handles."""
-    return BodySpec(name, kind, np.asarray(offsets_um, float), np.asarray(radii_um, float),
-                    tuple(handle_indices), kinematic, material)
+    return BodySpec(
+        name,
+        kind,
+        np.asarray(offsets_um, float),
+        np.asarray(radii_um, float),
+        tuple(handle_indices),
+        kinematic,
+        material,
+    )
 
 
 TWO_HANDLE_GRIPPER_SPHERES = (5, 6)
@@ -119,8 +128,15 @@ def two_handle_robot(
     cell at four points. About 9.5 um across, handles 2.5 um wide."""
     half = handle_separation_um / 2
     grip = gripper_spacing_um / 2
-    offsets = [(-half, 0.0), (half, 0.0), (-half / 2, 0.0), (0.0, 0.0), (half / 2, 0.0),
-               (-grip, 2 * body_sphere_radius_um), (grip, 2 * body_sphere_radius_um)]
+    offsets = [
+        (-half, 0.0),
+        (half, 0.0),
+        (-half / 2, 0.0),
+        (0.0, 0.0),
+        (half / 2, 0.0),
+        (-grip, 2 * body_sphere_radius_um),
+        (grip, 2 * body_sphere_radius_um),
+    ]
     radii = [handle_radius_um, handle_radius_um] + [body_sphere_radius_um] * 5
     return custom_body(name, offsets, radii, handle_indices=(0, 1))
 

@@ -47,10 +47,16 @@ def _substeps_per_sample(sample_dt_s, stiffness, radius_um, config_without_trap,
     return max(1, by_relaxation, by_tunnelling)
 
 
-def simulate_trapped_bead(diameter_um: float, stiffness_pn_per_um: float, *,
-                          temperature_k: float = 298.15, viscosity_pa_s: float = 8.9e-4,
-                          sample_rate_hz: float = 50_000.0, duration_s: float = 10.0,
-                          seed: int = 0) -> np.ndarray:
+def simulate_trapped_bead(
+    diameter_um: float,
+    stiffness_pn_per_um: float,
+    *,
+    temperature_k: float = 298.15,
+    viscosity_pa_s: float = 8.9e-4,
+    sample_rate_hz: float = 50_000.0,
+    duration_s: float = 10.0,
+    seed: int = 0,
+) -> np.ndarray:
     """Positions (n_samples, 2) in um of a bead relative to a fixed trap centre,
     sampled at ``sample_rate_hz`` for ``duration_s``. ``stiffness_pn_per_um=0`` gives a
     free bead (then positions are relative to its start). The bead starts at the trap
@@ -69,18 +75,23 @@ def simulate_trapped_bead(diameter_um: float, stiffness_pn_per_um: float, *,
 
     bodies = [bead("bead", radius_um=diameter / 2)]
     law = TrapLaw(name="harmonic", stiffness_pn_per_um=max(stiffness, 1e-12))
-    base = PhysicsConfig(dt_s=1.0 / rate, temperature_k=float(temperature_k),
-                         viscosity_pa_s=float(viscosity_pa_s), trap_law=law)
+    base = PhysicsConfig(
+        dt_s=1.0 / rate, temperature_k=float(temperature_k), viscosity_pa_s=float(viscosity_pa_s), trap_law=law
+    )
     substeps = _substeps_per_sample(1.0 / rate, stiffness, diameter / 2, base, bodies)
-    config = PhysicsConfig(dt_s=1.0 / rate / substeps, substeps=substeps,
-                           temperature_k=float(temperature_k),
-                           viscosity_pa_s=float(viscosity_pa_s), trap_law=law)
+    config = PhysicsConfig(
+        dt_s=1.0 / rate / substeps,
+        substeps=substeps,
+        temperature_k=float(temperature_k),
+        viscosity_pa_s=float(viscosity_pa_s),
+        trap_law=law,
+    )
     model = build_model(bodies, config, traps=[(0, 0)] if stiffness > 0 else [])
     state = initial_state(model, np.zeros((1, 3)), np.zeros((model.n_traps, 2)))
     controls = Controls.zeros(model)
     key = jax.random.PRNGKey(seed)
     chunks = []
-    for start in range(0, n_samples, SAMPLES_PER_CHUNK):
+    for _ in range(0, n_samples, SAMPLES_PER_CHUNK):
         key, chunk_key = jax.random.split(key)
         state, samples = _sample_chunk(model, state, controls, chunk_key, SAMPLES_PER_CHUNK)
         chunks.append(np.asarray(samples))

@@ -100,8 +100,17 @@ def _rr_scalars(r, ai, aj, eta):
     d = ai - aj
     q = ai**2 + 4 * ai * aj + aj**2
     pref = 1 / (8 * np.pi * eta * ai**3 * aj**3)
-    f_ov = pref * (5 * r_safe**6 - 27 * r_safe**4 * (ai**2 + aj**2) + 32 * r_safe**3 * (ai**3 + aj**3)
-                   - 9 * r_safe**2 * (ai**2 - aj**2) ** 2 - d**4 * q) / (64 * r_safe**3)
+    f_ov = (
+        pref
+        * (
+            5 * r_safe**6
+            - 27 * r_safe**4 * (ai**2 + aj**2)
+            + 32 * r_safe**3 * (ai**3 + aj**3)
+            - 9 * r_safe**2 * (ai**2 - aj**2) ** 2
+            - d**4 * q
+        )
+        / (64 * r_safe**3)
+    )
     g_ov = pref * 3 * (d**2 - r_safe**2) ** 2 * (q - r_safe**2) / (64 * r_safe**3)
     f_in = 1 / (8 * np.pi * eta * np.maximum(ai, aj) ** 3)
     far = r > ai + aj
@@ -116,8 +125,12 @@ def _rt_scalar(r, ai, aj, eta):
     Omega_i = h_ij (x_j - x_i)/r x F (not symmetric in ai, aj when they overlap)."""
     r_safe = np.where(r > 0, r, 1.0)
     h_far = 1 / (8 * np.pi * eta * r_safe**2)
-    h_ov = ((ai - aj + r_safe) ** 2 * (aj**2 + 2 * aj * (ai + r_safe) - 3 * (ai - r_safe) ** 2)
-            / (8 * r_safe**2) / (16 * np.pi * eta * ai**3 * aj))
+    h_ov = (
+        (ai - aj + r_safe) ** 2
+        * (aj**2 + 2 * aj * (ai + r_safe) - 3 * (ai - r_safe) ** 2)
+        / (8 * r_safe**2)
+        / (16 * np.pi * eta * ai**3 * aj)
+    )
     # j inside i: i turns as a rigid sphere under the torque of F about its centre;
     # i inside j: the flow inside j is a uniform translation, no rotation.
     h_in = np.where(ai > aj, r / (8 * np.pi * eta * np.maximum(ai, aj) ** 3), 0.0)
@@ -130,8 +143,7 @@ def _cross_matrices(vectors):
     """[v]_x for each v of (..., 3): [v]_x w = v x w."""
     x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
     zero = np.zeros_like(x)
-    return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1),
-                     np.stack([-y, x, zero], -1)], -2)
+    return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
 
 
 def grand_mobility(centres_um, radii_um, viscosity_pa_s, *, sphere_rotation: bool = True) -> np.ndarray:
@@ -192,8 +204,9 @@ def _validated(offsets_um, radii_um, viscosity_pa_s):
         raise ValueError(f"radii_um must be a non-empty 1-D array, got shape {radii.shape}")
     offsets = require_finite("offsets_um", offsets_um)
     if offsets.ndim != 2 or offsets.shape[0] != radii.size or offsets.shape[1] not in (2, 3):
-        raise ValueError(f"offsets_um must have shape ({radii.size}, 2) or ({radii.size}, 3) to match "
-                         f"radii_um, got {offsets.shape}")
+        raise ValueError(
+            f"offsets_um must have shape ({radii.size}, 2) or ({radii.size}, 3) to match radii_um, got {offsets.shape}"
+        )
     eta = require_positive_scalar("viscosity_pa_s", viscosity_pa_s)
     centres = np.zeros((radii.size, 3))
     centres[:, : offsets.shape[1]] = offsets
@@ -246,8 +259,9 @@ def planar_flow_weights(offsets_um, radii_um, viscosity_pa_s) -> np.ndarray:
     return np.moveaxis(weights[:, columns], 1, 0)  # (S, 3, 3)
 
 
-def resistance_matrix(offsets_um, radii_um, viscosity_pa_s, *, wall_height_um=None,
-                      sphere_rotation: bool = True) -> np.ndarray:
+def resistance_matrix(
+    offsets_um, radii_um, viscosity_pa_s, *, wall_height_um=None, sphere_rotation: bool = True
+) -> np.ndarray:
     """Planar resistance (3, 3) of a rigid sphere cluster with RPY hydrodynamic
     interaction between its spheres (method in the module docstring).
 
@@ -271,12 +285,14 @@ def resistance_matrix(offsets_um, radii_um, viscosity_pa_s, *, wall_height_um=No
             "resistance_matrix: the near-wall (chip floor) correction of interacting spheres "
             "(Rotne-Prager-Blake, Swan & Brady 2007) is not implemented for unequal radii with "
             "rotations; call with wall_height_um=None (unbounded fluid). The free-draining model "
-            "has a per-sphere Faxen factor: otgym.physics.mobility.faxen_parallel_factor.")
+            "has a per-sphere Faxen factor: otgym.physics.mobility.faxen_parallel_factor."
+        )
     full = resistance_6x6(offsets_um, radii_um, viscosity_pa_s, sphere_rotation=sphere_rotation)
     planar = full[np.ix_(PLANAR, PLANAR)]
     eigenvalues = np.linalg.eigvalsh(planar)
     if not eigenvalues[0] > 1e-10 * eigenvalues[-1]:
         raise ValueError(
             "radii_um/offsets_um: the planar resistance is singular (a single translational blob, "
-            "or all blobs at one centre, has no rotational drag without sphere_rotation=True)")
+            "or all blobs at one centre, has no rotational drag without sphere_rotation=True)"
+        )
     return planar

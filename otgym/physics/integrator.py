@@ -45,8 +45,8 @@ import numpy as np
 from flax import struct
 from jax.custom_batching import custom_vmap
 
-from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.batching import batch_through
+from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
 from otgym.physics.model import Model, PhysicsState, sphere_positions_um, turn_to_body, turn_to_lab
 from otgym.physics.projection import project_overlaps
@@ -65,12 +65,14 @@ class Controls:
     external_force: jnp.ndarray
 
     @classmethod
-    def zeros(cls, model: Model, batch: int | None = None) -> "Controls":
+    def zeros(cls, model: Model, batch: int | None = None) -> Controls:
         dtype = model.sphere_radius_um.dtype
         lead = () if batch is None else (batch,)
-        return cls(jnp.zeros(lead + (model.n_traps, 2), dtype),
-                   jnp.zeros(lead + (model.n_bodies, 3), dtype),
-                   jnp.zeros(lead + (model.n_bodies, 3), dtype))
+        return cls(
+            jnp.zeros(lead + (model.n_traps, 2), dtype),
+            jnp.zeros(lead + (model.n_bodies, 3), dtype),
+            jnp.zeros(lead + (model.n_bodies, 3), dtype),
+        )
 
 
 @struct.dataclass
@@ -87,8 +89,11 @@ class StepReport:
 
 
 def _check_controls(model: Model, controls: Controls, lead: tuple) -> None:
-    expected = {"trap_velocity_um_s": (model.n_traps, 2), "body_velocity": (model.n_bodies, 3),
-                "external_force": (model.n_bodies, 3)}
+    expected = {
+        "trap_velocity_um_s": (model.n_traps, 2),
+        "body_velocity": (model.n_bodies, 3),
+        "external_force": (model.n_bodies, 3),
+    }
     for name, shape in expected.items():
         actual = tuple(getattr(controls, name).shape)
         if actual != lead + shape:
@@ -146,8 +151,11 @@ def _body_frame_flow_drag(model: Model, turn, fields):
         velocity = model.flow.velocity.astype(turn[0].dtype)
         to_body_x, to_body_y = turn_to_body(turn, velocity[0], velocity[1])
         resistance = model.body_translational_resistance_pn_s_per_um[:, :, :, None]
-        return (resistance[:, 0, 0] * to_body_x + resistance[:, 0, 1] * to_body_y,
-                resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y, jnp.zeros_like(turn[0]))
+        return (
+            resistance[:, 0, 0] * to_body_x + resistance[:, 0, 1] * to_body_y,
+            resistance[:, 1, 0] * to_body_x + resistance[:, 1, 1] * to_body_y,
+            jnp.zeros_like(turn[0]),
+        )
     body = np.asarray(model.sphere_body, dtype=int)
     u_x, u_y = turn_to_body((turn[0][body], turn[1][body]), fields[0], fields[1])
     spin = fields[2] / 2
@@ -174,8 +182,9 @@ def _forces(model: Model, px, py, turn, trap_x, trap_y, external, fields, body_d
     to_trap_x, to_trap_y = trap_x - x[traps], trap_y - y[traps]
     trap_distance = jnp.sqrt(to_trap_x**2 + to_trap_y**2)
     if model.n_traps:
-        scale = jnp.where(trap_distance > 0,
-                          model.trap_law.magnitude_pn(trap_distance) / jnp.maximum(trap_distance, 1e-30), 0.0)
+        scale = jnp.where(
+            trap_distance > 0, model.trap_law.magnitude_pn(trap_distance) / jnp.maximum(trap_distance, 1e-30), 0.0
+        )
         trap_force = model.trap_incidence @ jnp.concatenate([scale * to_trap_x, scale * to_trap_y], axis=1)
         fx, fy = fx + trap_force[:, :e], fy + trap_force[:, e:]
     contact_x = contact_y = jnp.zeros((0, e), x.dtype)
@@ -184,9 +193,15 @@ def _forces(model: Model, px, py, turn, trap_x, trap_y, external, fields, body_d
         a, b = np.asarray(model.pair_a), np.asarray(model.pair_b)
         radius = model.sphere_radius_um[:, None]
         on_a_x, on_a_y, contact_x, contact_y, overlap = sphere_pair_forces(
-            x[b] - x[a], y[b] - y[a], radius[a], radius[b],
-            model.pair_stiffness_pn_per_um[:, None], model.pair_hamaker_pn_um[:, None], model.min_gap_um,
-            model.retardation_wavelength_um)
+            x[b] - x[a],
+            y[b] - y[a],
+            radius[a],
+            radius[b],
+            model.pair_stiffness_pn_per_um[:, None],
+            model.pair_hamaker_pn_um[:, None],
+            model.min_gap_um,
+            model.retardation_wavelength_um,
+        )
         fx = fx + model.pair_incidence @ on_a_x
         fy = fy + model.pair_incidence @ on_a_y
         overlap_max = jnp.max(overlap, axis=0)
@@ -196,9 +211,15 @@ def _forces(model: Model, px, py, turn, trap_x, trap_y, external, fields, body_d
         distance0, normal_x, normal_y, x0, y0 = fields[3:]
         distance = distance0 + normal_x * (x - x0) + normal_y * (y - y0)
         wall_x, wall_y, wall_contact, wall_overlap = sphere_wall_forces(
-            distance, normal_x, normal_y, model.sphere_radius_um[:, None],
-            model.wall_stiffness_pn_per_um[:, None], model.wall_hamaker_pn_um[:, None], model.min_gap_um,
-            model.retardation_wavelength_um)
+            distance,
+            normal_x,
+            normal_y,
+            model.sphere_radius_um[:, None],
+            model.wall_stiffness_pn_per_um[:, None],
+            model.wall_hamaker_pn_um[:, None],
+            model.min_gap_um,
+            model.retardation_wavelength_um,
+        )
         fx, fy = fx + wall_x, fy + wall_y
         dynamic = (model.wall_stiffness_pn_per_um > 0)[:, None]
         overlap_max = jnp.maximum(overlap_max, jnp.max(wall_overlap * dynamic, axis=0))
@@ -207,36 +228,63 @@ def _forces(model: Model, px, py, turn, trap_x, trap_y, external, fields, body_d
     to_body = model.body_of_sphere.T
     flow_x, flow_y = turn_to_lab(turn, body_drag[0], body_drag[1])
     flow_torque = body_drag[2]
-    generalised = (to_body @ fx + flow_x + external[0], to_body @ fy + flow_y + external[1],
-                   to_body @ torque + flow_torque + external[2])
+    generalised = (
+        to_body @ fx + flow_x + external[0],
+        to_body @ fy + flow_y + external[1],
+        to_body @ torque + flow_torque + external[2],
+    )
     return generalised, contact_x, contact_y, wall_touch, overlap_max, trap_distance
 
 
 def _substep(model: Model, controls, trap_start, fields, body_drag, carry, inputs):
     noise, index = inputs
-    (px, py, theta, cos, sin, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
-     distance_max, overlap_max) = carry
+    (
+        px,
+        py,
+        theta,
+        cos,
+        sin,
+        trap_x,
+        trap_y,
+        contact_x,
+        contact_y,
+        contact_any,
+        wall_any,
+        distance_max,
+        overlap_max,
+    ) = carry
     trap_vx, trap_vy, body_velocity, external = controls
     turn = cos, sin
     (gx, gy, gt), cx, cy, wall_touch, overlap, distance = _forces(
-        model, px, py, turn, trap_x, trap_y, external, fields, body_drag)
+        model, px, py, turn, trap_x, trap_y, external, fields, body_drag
+    )
     px_start, py_start = px, py
     kinematic = model.kinematic_mask
     dt = model.dt_s
     # translational step in the body frame: A^-1 (R^T F) dt + sqrt(2 kT dt) L xi, then back to the lab
     body_gx, body_gy = turn_to_body(turn, gx, gy)
-    mobility, noise_t = model.body_translational_mobility[:, :, :, None], model.body_translational_noise_um[:, :, :, None]
+    mobility, noise_t = (
+        model.body_translational_mobility[:, :, :, None],
+        model.body_translational_noise_um[:, :, :, None],
+    )
     step_x = (mobility[:, 0, 0] * body_gx + mobility[:, 0, 1] * body_gy) * dt + noise_t[:, 0, 0] * noise[0]
-    step_y = ((mobility[:, 1, 0] * body_gx + mobility[:, 1, 1] * body_gy) * dt
-              + noise_t[:, 1, 0] * noise[0] + noise_t[:, 1, 1] * noise[1])
+    step_y = (
+        (mobility[:, 1, 0] * body_gx + mobility[:, 1, 1] * body_gy) * dt
+        + noise_t[:, 1, 0] * noise[0]
+        + noise_t[:, 1, 1] * noise[1]
+    )
     step_x, step_y = turn_to_lab(turn, step_x, step_y)
     px = px + step_x + kinematic[:, 0:1] * body_velocity[0] * dt
     py = py + step_y + kinematic[:, 1:2] * body_velocity[1] * dt
-    theta_new = (theta + (model.body_rotational_mobility[:, None] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt
-                 + model.body_rotational_noise_rad[:, None] * noise[2])
+    theta_new = (
+        theta
+        + (model.body_rotational_mobility[:, None] * gt + kinematic[:, 2:3] * body_velocity[2]) * dt
+        + model.body_rotational_noise_rad[:, None] * noise[2]
+    )
     if model.projection_iterations:  # opt-in: no overlap deeper than its cap (otgym.physics.projection)
         px, py, theta_new, push_x, push_y, wall_push = project_overlaps(
-            model, (px_start, py_start, theta), turn, (px, py, theta_new), fields)
+            model, (px_start, py_start, theta), turn, (px, py, theta_new), fields
+        )
         cx, cy = cx + push_x, cy + push_y
         wall_touch = wall_touch | (wall_push > 0)
     theta = theta_new
@@ -244,9 +292,20 @@ def _substep(model: Model, controls, trap_start, fields, body_drag, carry, input
     # many steps far smaller than a position's last digit would drift systematically
     elapsed = (index + 1).astype(dt.dtype) * dt
     trap_x, trap_y = trap_start[0] + trap_vx * elapsed, trap_start[1] + trap_vy * elapsed
-    return (px, py, theta, *_turn(theta), trap_x, trap_y, contact_x + cx,
-            contact_y + cy, contact_any | (cx**2 + cy**2 > 0), wall_any | wall_touch,
-            jnp.maximum(distance_max, distance), jnp.maximum(overlap_max, overlap)), None
+    return (
+        px,
+        py,
+        theta,
+        *_turn(theta),
+        trap_x,
+        trap_y,
+        contact_x + cx,
+        contact_y + cy,
+        contact_any | (cx**2 + cy**2 > 0),
+        wall_any | wall_touch,
+        jnp.maximum(distance_max, distance),
+        jnp.maximum(overlap_max, overlap),
+    ), None
 
 
 def control_step_batch(model: Model, state: PhysicsState, controls: Controls, key):
@@ -270,14 +329,27 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     pose_t, trap_t = last(pose), last(trap_xy)
     body_velocity, external = last(controls.body_velocity), last(controls.external_force)
     trap_velocity = last(controls.trap_velocity_um_s)
-    step_controls = (trap_velocity[:, 0], trap_velocity[:, 1],
-                     (body_velocity[:, 0], body_velocity[:, 1], body_velocity[:, 2]),
-                     (external[:, 0], external[:, 1], external[:, 2]))
+    step_controls = (
+        trap_velocity[:, 0],
+        trap_velocity[:, 1],
+        (body_velocity[:, 0], body_velocity[:, 1], body_velocity[:, 2]),
+        (external[:, 0], external[:, 1], external[:, 2]),
+    )
     n_pairs, n_spheres = len(model.pair_a), model.sphere_radius_um.shape[0]
-    carry = (pose_t[:, 0], pose_t[:, 1], pose_t[:, 2], *_turn(pose_t[:, 2]), trap_t[:, 0], trap_t[:, 1],
-             jnp.zeros((n_pairs, n_env), dtype), jnp.zeros((n_pairs, n_env), dtype),
-             jnp.zeros((n_pairs, n_env), bool), jnp.zeros((n_spheres, n_env), bool),
-             jnp.zeros((model.n_traps, n_env), dtype), jnp.zeros(n_env, dtype))
+    carry = (
+        pose_t[:, 0],
+        pose_t[:, 1],
+        pose_t[:, 2],
+        *_turn(pose_t[:, 2]),
+        trap_t[:, 0],
+        trap_t[:, 1],
+        jnp.zeros((n_pairs, n_env), dtype),
+        jnp.zeros((n_pairs, n_env), dtype),
+        jnp.zeros((n_pairs, n_env), bool),
+        jnp.zeros((n_spheres, n_env), bool),
+        jnp.zeros((model.n_traps, n_env), dtype),
+        jnp.zeros(n_env, dtype),
+    )
     trap_start = (trap_t[:, 0], trap_t[:, 1])
     refresh = model.field_refresh
     blocks = model.substeps // refresh
@@ -290,20 +362,37 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
 
     def block(carry, inputs):
         fields, body_drag = sample(carry)
-        return jax.lax.scan(lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, i),
-                            carry, inputs)
+        return jax.lax.scan(
+            lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, i), carry, inputs
+        )
 
     if refresh == 1:  # one flat loop: a scan of one-step blocks costs a loop level per step
+
         def single(carry, inputs):
             return _substep(model, step_controls, trap_start, *sample(carry), carry, inputs)
 
         carry, _ = jax.lax.scan(single, carry, (noise, jnp.arange(model.substeps)))
     else:
-        inputs = (noise.reshape((blocks, refresh) + noise.shape[1:]),
-                  jnp.arange(model.substeps).reshape(blocks, refresh))
+        inputs = (
+            noise.reshape((blocks, refresh) + noise.shape[1:]),
+            jnp.arange(model.substeps).reshape(blocks, refresh),
+        )
         carry, _ = jax.lax.scan(block, carry, inputs)
-    (px, py, theta, cos, sin, trap_x, trap_y, contact_x, contact_y, contact_any, wall_any,
-     distance_max, overlap_max) = carry
+    (
+        px,
+        py,
+        theta,
+        cos,
+        sin,
+        trap_x,
+        trap_y,
+        contact_x,
+        contact_y,
+        contact_any,
+        wall_any,
+        distance_max,
+        overlap_max,
+    ) = carry
     x, y, _, _ = _sphere_xy(model, px, py, (cos, sin))
     traps = np.asarray(model.trap_sphere, dtype=int)
     distance = jnp.sqrt((trap_x - x[traps]) ** 2 + (trap_y - y[traps]) ** 2)
@@ -320,8 +409,9 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         trap_lost=first(distance_max > model.trap_law.escape_distance),
         max_overlap_um=overlap_max,
     )
-    new_state = PhysicsState(pose=first(jnp.stack([px, py, theta], axis=1)),
-                             trap_xy_um=first(jnp.stack([trap_x, trap_y], axis=1)))
+    new_state = PhysicsState(
+        pose=first(jnp.stack([px, py, theta], axis=1)), trap_xy_um=first(jnp.stack([trap_x, trap_y], axis=1))
+    )
     return new_state, report
 
 
@@ -351,6 +441,7 @@ def rollout(model: Model, state: PhysicsState, controls: Controls, key, n_contro
     """Run ``n_control_steps`` control steps of one environment with fixed controls.
 
     Returns (final state, poses (n, B, 3), trap positions (n, T, 2), stacked reports)."""
+
     def body(carry, step_key):
         new_state, report = control_step(model, carry, controls, step_key)
         return new_state, (new_state.pose, new_state.trap_xy_um, report)

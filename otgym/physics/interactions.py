@@ -27,8 +27,7 @@ CONTACT_STEP_FRACTION = 0.5
 """kappa: fraction of an overlap removed per step (stable below 2 / number of contacts)."""
 
 
-def sphere_pair_forces(dx, dy, radius_a, radius_b, contact_stiffness, hamaker_pn_um, min_gap_um,
-                       wavelength_um=jnp.inf):
+def sphere_pair_forces(dx, dy, radius_a, radius_b, contact_stiffness, hamaker_pn_um, min_gap_um, wavelength_um=jnp.inf):
     """Forces between sphere pairs, component-wise (arrays broadcast over pairs and
     environments). (dx, dy) is the vector from centre a to centre b.
 
@@ -49,8 +48,9 @@ def sphere_pair_forces(dx, dy, radius_a, radius_b, contact_stiffness, hamaker_pn
     return net * nx, net * ny, contact * nx, contact * ny, overlap
 
 
-def sphere_wall_forces(distance_um, normal_x, normal_y, radius, contact_stiffness,
-                       hamaker_pn_um, min_gap_um, wavelength_um=jnp.inf):
+def sphere_wall_forces(
+    distance_um, normal_x, normal_y, radius, contact_stiffness, hamaker_pn_um, min_gap_um, wavelength_um=jnp.inf
+):
     """Forces of the walls on spheres: (total_x, total_y, contact magnitude, overlap).
     The normal points from the wall into the fluid."""
     gap = distance_um - radius

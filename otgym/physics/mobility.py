@@ -116,20 +116,25 @@ def _free_draining(offsets_um, radii_um, viscosity_pa_s, height_above_floor_um):
 
 def _planar(offsets_um, radii_um, viscosity_pa_s, interaction, height_above_floor_um):
     if interaction:
-        return (resistance_matrix(offsets_um, radii_um, viscosity_pa_s),
-                planar_flow_weights(offsets_um, radii_um, viscosity_pa_s))
+        return (
+            resistance_matrix(offsets_um, radii_um, viscosity_pa_s),
+            planar_flow_weights(offsets_um, radii_um, viscosity_pa_s),
+        )
     return _free_draining(offsets_um, radii_um, viscosity_pa_s, height_above_floor_um)
 
 
-def body_hydrodynamics(offsets_um, radii_um, viscosity_pa_s: float, *, interaction: bool = True,
-                       height_above_floor_um: float | None = None) -> BodyHydrodynamics:
+def body_hydrodynamics(
+    offsets_um, radii_um, viscosity_pa_s: float, *, interaction: bool = True, height_above_floor_um: float | None = None
+) -> BodyHydrodynamics:
     """A sphere cluster's planar hydrodynamics about its hydrodynamic centre (model in
     the module docstring). Raises ValueError for a floor height with interaction."""
     offsets = np.asarray(offsets_um, float)
     radii = require_positive("radii_um", radii_um)
     if interaction and height_above_floor_um is not None:
-        raise ValueError("height_above_floor_um: the near-floor correction exists only for the free-draining "
-                         "model; set hydrodynamic_interaction=False (interaction=False) to use it")
+        raise ValueError(
+            "height_above_floor_um: the near-floor correction exists only for the free-draining "
+            "model; set hydrodynamic_interaction=False (interaction=False) to use it"
+        )
     about_origin, _ = _planar(offsets, radii, viscosity_pa_s, interaction, height_above_floor_um)
     j_centre = np.linalg.solve(about_origin[:2, :2], about_origin[:2, 2])  # J c = A^-1 b
     centre = np.array([j_centre[1], -j_centre[0]])

@@ -12,14 +12,14 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from otgym.physics.bodies import BodySpec
 from otgym.physics.adhesion import Adhesion
+from otgym.physics.bodies import BodySpec
 from otgym.physics.constants import (
     ROOM_TEMPERATURE_K,
     WATER_VISCOSITY_PA_S,
@@ -80,8 +80,9 @@ class PhysicsConfig:
             raise ValueError(f"substeps must be a positive integer, got {self.substeps!r}")
         refresh = self.field_refresh_substeps
         if not isinstance(refresh, int) or refresh < 1 or self.substeps % refresh:
-            raise ValueError(f"field_refresh_substeps must be a positive integer dividing substeps="
-                             f"{self.substeps}, got {refresh!r}")
+            raise ValueError(
+                f"field_refresh_substeps must be a positive integer dividing substeps={self.substeps}, got {refresh!r}"
+            )
         require_non_negative("temperature_k", self.temperature_k)
         require_positive("viscosity_pa_s", self.viscosity_pa_s)
         if not isinstance(self.adhesion, Adhesion):
@@ -91,8 +92,10 @@ class PhysicsConfig:
         if self.height_above_floor_um is not None:
             require_positive("height_above_floor_um", self.height_above_floor_um)
             if self.hydrodynamic_interaction:
-                raise ValueError("height_above_floor_um: the near-floor correction exists only for free-draining "
-                                 "spheres; set hydrodynamic_interaction=False to use it")
+                raise ValueError(
+                    "height_above_floor_um: the near-floor correction exists only for free-draining "
+                    "spheres; set hydrodynamic_interaction=False to use it"
+                )
         if self.dtype not in ("float32", "float64"):
             raise ValueError(f"dtype must be 'float32' or 'float64', got {self.dtype!r}")
         if not isinstance(self.trap_law, TrapLaw):
@@ -190,8 +193,9 @@ def default_traps(bodies: Sequence[BodySpec]) -> list[tuple[int, int]]:
     return [(b, h) for b, body in enumerate(bodies) for h in body.handle_indices]
 
 
-def max_stable_dt_s(bodies: Sequence[BodySpec], config: PhysicsConfig,
-                    traps: Sequence[tuple[int, int]] | None = None) -> float:
+def max_stable_dt_s(
+    bodies: Sequence[BodySpec], config: PhysicsConfig, traps: Sequence[tuple[int, int]] | None = None
+) -> float:
     """Largest step that keeps explicit Euler-Maruyama stable (trap relaxation) and
     free of tunnelling (drift plus 3 sigma of noise below half the smallest radius)."""
     traps = default_traps(bodies) if traps is None else traps
@@ -219,9 +223,13 @@ def max_stable_dt_s(bodies: Sequence[BodySpec], config: PhysicsConfig,
 
 
 def _hydrodynamics(body: BodySpec, config: PhysicsConfig):
-    return body_hydrodynamics(body.offsets_um, body.radii_um, config.viscosity_pa_s,
-                              interaction=config.hydrodynamic_interaction,
-                              height_above_floor_um=config.height_above_floor_um)
+    return body_hydrodynamics(
+        body.offsets_um,
+        body.radii_um,
+        config.viscosity_pa_s,
+        interaction=config.hydrodynamic_interaction,
+        height_above_floor_um=config.height_above_floor_um,
+    )
 
 
 def _check_traps(bodies: Sequence[BodySpec], traps) -> list[tuple[int, int]]:
@@ -233,15 +241,21 @@ def _check_traps(bodies: Sequence[BodySpec], traps) -> list[tuple[int, int]]:
         if not 0 <= b < len(bodies):
             raise ValueError(f"traps: body index {b} outside 0..{len(bodies) - 1}")
         if h not in bodies[b].handle_indices:
-            raise ValueError(f"traps: sphere {h} of body {bodies[b].name!r} is not a handle "
-                             f"(handles: {bodies[b].handle_indices})")
+            raise ValueError(
+                f"traps: sphere {h} of body {bodies[b].name!r} is not a handle (handles: {bodies[b].handle_indices})"
+            )
         checked.append((b, h))
     return checked
 
 
-def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfig(), *,
-                traps: Sequence[tuple[int, int]] | None = None,
-                flow=None, walls=None) -> Model:
+def build_model(
+    bodies: Sequence[BodySpec],
+    config: PhysicsConfig = PhysicsConfig(),
+    *,
+    traps: Sequence[tuple[int, int]] | None = None,
+    flow=None,
+    walls=None,
+) -> Model:
     """Compile a scene description into a ``Model``.
 
     traps: (body_index, handle_sphere_index) for each optical trap; default one per
@@ -258,8 +272,10 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
     traps = _check_traps(bodies, default_traps(bodies) if traps is None else traps)
     dt_limit = max_stable_dt_s(bodies, config, traps)
     if config.dt_s > dt_limit:
-        raise ValueError(f"dt_s={config.dt_s:g} is too large for stability with these bodies "
-                         f"and trap law: it must be at most {dt_limit:.3g} s")
+        raise ValueError(
+            f"dt_s={config.dt_s:g} is too large for stability with these bodies "
+            f"and trap law: it must be at most {dt_limit:.3g} s"
+        )
 
     dtype = jnp.float64 if config.dtype == "float64" else jnp.float32
     kt = config.kt_pn_um
@@ -287,8 +303,7 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
 
     pair_a, pair_b, pair_stiffness, pair_body_pair, pair_hamaker = [], [], [], [], []
     adhesion = config.adhesion
-    body_pairs = [(i, j) for i, j in itertools.combinations(range(n_bodies), 2)
-                  if not (kinematic[i] and kinematic[j])]
+    body_pairs = [(i, j) for i, j in itertools.combinations(range(n_bodies), 2) if not (kinematic[i] and kinematic[j])]
     for bp, (i, j) in enumerate(body_pairs):
         stiffness = CONTACT_STEP_FRACTION / (config.dt_s * (point_mobility[i] + point_mobility[j]))
         hamaker = adhesion.hamaker_pn_um(bodies[i].material, bodies[j].material)
@@ -306,9 +321,9 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
     pair_to_body_pair = np.zeros((n_pairs, len(body_pairs)))
     pair_to_body_pair[np.arange(n_pairs), pair_body_pair] = 1.0
     sphere_point_mobility = point_mobility[sphere_body]
-    wall_stiffness = np.where(sphere_point_mobility > 0,
-                              CONTACT_STEP_FRACTION / (config.dt_s * np.maximum(sphere_point_mobility, 1e-30)),
-                              0.0)
+    wall_stiffness = np.where(
+        sphere_point_mobility > 0, CONTACT_STEP_FRACTION / (config.dt_s * np.maximum(sphere_point_mobility, 1e-30)), 0.0
+    )
     body_of_sphere = np.zeros((n_spheres, n_bodies))
     body_of_sphere[np.arange(n_spheres), sphere_body] = 1.0
     trap_sphere = tuple(sphere_start[b] + h for b, h in traps)
@@ -333,10 +348,13 @@ def build_model(bodies: Sequence[BodySpec], config: PhysicsConfig = PhysicsConfi
         trap_incidence=arr(np.eye(n_spheres)[:, list(trap_sphere)].reshape(n_spheres, len(trap_sphere))),
         wall_stiffness_pn_per_um=arr(wall_stiffness),
         pair_hamaker_pn_um=arr(pair_hamaker),
-        wall_hamaker_pn_um=arr([adhesion.hamaker_pn_um(bodies[b].material, adhesion.wall_material)
-                                for b in sphere_body]),
-        pair_overlap_cap_um=arr((config.contact_overlap_cap or 0.0)
-                                * np.minimum(np.asarray(radii, float)[pair_a], np.asarray(radii, float)[pair_b])),
+        wall_hamaker_pn_um=arr(
+            [adhesion.hamaker_pn_um(bodies[b].material, adhesion.wall_material) for b in sphere_body]
+        ),
+        pair_overlap_cap_um=arr(
+            (config.contact_overlap_cap or 0.0)
+            * np.minimum(np.asarray(radii, float)[pair_a], np.asarray(radii, float)[pair_b])
+        ),
         wall_overlap_cap_um=arr((config.contact_overlap_cap or 0.0) * np.asarray(radii, float)),
         dt_s=arr(config.dt_s),
         min_gap_um=arr(adhesion.min_gap_um),
@@ -406,8 +424,11 @@ def initial_state(model: Model, pose, trap_xy_um=None) -> PhysicsState:
         raise ValueError("pose must be finite")
     pose = jnp.asarray(pose, dtype)
     if trap_xy_um is None:
-        trap_xy_um = sphere_positions_um(model, pose)[jnp.array(model.trap_sphere, int)] \
-            if model.n_traps else jnp.zeros((0, 2), dtype)
+        trap_xy_um = (
+            sphere_positions_um(model, pose)[jnp.array(model.trap_sphere, int)]
+            if model.n_traps
+            else jnp.zeros((0, 2), dtype)
+        )
     else:
         trap_xy_um = np.asarray(trap_xy_um, float)
         require_shape("trap_xy_um", trap_xy_um, (model.n_traps, 2))

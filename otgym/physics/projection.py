@@ -51,8 +51,9 @@ def _point_mobility_along(model: Model, sphere_turn, lever_x, lever_y, normal_x,
     lever arm's moment about the centre, squared."""
     mobility = model.body_translational_mobility[body][..., None]  # (N, 2, 2, 1) body frame
     nb_x, nb_y = turn_to_body(sphere_turn, normal_x, normal_y)
-    translational = (nb_x * (mobility[:, 0, 0] * nb_x + mobility[:, 0, 1] * nb_y)
-                     + nb_y * (mobility[:, 1, 0] * nb_x + mobility[:, 1, 1] * nb_y))
+    translational = nb_x * (mobility[:, 0, 0] * nb_x + mobility[:, 0, 1] * nb_y) + nb_y * (
+        mobility[:, 1, 0] * nb_x + mobility[:, 1, 1] * nb_y
+    )
     moment = lever_x * normal_y - lever_y * normal_x
     return translational + model.body_rotational_mobility[body][:, None] * moment**2
 
@@ -127,8 +128,15 @@ def project_overlaps(model: Model, start, turn, moved, fields):
         step_x = (mobility[:, 0, 0] * body_gx + mobility[:, 0, 1] * body_gy) * model.dt_s
         step_y = (mobility[:, 1, 0] * body_gx + mobility[:, 1, 1] * body_gy) * model.dt_s
         step_x, step_y = turn_to_lab(turn, step_x, step_y)
-        return (count_done + 1, dpx + step_x, dpy + step_y, dth + rotational * gt * model.dt_s, pair_force + push,
-                wall_force, worst)
+        return (
+            count_done + 1,
+            dpx + step_x,
+            dpy + step_y,
+            dth + rotational * gt * model.dt_s,
+            pair_force + push,
+            wall_force,
+            worst,
+        )
 
     def unfinished(carry):  # iterate while some overlap exceeds its cap by more than 1 % of it
         return (carry[0] < model.projection_iterations) & (carry[-1] > CONVERGED_FRACTION)

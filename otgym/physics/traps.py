@@ -80,15 +80,14 @@ class TrapLaw:
             require_positive_scalar("capture_radius_um", self.capture_radius_um)
 
     @classmethod
-    def paper(cls, **overrides) -> "TrapLaw":
+    def paper(cls, **overrides) -> TrapLaw:
         return cls(name="paper", **overrides)
 
     @property
     def escape_distance(self) -> float:
         if self.escape_distance_um is not None:
             return float(self.escape_distance_um)
-        return {"harmonic": math.inf, "paper": 2 * self.paper_delta_um,
-                "gaussian": self.waist_um}[self.name]
+        return {"harmonic": math.inf, "paper": 2 * self.paper_delta_um, "gaussian": self.waist_um}[self.name]
 
     @property
     def capture_radius(self) -> float:

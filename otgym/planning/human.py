@@ -134,15 +134,29 @@ class HumanParams:
     lapse_duration_s: float = 3.4
 
     def __post_init__(self):
-        for name in ("correction_interval_s", "neuromuscular_lag_s", "preferred_speed_mm_s",
-                     "fitts_b_s_per_bit", "arm_damping_n_s_per_m", "arm_mass_kg", "arm_stiffness_n_per_m",
-                     "lapse_duration_s"):
+        for name in (
+            "correction_interval_s",
+            "neuromuscular_lag_s",
+            "preferred_speed_mm_s",
+            "fitts_b_s_per_bit",
+            "arm_damping_n_s_per_m",
+            "arm_mass_kg",
+            "arm_stiffness_n_per_m",
+            "lapse_duration_s",
+        ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"human {name} must be positive, got {value!r}")
-        for name in ("reaction_time_s", "correction_jitter_fraction", "extent_error_fraction",
-                     "direction_error_deg", "signal_dependent_noise", "tremor_rms_mm", "fitts_a_s",
-                     "lapse_rate_per_h"):
+        for name in (
+            "reaction_time_s",
+            "correction_jitter_fraction",
+            "extent_error_fraction",
+            "direction_error_deg",
+            "signal_dependent_noise",
+            "tremor_rms_mm",
+            "fitts_a_s",
+            "lapse_rate_per_h",
+        ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"human {name} must be non-negative, got {value!r}")
@@ -159,22 +173,24 @@ class HumanParams:
 # of 50-200 um across people at an instrument tip; Riviere et al. 1997 and later
 # studies), the others 0.2-0.3. The tremor band, the interval jitter and Fitts'
 # intercept are the same for everyone.
-POPULATION_CV: Mapping[str, float] = types.MappingProxyType({
-    "reaction_time_s": 0.15,
-    "correction_interval_s": 0.2,
-    "neuromuscular_lag_s": 0.2,
-    "extent_error_fraction": 0.3,
-    "direction_error_deg": 0.3,
-    "signal_dependent_noise": 0.3,
-    "tremor_rms_mm": 0.5,
-    "preferred_speed_mm_s": 0.3,
-    "fitts_b_s_per_bit": 0.2,
-    "arm_damping_n_s_per_m": 0.3,
-    "arm_mass_kg": 0.2,
-    "arm_stiffness_n_per_m": 0.3,
-    "lapse_rate_per_h": 12.9 * math.sqrt(15) / 39.3,
-    "lapse_duration_s": 0.5 * math.sqrt(15) / 3.4,
-})
+POPULATION_CV: Mapping[str, float] = types.MappingProxyType(
+    {
+        "reaction_time_s": 0.15,
+        "correction_interval_s": 0.2,
+        "neuromuscular_lag_s": 0.2,
+        "extent_error_fraction": 0.3,
+        "direction_error_deg": 0.3,
+        "signal_dependent_noise": 0.3,
+        "tremor_rms_mm": 0.5,
+        "preferred_speed_mm_s": 0.3,
+        "fitts_b_s_per_bit": 0.2,
+        "arm_damping_n_s_per_m": 0.3,
+        "arm_mass_kg": 0.2,
+        "arm_stiffness_n_per_m": 0.3,
+        "lapse_rate_per_h": 12.9 * math.sqrt(15) / 39.3,
+        "lapse_duration_s": 0.5 * math.sqrt(15) / 3.4,
+    }
+)
 
 
 def sample_population(
@@ -231,11 +247,16 @@ class HumanMotor:
             raise ValueError("params must be a HumanParams or a non-empty sequence of them")
         if not (math.isfinite(tick_rate_hz) and tick_rate_hz > 0):
             raise ValueError(f"tick_rate_hz must be positive, got {tick_rate_hz!r}")
-        if not (isinstance(hands_per_person, (int, np.integer)) and hands_per_person >= 1
-                and len(params) % hands_per_person == 0):
-            raise ValueError(f"hands_per_person must be a positive integer dividing the batch {len(params)}, "
-                             f"got {hands_per_person!r}")
-        if any(len(set(params[i:i + hands_per_person])) != 1 for i in range(0, len(params), hands_per_person)):
+        if not (
+            isinstance(hands_per_person, (int, np.integer))
+            and hands_per_person >= 1
+            and len(params) % hands_per_person == 0
+        ):
+            raise ValueError(
+                f"hands_per_person must be a positive integer dividing the batch {len(params)}, "
+                f"got {hands_per_person!r}"
+            )
+        if any(len(set(params[i : i + hands_per_person])) != 1 for i in range(0, len(params), hands_per_person)):
             raise ValueError("the hands of one person (consecutive rows) must share their HumanParams")
         for p in params:
             if p.tremor_band_hz[1] >= tick_rate_hz / 2:
@@ -392,8 +413,9 @@ class HumanMotor:
             duration = np.repeat(duration.reshape(-1, hands).max(axis=1), hands)
             common = np.repeat(displacement.reshape(-1, hands, 2).mean(axis=1), hands, axis=0)[due]
             leader = np.repeat(np.arange(0, count, hands), hands)  # due rows come in whole persons
-            executed = (_scale_rotate(common, scale[leader], angle[leader])
-                        + _scale_rotate(displacement[due] - common, scale, angle))
+            executed = _scale_rotate(common, scale[leader], angle[leader]) + _scale_rotate(
+                displacement[due] - common, scale, angle
+            )
         self._command[due] = executed / duration[due, None]
         self._remaining[due] = np.maximum(np.rint(duration[due] * self.tick_rate_hz), 1).astype(np.int64)
 
@@ -418,8 +440,9 @@ class HumanMotor:
             if force.shape != (self.batch, 2) or not np.all(np.isfinite(force)):
                 raise ValueError(f"feedback_force_n must be finite with shape (B={self.batch}, 2), got {force.shape}")
             m, b, k, dt = self._arm_mass, self._arm_damping, self._arm_stiffness, self._dt
-            self._yield_m_s = (self._yield_m_s + dt / m * (force - k * self._yield_m)) / (1.0 + dt * b / m
-                                                                                          + dt * dt * k / m)
+            self._yield_m_s = (self._yield_m_s + dt / m * (force - k * self._yield_m)) / (
+                1.0 + dt * b / m + dt * dt * k / m
+            )
             self._yield_m = self._yield_m + dt * self._yield_m_s
             velocity = velocity + self._yield_m_s * _MS_PER_M
         self._advance()
@@ -430,8 +453,9 @@ class HumanMotor:
         self._remaining = np.maximum(self._remaining - 1, 0)
         due = self.decide_due()
         if due.any():
-            factor = np.exp(self._jitter_sigma[due] * self._rng.standard_normal(int(due.sum()))
-                            - self._jitter_sigma[due] ** 2 / 2)
+            factor = np.exp(
+                self._jitter_sigma[due] * self._rng.standard_normal(int(due.sum())) - self._jitter_sigma[due] ** 2 / 2
+            )
             interval = np.rint(self._interval_s[due] * factor * self.tick_rate_hz).astype(np.int64)
             self._next_due[due] = self._ticks[due] + np.maximum(interval, 1)
         self._ticks += 1

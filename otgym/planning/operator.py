@@ -79,8 +79,15 @@ class OperatorParams:
     def __post_init__(self):
         if not isinstance(self.human, HumanParams):
             raise ValueError(f"operator human must be a HumanParams, got {type(self.human).__name__}")
-        for name in ("speed_um_per_s", "motion_scale_um_per_mm", "sample_rate_hz", "trap_stiffness_pn_per_um",
-                     "robot_drag_pn_s_per_um", "goal_tolerance_um", "timeout_factor"):
+        for name in (
+            "speed_um_per_s",
+            "motion_scale_um_per_mm",
+            "sample_rate_hz",
+            "trap_stiffness_pn_per_um",
+            "robot_drag_pn_s_per_um",
+            "goal_tolerance_um",
+            "timeout_factor",
+        ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"operator {name} must be positive, got {value!r}")
@@ -202,7 +209,12 @@ def _move(free, pixel_size_um, position, step):
     """Take a step unless it crosses a wall; against a wall, slide along it."""
     for candidate in (step, np.array([step[0], 0.0]), np.array([0.0, step[1]])):
         target = position + candidate
-        if _segment_free(free, position[0] / pixel_size_um, position[1] / pixel_size_um,
-                         target[0] / pixel_size_um, target[1] / pixel_size_um):
+        if _segment_free(
+            free,
+            position[0] / pixel_size_um,
+            position[1] / pixel_size_um,
+            target[0] / pixel_size_um,
+            target[1] / pixel_size_um,
+        ):
             return target
     return position.copy()

@@ -75,8 +75,9 @@ def plan_path(
             f"{robot_radius_um:g} um plus margin (clearance {occupancy.clearance_um:g} um): "
             "every route passes a gap narrower than the robot"
         ) from None
-    astar_um = np.vstack((np.asarray(start_um, float), pixels_to_um(pixels, occupancy.pixel_size_um),
-                          np.asarray(goal_um, float)))
+    astar_um = np.vstack(
+        (np.asarray(start_um, float), pixels_to_um(pixels, occupancy.pixel_size_um), np.asarray(goal_um, float))
+    )
     smoothed = smooth_path(astar_um, occupancy.planning, occupancy.pixel_size_um, step_um=step_um)
     return PlanResult(occupancy=occupancy, astar_um=astar_um, smoothed_um=smoothed, astar_cost_px=cost)
 
@@ -118,7 +119,9 @@ def metrics_markdown(metrics: dict[str, PathMetrics], step_um: float = DEFAULT_S
     for name, row in metrics.items():
         lines.append(f"| {name} | " + " | ".join(f"{getattr(row, field):.5g}" for _, field in TABLE_COLUMNS) + " |")
     lines.append("")
-    lines.append(f"Curvature and angular deviation on paths resampled every {step_um:g} um (see otgym.planning.metrics).")
+    lines.append(
+        f"Curvature and angular deviation on paths resampled every {step_um:g} um (see otgym.planning.metrics)."
+    )
     return "\n".join(lines) + "\n"
 
 

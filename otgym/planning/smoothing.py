@@ -130,7 +130,13 @@ def _control_points(vertices: np.ndarray, rounding: np.ndarray) -> np.ndarray:
     d = rounding[:, None]
     corners = vertices[1:-1]
     per_corner = np.stack(
-        (corners - 2 * d * incoming, corners - d * incoming, corners, corners + d * outgoing, corners + 2 * d * outgoing),
+        (
+            corners - 2 * d * incoming,
+            corners - d * incoming,
+            corners,
+            corners + d * outgoing,
+            corners + 2 * d * outgoing,
+        ),
         axis=1,
     ).reshape(-1, 2)
     return np.concatenate((vertices[:1], per_corner, vertices[-1:]))
@@ -146,9 +152,7 @@ def _sample_curve(vertices: np.ndarray, rounding: np.ndarray, step_px: float) ->
     # sample each span in proportion to the length of its control polygon, which
     # bounds the span's arc length, so short tight corners are resolved as finely
     # as long straight edges
-    span_length = np.array(
-        [np.linalg.norm(np.diff(control[j : j + 4], axis=0), axis=1).sum() for j in range(n_spans)]
-    )
+    span_length = np.array([np.linalg.norm(np.diff(control[j : j + 4], axis=0), axis=1).sum() for j in range(n_spans)])
     per_span = np.maximum(np.ceil(_SAMPLES_PER_STEP * span_length / step_px).astype(int), 2)
     fine_u = np.concatenate(
         [j + np.arange(count) / count for j, count in enumerate(per_span)] + [np.array([float(n_spans)])]

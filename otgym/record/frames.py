@@ -63,8 +63,11 @@ class FrameRenderer:
     def draw(self, tick: Tick) -> np.ndarray:
         scene = self.scene
         n = len(tick.sphere_xy_um)
-        radii = tick.sphere_radius_um if tick.sphere_radius_um is not None and len(tick.sphere_radius_um) == n \
+        radii = (
+            tick.sphere_radius_um
+            if tick.sphere_radius_um is not None and len(tick.sphere_radius_um) == n
             else np.ones(n)
+        )
         kinds = scene.sphere_kind if len(scene.sphere_kind) == n else np.full(n, -1)
         handles = np.zeros(n, bool)
         handles[scene.handle_spheres[scene.handle_spheres < n]] = True
@@ -86,8 +89,9 @@ def label(tick: Tick) -> str:
     return f"trial {tick.trial}    t {tick.time_s:6.2f} s    mode {tick.mode or '?'}    alpha {alpha}"
 
 
-def render_frames(recording: Recording, out_dir: Path, every: int = 25, width_px: int = DEFAULT_WIDTH_PX,
-                  progress=None) -> list[Path]:
+def render_frames(
+    recording: Recording, out_dir: Path, every: int = 25, width_px: int = DEFAULT_WIDTH_PX, progress=None
+) -> list[Path]:
     """PNG frames ``frame_00000.png``... of the global view into ``out_dir``, one per
     ``every`` ticks; ``progress(done, total)`` after each."""
     if every < 1:

@@ -49,8 +49,14 @@ class McapRecorder:
     """Writes messages into the MCAP file ``path`` (created; its folder must exist).
     ``clock_ns`` gives log times (``time.time_ns``). Thread-safe; a context manager."""
 
-    def __init__(self, path, flush_period_s: float = FLUSH_PERIOD_S, chunk_bytes: int = CHUNK_BYTES,
-                 clock_ns=time.time_ns, monotonic=time.monotonic):
+    def __init__(
+        self,
+        path,
+        flush_period_s: float = FLUSH_PERIOD_S,
+        chunk_bytes: int = CHUNK_BYTES,
+        clock_ns=time.time_ns,
+        monotonic=time.monotonic,
+    ):
         if not 0 < flush_period_s <= 60:
             raise ValueError(f"flush_period_s must lie in (0, 60], got {flush_period_s!r}")
         self.path = Path(path)
@@ -69,8 +75,15 @@ class McapRecorder:
         self.flushes = 0
         self.closed = False
 
-    def write(self, topic: str, type_name: str, schema_text: str, data: bytes, log_time_ns: int | None = None,
-              publish_time_ns: int | None = None) -> None:
+    def write(
+        self,
+        topic: str,
+        type_name: str,
+        schema_text: str,
+        data: bytes,
+        log_time_ns: int | None = None,
+        publish_time_ns: int | None = None,
+    ) -> None:
         """Record ``data`` (CDR) on ``topic`` of ROS 2 type ``type_name`` (whose
         ``ros2msg`` text is ``schema_text``, registered at its first use)."""
         with self._lock:
@@ -86,8 +99,9 @@ class McapRecorder:
                 self._channels[topic] = channel_id
             log_time_ns = self._clock_ns() if log_time_ns is None else log_time_ns
             sequence = self.counts.get(topic, 0)
-            self._writer.add_message(channel_id, log_time_ns, data,
-                                     log_time_ns if publish_time_ns is None else publish_time_ns, sequence)
+            self._writer.add_message(
+                channel_id, log_time_ns, data, log_time_ns if publish_time_ns is None else publish_time_ns, sequence
+            )
             self.counts[topic] = sequence + 1
             now_s = self._monotonic()
             if now_s - self._last_flush_s >= self.flush_period_s:
@@ -169,8 +183,16 @@ def read_recording(path) -> Recording:
                     schema = schemas.get(channel.schema_id) if channel else None
                     if schema is None:
                         raise ValueError(f"{path}: a message refers to an unknown channel or schema")
-                    messages.append(RecordedMessage(channel.topic, schema.name, schema.data.decode(),
-                                                    bytes(record.data), record.log_time, record.publish_time))
+                    messages.append(
+                        RecordedMessage(
+                            channel.topic,
+                            schema.name,
+                            schema.data.decode(),
+                            bytes(record.data),
+                            record.log_time,
+                            record.publish_time,
+                        )
+                    )
             complete = True
         except InvalidMagic:
             raise ValueError(f"{path} is not an MCAP file") from None

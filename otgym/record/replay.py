@@ -24,7 +24,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 from mcap_ros2._dynamic import generate_dynamic
@@ -32,8 +32,13 @@ from PIL import Image, UnidentifiedImageError
 
 from otgym.record.mcap_file import RecordedMessage, Recording
 
-TRAPS, BODIES, ALPHA, MODE, EVENTS = "/otgym/traps", "/otgym/bodies", "/otgym/shared/alpha", "/otgym/mode", \
-    "/otgym/trial/events"
+TRAPS, BODIES, ALPHA, MODE, EVENTS = (
+    "/otgym/traps",
+    "/otgym/bodies",
+    "/otgym/shared/alpha",
+    "/otgym/mode",
+    "/otgym/trial/events",
+)
 SESSION, CHIP, ROUTE = "/otgym/session", "/otgym/chip", "/otgym/route"
 DEFAULT_TICK_S = 0.02
 """The interactive task's tick, for a recording with a single tick to measure."""
@@ -120,13 +125,20 @@ def _rebuild_chip(description: dict, png_message, decode: Decoder):
         try:
             with Image.open(io.BytesIO(bytes(decode(png_message).data))) as picture:
                 image = np.asarray(picture.convert("L"), np.float32) / 255.0
-            chip = Chip(name, image, fields["pixel_size_um"], fields["channel_height_um"],
-                        tuple(Port(**port) for port in fields.get("ports", ())))
+            chip = Chip(
+                name,
+                image,
+                fields["pixel_size_um"],
+                fields["channel_height_um"],
+                tuple(Port(**port) for port in fields.get("ports", ())),
+            )
         except (UnidentifiedImageError, OSError, TypeError, ValueError) as error:
             return None, f"the recorded image of chip {name!r} does not load ({error})"
         if chip.content_hash != recorded_hash:
-            return chip, (f"the recorded image of chip {name!r} differs from the simulated chip (content hash "
-                          f"{chip.content_hash[:12]} is not {recorded_hash[:12]}: an image not in 8-bit gray?)")
+            return chip, (
+                f"the recorded image of chip {name!r} differs from the simulated chip (content hash "
+                f"{chip.content_hash[:12]} is not {recorded_hash[:12]}: an image not in 8-bit gray?)"
+            )
         return chip, None
     if (CHIP_DATA_DIR / f"{name}.png").is_file():
         shipped = load_chip(name)
@@ -141,16 +153,28 @@ def session_scene(recording: Recording) -> SessionScene:
     decode = Decoder()
     described = _first(recording, SESSION)
     if described is None:
-        return SessionScene(None, "this recording holds no chip (it was made before chips were recorded): "
-                                  "the bodies are drawn on a blank field, without walls or route",
-                            None, None, np.zeros(0, int), np.zeros(0, int), _measured_tick_s(recording))
+        return SessionScene(
+            None,
+            "this recording holds no chip (it was made before chips were recorded): "
+            "the bodies are drawn on a blank field, without walls or route",
+            None,
+            None,
+            np.zeros(0, int),
+            np.zeros(0, int),
+            _measured_tick_s(recording),
+        )
     description = json.loads(decode(described).data)
     chip, note = _rebuild_chip(description, _first(recording, CHIP), decode)
     route = _first(recording, ROUTE)
-    return SessionScene(chip, note, xy_um([p.pose for p in decode(route).poses]) if route is not None else None,
-                        float(description["goal_tolerance_um"]),
-                        np.array([_KIND_VALUES[k] for k in description["sphere_kind"]], int),
-                        np.asarray(description["handle_spheres"], int), float(description["tick_s"]))
+    return SessionScene(
+        chip,
+        note,
+        xy_um([p.pose for p in decode(route).poses]) if route is not None else None,
+        float(description["goal_tolerance_um"]),
+        np.array([_KIND_VALUES[k] for k in description["sphere_kind"]], int),
+        np.asarray(description["handle_spheres"], int),
+        float(description["tick_s"]),
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -197,7 +221,14 @@ def ticks(recording: Recording, tick_s: float, wanted: Callable[[int], bool] = l
         elif message.topic == BODIES:
             trial_ticks += 1
             if wanted(index):
-                yield Tick(index, trial, trial_ticks * tick_s, mode, decode(alpha).data if alpha else None,
-                           xy_um(decode(traps).poses) if traps else np.zeros((0, 2)), xy_um(decode(message).poses),
-                           radii)
+                yield Tick(
+                    index,
+                    trial,
+                    trial_ticks * tick_s,
+                    mode,
+                    decode(alpha).data if alpha else None,
+                    xy_um(decode(traps).poses) if traps else np.zeros((0, 2)),
+                    xy_um(decode(message).poses),
+                    radii,
+                )
             index += 1

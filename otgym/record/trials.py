@@ -26,8 +26,10 @@ def trial_rows(path) -> list[dict]:
         if event["event"] != "trial_end":
             continue
         if "participant" not in event:
-            raise ValueError(f"{path}: its trial_end events carry no trial rows (no participant): a simulator "
-                             "node's recording cannot be analysed as a study; record sessions with otgym play")
+            raise ValueError(
+                f"{path}: its trial_end events carry no trial rows (no participant): a simulator "
+                "node's recording cannot be analysed as a study; record sessions with otgym play"
+            )
         rows.append({key: math.nan if value is None else value for key, value in event.items() if key != "event"})
     return rows
 
@@ -35,6 +37,7 @@ def trial_rows(path) -> list[dict]:
 def folder_recordings(folder: Path) -> list[Path]:
     """``folder``'s session recordings in the order they were written (session.mcap,
     session-2.mcap, ...)."""
+
     def order(path: Path) -> int:
         suffix = path.stem.removeprefix("session").removeprefix("-")
         return int(suffix) if suffix.isdigit() else 1

@@ -44,8 +44,14 @@ def frame_ticks(n_ticks: int, tick_s: float, fps: float, speed: float = 1.0) -> 
     return np.minimum(np.floor(np.arange(n_frames) * ticks_per_frame + 1e-9).astype(int), n_ticks - 1)
 
 
-def write_video(recording: Recording, path: Path, fps: float = DEFAULT_FPS, speed: float = 1.0,
-                width_px: int = DEFAULT_WIDTH_PX, progress=None) -> dict:
+def write_video(
+    recording: Recording,
+    path: Path,
+    fps: float = DEFAULT_FPS,
+    speed: float = 1.0,
+    width_px: int = DEFAULT_WIDTH_PX,
+    progress=None,
+) -> dict:
     """Encode the recording into the MP4 ``path``; ``progress(done, total)`` after each
     frame. Returns frames, fps, width, height and the simulated seconds shown."""
     encoder = next((name for name in H264_ENCODERS if name in av.codecs_available), None)
@@ -80,5 +86,10 @@ def write_video(recording: Recording, path: Path, fps: float = DEFAULT_FPS, spee
         os.replace(partial, path)
     finally:
         partial.unlink(missing_ok=True)
-    return {"frames": done, "fps": fps, "width": renderer.width_px, "height": renderer.height_px,
-            "simulated_s": len(shown) * speed / fps}
+    return {
+        "frames": done,
+        "fps": fps,
+        "width": renderer.width_px,
+        "height": renderer.height_px,
+        "simulated_s": len(shown) * speed / fps,
+    }

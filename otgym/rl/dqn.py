@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -47,8 +48,15 @@ class DQNConfig:
     huber_delta: float = 1.0
 
     def __post_init__(self):
-        for name in ("n_envs", "total_env_steps", "chunk_iters", "buffer_size", "batch_size", "target_every",
-                     "updates_per_iter"):
+        for name in (
+            "n_envs",
+            "total_env_steps",
+            "chunk_iters",
+            "buffer_size",
+            "batch_size",
+            "target_every",
+            "updates_per_iter",
+        ):
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
@@ -118,11 +126,26 @@ def make_train(config: DQNConfig, env: Env):
         obs, env_state = env.reset(env_key, config.n_envs)
         params = network.init(net_key, obs[:1])
         zeros = lambda *shape, dtype=jnp.float32: jnp.zeros(shape, dtype)  # noqa: E731
-        buffer = Buffer(zeros(capacity, env.obs_size), zeros(capacity, dtype=jnp.int32), zeros(capacity),
-                        zeros(capacity, env.obs_size), zeros(capacity, dtype=bool), jnp.zeros((), jnp.int32),
-                        jnp.zeros((), jnp.int32))
-        return Runner(params, params, optimiser.init(params), buffer, env_state, obs,
-                      jnp.zeros(config.n_envs), jnp.zeros((), jnp.int32), key)
+        buffer = Buffer(
+            zeros(capacity, env.obs_size),
+            zeros(capacity, dtype=jnp.int32),
+            zeros(capacity),
+            zeros(capacity, env.obs_size),
+            zeros(capacity, dtype=bool),
+            jnp.zeros((), jnp.int32),
+            jnp.zeros((), jnp.int32),
+        )
+        return Runner(
+            params,
+            params,
+            optimiser.init(params),
+            buffer,
+            env_state,
+            obs,
+            jnp.zeros(config.n_envs),
+            jnp.zeros((), jnp.int32),
+            key,
+        )
 
     def loss_fn(q_params, target_params, batch):
         obs, action, reward, next_obs, terminated = batch
@@ -135,8 +158,13 @@ def make_train(config: DQNConfig, env: Env):
     def update(carry, key):
         q_params, opt_state, buffer, target_params = carry
         index = jax.random.randint(key, (config.batch_size,), 0, jnp.maximum(buffer.size, 1))
-        batch = (buffer.obs[index], buffer.action[index], buffer.reward[index], buffer.next_obs[index],
-                 buffer.terminated[index].astype(jnp.float32))
+        batch = (
+            buffer.obs[index],
+            buffer.action[index],
+            buffer.reward[index],
+            buffer.next_obs[index],
+            buffer.terminated[index].astype(jnp.float32),
+        )
         loss, grads = jax.value_and_grad(loss_fn)(q_params, target_params, batch)
         updates, opt_state = optimiser.update(grads, opt_state, q_params)
         return (optax.apply_updates(q_params, updates), opt_state, buffer, target_params), loss
@@ -150,32 +178,50 @@ def make_train(config: DQNConfig, env: Env):
         next_obs, env_state, reward, terminated, truncated, info = env.step(step_key, runner.env_state, action)
         buffer = runner.buffer
         rows = (buffer.pointer + jnp.arange(config.n_envs)) % capacity
-        buffer = buffer.replace(obs=buffer.obs.at[rows].set(runner.obs), action=buffer.action.at[rows].set(action),
-                                reward=buffer.reward.at[rows].set(reward),
-                                next_obs=buffer.next_obs.at[rows].set(next_obs),
-                                terminated=buffer.terminated.at[rows].set(terminated),
-                                pointer=(buffer.pointer + config.n_envs) % capacity,
-                                size=jnp.minimum(buffer.size + config.n_envs, capacity))
+        buffer = buffer.replace(
+            obs=buffer.obs.at[rows].set(runner.obs),
+            action=buffer.action.at[rows].set(action),
+            reward=buffer.reward.at[rows].set(reward),
+            next_obs=buffer.next_obs.at[rows].set(next_obs),
+            terminated=buffer.terminated.at[rows].set(terminated),
+            pointer=(buffer.pointer + config.n_envs) % capacity,
+            size=jnp.minimum(buffer.size + config.n_envs, capacity),
+        )
         episode_return = runner.episode_return + reward
         done = terminated | truncated
-        metrics = {"return_sum": jnp.sum(jnp.where(done, episode_return, 0.0)), "episodes": jnp.sum(done),
-                   "successes": jnp.sum(info["success"])}
+        metrics = {
+            "return_sum": jnp.sum(jnp.where(done, episode_return, 0.0)),
+            "episodes": jnp.sum(done),
+            "successes": jnp.sum(info["success"]),
+        }
         obs, env_state = env.auto_reset(reset_key, next_obs, env_state, done)
 
         def learn(args):
             (q_params, opt_state, _, _), losses = jax.lax.scan(
-                update, args, jax.random.split(update_key, config.updates_per_iter))
+                update, args, jax.random.split(update_key, config.updates_per_iter)
+            )
             return q_params, opt_state, jnp.mean(losses)
 
         q_params, opt_state, loss = jax.lax.cond(
-            buffer.size >= config.learning_starts, learn,
+            buffer.size >= config.learning_starts,
+            learn,
             lambda args: (args[0], args[1], jnp.zeros(())),
-            (runner.q_params, runner.opt_state, buffer, runner.target_params))
+            (runner.q_params, runner.opt_state, buffer, runner.target_params),
+        )
         sync = (runner.iteration + 1) % config.target_every == 0
         target_params = jax.tree.map(lambda new, old: jnp.where(sync, new, old), q_params, runner.target_params)
         metrics["loss"] = loss
-        runner = Runner(q_params, target_params, opt_state, buffer, env_state, obs,
-                        jnp.where(done, 0.0, episode_return), runner.iteration + 1, key)
+        runner = Runner(
+            q_params,
+            target_params,
+            opt_state,
+            buffer,
+            env_state,
+            obs,
+            jnp.where(done, 0.0, episode_return),
+            runner.iteration + 1,
+            key,
+        )
         return runner, metrics
 
     def run_chunk(runner: Runner):

@@ -3,7 +3,7 @@ original release: 5 -> 128 -> 128 -> 10; here observation size -> 128 -> 128 -> 
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import flax.linen as nn
 

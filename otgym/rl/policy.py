@@ -65,6 +65,8 @@ def load_policy(path, obs_size: int, n_actions: int):
     shapes = {name: tuple(value.shape) for name, value in flat.items()}
     wanted = {name: tuple(value.shape) for name, value in expected_flat.items()}
     if shapes != wanted:
-        raise ValueError(f"policy {path} does not fit this environment (observation size {obs_size}, "
-                         f"{n_actions} actions): its layers are {shapes}, expected {wanted}")
+        raise ValueError(
+            f"policy {path} does not fit this environment (observation size {obs_size}, "
+            f"{n_actions} actions): its layers are {shapes}, expected {wanted}"
+        )
     return traverse_util.unflatten_dict(flat, sep="/"), meta

@@ -60,24 +60,34 @@ class TaskLayout:
 def layout_of(task: InteractiveTask) -> TaskLayout:
     chip = task.chip
     height, width = chip.shape
-    ys, xs = np.meshgrid((np.arange(height) + 0.5) * chip.pixel_size_um,
-                         (np.arange(width) + 0.5) * chip.pixel_size_um, indexing="ij")
+    ys, xs = np.meshgrid(
+        (np.arange(height) + 0.5) * chip.pixel_size_um, (np.arange(width) + 0.5) * chip.pixel_size_um, indexing="ij"
+    )
     points = np.stack([xs, ys], axis=-1).reshape(-1, 2).astype(np.float32)
     flow = np.asarray(task.scene.model.flow.velocity_um_s(jnp.asarray(points)), np.float32).reshape(height, width, 2)
     model = task.scene.model
     return TaskLayout(
-        chip=chip, flow_velocity_um_s=flow, route_um=np.asarray(task.route_um, float),
-        route_arc_um=np.asarray(task.route_arc_um, float), goal_tolerance_um=float(task.config.goal_tolerance_um),
+        chip=chip,
+        flow_velocity_um_s=flow,
+        route_um=np.asarray(task.route_um, float),
+        route_arc_um=np.asarray(task.route_arc_um, float),
+        goal_tolerance_um=float(task.config.goal_tolerance_um),
         encounter_gap_um=float(task.config.encounter_gap_um),
-        escape_distance_um=float(task.config.scene.trap_law.escape_distance), tick_s=float(task.config.tick_s),
-        sphere_body=np.asarray(model.sphere_body, int), sphere_radius_um=np.asarray(model.sphere_radius_um, float),
-        robots=tuple(int(r) for r in task.scene.robots), payload=int(task.scene.payload),
-        obstacles=tuple(int(o) for o in task.scene.obstacles), trap_sphere=np.asarray(task.trap_sphere, int),
-        trap_robot=np.asarray(task.trap_robot, int))
+        escape_distance_um=float(task.config.scene.trap_law.escape_distance),
+        tick_s=float(task.config.tick_s),
+        sphere_body=np.asarray(model.sphere_body, int),
+        sphere_radius_um=np.asarray(model.sphere_radius_um, float),
+        robots=tuple(int(r) for r in task.scene.robots),
+        payload=int(task.scene.payload),
+        obstacles=tuple(int(o) for o in task.scene.obstacles),
+        trap_sphere=np.asarray(task.trap_sphere, int),
+        trap_robot=np.asarray(task.trap_robot, int),
+    )
 
 
-def observation_from_spheres(layout: TaskLayout, sphere_xy_um, trap_xy_um, phase: int, time_s: float,
-                             route_index: int) -> tuple[Observation, int]:
+def observation_from_spheres(
+    layout: TaskLayout, sphere_xy_um, trap_xy_um, phase: int, time_s: float, route_index: int
+) -> tuple[Observation, int]:
     """One environment's ``Observation`` rebuilt from what a simulator publishes
     (every sphere's centre (S, 2) in ``layout.sphere_body`` order, the traps (T, 2), the
     phase, the time in the trial) and the new route index: the cell, robots and
@@ -98,10 +108,17 @@ def observation_from_spheres(layout: TaskLayout, sphere_xy_um, trap_xy_um, phase
     handles = spheres[layout.trap_sphere]
     n_robots = len(layout.robots)
     observation = Observation(
-        time_s=np.array([time_s], float), phase=np.array([phase]), cell_xy_um=cell[None],
-        cell_arc_um=np.array([layout.route_arc_um[route_index]]), trap_xy_um=traps[None], handle_xy_um=handles[None],
+        time_s=np.array([time_s], float),
+        phase=np.array([phase]),
+        cell_xy_um=cell[None],
+        cell_arc_um=np.array([layout.route_arc_um[route_index]]),
+        trap_xy_um=traps[None],
+        handle_xy_um=handles[None],
         robot_xy_um=np.array([spheres[bodies == robot].mean(axis=0) for robot in layout.robots])[None],
-        obstacle_xy_um=obstacles[None], obstacle_gap_um=gaps[None],
-        contact_force_pn=np.full((1, n_robots), np.nan), cell_gap_um=np.full((1, n_robots), np.nan),
-        trap_distance_um=np.linalg.norm(handles - traps, axis=-1)[None])
+        obstacle_xy_um=obstacles[None],
+        obstacle_gap_um=gaps[None],
+        contact_force_pn=np.full((1, n_robots), np.nan),
+        cell_gap_um=np.full((1, n_robots), np.nan),
+        trap_distance_um=np.linalg.norm(handles - traps, axis=-1)[None],
+    )
     return observation, route_index

@@ -62,7 +62,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import jax
 import numpy as np
@@ -104,8 +104,9 @@ class DeviceBinding:
             raise ValueError(f"robots must be distinct robot indices, got {self.robots!r}")
         object.__setattr__(self, "robots", robots)
         if self.feedback is not None and self.feedback.plane != self.retarget.plane:
-            raise ValueError(f"feedback plane {self.feedback.plane!r} differs from the retargeting plane "
-                             f"{self.retarget.plane!r}")
+            raise ValueError(
+                f"feedback plane {self.feedback.plane!r} differs from the retargeting plane {self.retarget.plane!r}"
+            )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -145,8 +146,15 @@ class TickRecord:
 class _Channel:
     """Per-device state: its retargeter, feedback law, traps and link."""
 
-    def __init__(self, binding: DeviceBinding, trap_mask: np.ndarray, robot_columns: list[int],
-                 feedback: FeedbackConfig, trap_law: ph.TrapLaw, tick_rate_hz: float):
+    def __init__(
+        self,
+        binding: DeviceBinding,
+        trap_mask: np.ndarray,
+        robot_columns: list[int],
+        feedback: FeedbackConfig,
+        trap_law: ph.TrapLaw,
+        tick_rate_hz: float,
+    ):
         self.device = binding.device
         self.retargeter = Retargeter(binding.retarget, tick_rate_hz)
         self.feedback = FeedbackLaw(feedback, trap_law, tick_rate_hz)
@@ -167,16 +175,29 @@ class InteractiveLoop:
     an autonomy node). Without dP_r, shared control falls back to manual (alpha 1) and
     autonomous control holds the traps; the tick's record says so. Use as a context manager, or call ``start`` and ``close``."""
 
-    def __init__(self, task: InteractiveTask, bindings: list[DeviceBinding], scenario: Scenario,
-                 mode: str = "shared", *, seed: int = 0, arbitration: ArbitrationConfig = ArbitrationConfig(),
-                 cruise_speed_um_s: float = 5.0, max_trap_speed_um_s: float = TASK_RETARGET.max_trap_speed_um_s,
-                 microscope: MicroscopeParams = MicroscopeParams(), crop_px: int = 48,
-                 clock: Callable[[], float] = time.monotonic,
-                 autonomy: Callable[[Observation], np.ndarray | None] | None = None):
+    def __init__(
+        self,
+        task: InteractiveTask,
+        bindings: list[DeviceBinding],
+        scenario: Scenario,
+        mode: str = "shared",
+        *,
+        seed: int = 0,
+        arbitration: ArbitrationConfig = ArbitrationConfig(),
+        cruise_speed_um_s: float = 5.0,
+        max_trap_speed_um_s: float = TASK_RETARGET.max_trap_speed_um_s,
+        microscope: MicroscopeParams = MicroscopeParams(),
+        crop_px: int = 48,
+        clock: Callable[[], float] = time.monotonic,
+        autonomy: Callable[[Observation], np.ndarray | None] | None = None,
+    ):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
-        if not (isinstance(max_trap_speed_um_s, (int, float)) and math.isfinite(max_trap_speed_um_s)
-                and max_trap_speed_um_s > 0):
+        if not (
+            isinstance(max_trap_speed_um_s, (int, float))
+            and math.isfinite(max_trap_speed_um_s)
+            and max_trap_speed_um_s > 0
+        ):
             raise ValueError(f"max_trap_speed_um_s must be positive and finite, got {max_trap_speed_um_s!r}")
         if not isinstance(crop_px, int) or crop_px < 16:
             raise ValueError(f"crop_px must be an integer of at least 16, got {crop_px!r}")
@@ -206,14 +227,28 @@ class InteractiveLoop:
         self._channels = []
         for binding in bindings:
             bodies = [scene.robots[r] for r in binding.robots]
-            feedback = binding.feedback or FeedbackConfig(newtons_per_pn=newtons_per_pn_for(law),
-                                                          plane=binding.retarget.plane)
+            feedback = binding.feedback or FeedbackConfig(
+                newtons_per_pn=newtons_per_pn_for(law), plane=binding.retarget.plane
+            )
             limit_n = min(feedback.force_limit_n, binding.device.caps.force_limit_n)
-            self._channels.append(_Channel(binding, np.isin(task.trap_robot, bodies), list(binding.robots),
-                                           dataclasses.replace(feedback, force_limit_n=limit_n), law,
-                                           tick_rate_hz))
-        self.navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, self.tick_s,
-                                        cruise_speed_um_s, max_speed_um_s=max_trap_speed_um_s)
+            self._channels.append(
+                _Channel(
+                    binding,
+                    np.isin(task.trap_robot, bodies),
+                    list(binding.robots),
+                    dataclasses.replace(feedback, force_limit_n=limit_n),
+                    law,
+                    tick_rate_hz,
+                )
+            )
+        self.navigator = RouteNavigator(
+            task.route_um,
+            task.route_arc_um,
+            task.offsets_um,
+            self.tick_s,
+            cruise_speed_um_s,
+            max_speed_um_s=max_trap_speed_um_s,
+        )
         self.navigator.reset(1)
         self.autonomy = autonomy or self.navigator.increments
         self._rng = np.random.default_rng(seed)
@@ -299,9 +334,15 @@ class InteractiveLoop:
         reach = np.sqrt(0.5) * self.crop_px * pixel + CULL_HALO_WIDTHS * self.microscope.halo_width_um
         gap = np.linalg.norm(spheres[None] - centre[:, None], axis=-1) - self._sphere_radius_um[None]
         near = np.any(gap < reach, axis=0)
-        images = microscope_images(np.broadcast_to(spheres[near], (len(origin), int(near.sum()), 2)),
-                                   self._sphere_radius_um[near], origin, (self.crop_px, self.crop_px),
-                                   self.microscope, self._rng, self.task.chip)
+        images = microscope_images(
+            np.broadcast_to(spheres[near], (len(origin), int(near.sum()), 2)),
+            self._sphere_radius_um[near],
+            origin,
+            (self.crop_px, self.crop_px),
+            self.microscope,
+            self._rng,
+            self.task.chip,
+        )
         return images, origin
 
     def tick(self) -> TickRecord:
@@ -331,8 +372,9 @@ class InteractiveLoop:
             if live[index]:
                 mask = channel.trap_mask
                 contact_pn = float(obs.contact_force_pn[0, channel.robot_columns].max())
-                feedback[index] = channel.feedback(sensed_force[mask], frame_traps[mask] - sensed_xy[mask],
-                                                   contact_pn, valid[mask])
+                feedback[index] = channel.feedback(
+                    sensed_force[mask], frame_traps[mask] - sensed_xy[mask], contact_pn, valid[mask]
+                )
             else:
                 channel.feedback.reset()
             channel.device.set_force(feedback[index])
@@ -340,12 +382,26 @@ class InteractiveLoop:
         obs = self.task.complete(self.state, pending, np.array([alpha]))
         end = time.perf_counter()
         return TickRecord(
-            time_s=float(obs.time_s[0]), phase=int(obs.phase[0]), alpha=alpha, human_um=human, robot_um=robot,
-            shared_um=shared, trap_xy_um=obs.trap_xy_um[0], frame_trap_xy_um=frame_traps,
-            sensed_handle_xy_um=sensed_xy, sensed_force_pn=sensed_force, sensed_valid=valid, feedback_n=feedback,
-            device_live=live, physics_s=(render_begin - physics_begin) + (end - complete_begin),
-            render_s=sense_begin - render_begin, sense_s=sense_end - sense_begin,
-            rest_s=(physics_begin - begin) + (complete_begin - sense_end), mode=mode, autonomy_live=autonomy_live)
+            time_s=float(obs.time_s[0]),
+            phase=int(obs.phase[0]),
+            alpha=alpha,
+            human_um=human,
+            robot_um=robot,
+            shared_um=shared,
+            trap_xy_um=obs.trap_xy_um[0],
+            frame_trap_xy_um=frame_traps,
+            sensed_handle_xy_um=sensed_xy,
+            sensed_force_pn=sensed_force,
+            sensed_valid=valid,
+            feedback_n=feedback,
+            device_live=live,
+            physics_s=(render_begin - physics_begin) + (end - complete_begin),
+            render_s=sense_begin - render_begin,
+            sense_s=sense_end - sense_begin,
+            rest_s=(physics_begin - begin) + (complete_begin - sense_end),
+            mode=mode,
+            autonomy_live=autonomy_live,
+        )
 
     def run(self, duration_s: float, realtime: bool = True) -> list[TickRecord]:
         """Tick for ``duration_s`` of simulated time (rounded to whole ticks), or until

@@ -119,10 +119,19 @@ class MPCConfig:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        for name in ("step_s", "model_dt_s", "model_trap_stiffness_pn_per_um", "model_trap_waist_um",
-                     "cruise_speed_um_s", "max_speed_um_s", "max_lateral_um", "max_rotation_rad",
-                     "max_lateral_speed_um_s", "max_rotation_speed_rad_s",
-                     "max_trap_speed_um_s"):
+        for name in (
+            "step_s",
+            "model_dt_s",
+            "model_trap_stiffness_pn_per_um",
+            "model_trap_waist_um",
+            "cruise_speed_um_s",
+            "max_speed_um_s",
+            "max_lateral_um",
+            "max_rotation_rad",
+            "max_lateral_speed_um_s",
+            "max_rotation_speed_rad_s",
+            "max_trap_speed_um_s",
+        ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value!r}")
@@ -131,8 +140,10 @@ class MPCConfig:
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a non-negative number, got {value!r}")
         if not self.min_speed_um_s <= 0 < self.cruise_speed_um_s <= self.max_speed_um_s:
-            raise ValueError(f"need min_speed_um_s <= 0 < cruise_speed_um_s <= max_speed_um_s, got "
-                             f"{self.min_speed_um_s}, {self.cruise_speed_um_s}, {self.max_speed_um_s}")
+            raise ValueError(
+                f"need min_speed_um_s <= 0 < cruise_speed_um_s <= max_speed_um_s, got "
+                f"{self.min_speed_um_s}, {self.cruise_speed_um_s}, {self.max_speed_um_s}"
+            )
         if self.model_dt_s > self.step_s:
             raise ValueError(f"model_dt_s={self.model_dt_s} must not exceed step_s={self.step_s}")
 
@@ -151,8 +162,9 @@ class MPCConfig:
 
     @property
     def model_trap_law(self) -> ph.TrapLaw:
-        return ph.TrapLaw("gaussian", stiffness_pn_per_um=self.model_trap_stiffness_pn_per_um,
-                          waist_um=self.model_trap_waist_um)
+        return ph.TrapLaw(
+            "gaussian", stiffness_pn_per_um=self.model_trap_stiffness_pn_per_um, waist_um=self.model_trap_waist_um
+        )
 
 
 @struct.dataclass
@@ -203,8 +215,13 @@ COST_TERMS = ("progress", "obstacle", "lookahead", "wall", "trap", "contact_forc
 def model_scene_config(scene_config: sc.SceneConfig, config: MPCConfig) -> sc.SceneConfig:
     """The task's scene as the planner's model: deterministic, ``model_dt_s`` steps,
     softer traps, one control step per replan period."""
-    return dataclasses.replace(scene_config, dt_s=config.model_dt_s, control_period_s=config.step_s,
-                               temperature_k=0.0, trap_law=config.model_trap_law)
+    return dataclasses.replace(
+        scene_config,
+        dt_s=config.model_dt_s,
+        control_period_s=config.step_s,
+        temperature_k=0.0,
+        trap_law=config.model_trap_law,
+    )
 
 
 def cap_rigid(vectors, limit):
@@ -218,8 +235,10 @@ def rate_limited(plans, previous, config: MPCConfig):
     """Plans (..., L, 3) whose lateral offset and rotation change by at most
     ``max_lateral_speed_um_s`` and ``max_rotation_speed_rad_s`` per step, starting from
     ``previous`` (..., 3)."""
-    step = jnp.asarray([jnp.inf, config.max_lateral_speed_um_s * config.step_s,
-                        config.max_rotation_speed_rad_s * config.step_s], plans.dtype)
+    step = jnp.asarray(
+        [jnp.inf, config.max_lateral_speed_um_s * config.step_s, config.max_rotation_speed_rad_s * config.step_s],
+        plans.dtype,
+    )
 
     def limit(last, target):
         value = jnp.clip(target, last - step, last + step)
@@ -241,9 +260,13 @@ def obstacle_margin_um(costs: MPCCosts, tracks: dict, ahead_s, speed_um_s):
     """Clearance (N, K) below which each obstacle costs, ``ahead_s`` into the horizon
     with the assembly commanded at ``speed_um_s`` (N,) along the route."""
     mobile = jnp.clip(tracks["idle"] + tracks["speed_um_s"] / MOBILE_SPEED_UM_S, 0.0, 1.0)
-    return (costs.obstacle_margin_um + costs.obstacle_pass_margin_s * jnp.abs(speed_um_s)[:, None]
-            + costs.obstacle_idle_margin_um * tracks["idle"] + costs.obstacle_speed_margin_s * tracks["speed_um_s"]
-            + costs.obstacle_uncertainty_um_s * ahead_s * mobile)
+    return (
+        costs.obstacle_margin_um
+        + costs.obstacle_pass_margin_s * jnp.abs(speed_um_s)[:, None]
+        + costs.obstacle_idle_margin_um * tracks["idle"]
+        + costs.obstacle_speed_margin_s * tracks["speed_um_s"]
+        + costs.obstacle_uncertainty_um_s * ahead_s * mobile
+    )
 
 
 def step_cost_terms(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, events: sc.SceneEvents, margin_um):
@@ -256,16 +279,21 @@ def step_cost_terms(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, even
     radius = model.sphere_radius_um
     between = jnp.sqrt(jnp.sum((xy[:, payload, None] - xy[:, None, obstacle_spheres]) ** 2, axis=-1))
     gap = jnp.min(between - radius[payload][:, None] - radius[obstacle_spheres][None], axis=1)  # (N, K)
-    obstacle = costs.obstacle_per_um2 * jnp.sum(jnp.maximum(margin_um - gap, 0.0) ** 2, axis=-1) \
-        + costs.obstacle_contact * jnp.sum(events.obstacle_touched | (gap <= 0.0), axis=-1)
+    obstacle = costs.obstacle_per_um2 * jnp.sum(
+        jnp.maximum(margin_um - gap, 0.0) ** 2, axis=-1
+    ) + costs.obstacle_contact * jnp.sum(events.obstacle_touched | (gap <= 0.0), axis=-1)
     wall_gap = model.walls.distance_and_normal(xy[:, payload])[0] - radius[payload]
-    wall = costs.wall_per_um2 * jnp.sum(jnp.maximum(costs.wall_margin_um - wall_gap, 0.0) ** 2, axis=-1) \
+    wall = (
+        costs.wall_per_um2 * jnp.sum(jnp.maximum(costs.wall_margin_um - wall_gap, 0.0) ** 2, axis=-1)
         + costs.wall_contact * events.wall_collision
+    )
     bend_um = 0.5 * model.trap_law.waist_um
-    trap = costs.trap_per_unit2 * jnp.sum(jnp.maximum(events.trap_distance_um / bend_um - costs.trap_margin, 0.0)
-                                          ** 2, axis=-1) + costs.trap_lost * jnp.any(events.trap_lost, axis=-1)
+    trap = costs.trap_per_unit2 * jnp.sum(
+        jnp.maximum(events.trap_distance_um / bend_um - costs.trap_margin, 0.0) ** 2, axis=-1
+    ) + costs.trap_lost * jnp.any(events.trap_lost, axis=-1)
     contact = costs.contact_force_per_pn2 * jnp.sum(
-        jnp.maximum(events.contact_force_pn - costs.contact_force_limit_pn, 0.0) ** 2, axis=-1)
+        jnp.maximum(events.contact_force_pn - costs.contact_force_limit_pn, 0.0) ** 2, axis=-1
+    )
     detached = costs.detached * events.cell_detached
     return {"obstacle": obstacle, "wall": wall, "trap": trap, "contact_force": contact, "detached": detached}
 
@@ -282,16 +310,26 @@ def lookahead_cost(scene: sc.Scene, costs: MPCCosts, state: sc.SceneState, track
     velocity = tracks["direction"] * tracks["speed_um_s"][..., None]  # (N, K, 2)
     relative = spheres[:, :, None] - obstacles[:, None]  # (N, P, K, 2)
     speed2 = jnp.sum(velocity**2, axis=-1)[:, None]  # (N, 1, K)
-    when = jnp.clip(jnp.sum(relative * velocity[:, None], axis=-1) / jnp.maximum(speed2, 1e-9), 0.0,
-                    costs.lookahead_s)
+    when = jnp.clip(jnp.sum(relative * velocity[:, None], axis=-1) / jnp.maximum(speed2, 1e-9), 0.0, costs.lookahead_s)
     closest = jnp.sqrt(jnp.sum((relative - velocity[:, None] * when[..., None]) ** 2, axis=-1))
     radius = model.sphere_radius_um
     gap = jnp.min(closest - radius[payload][None, :, None] - radius[obstacle_spheres][None, None], axis=1)
     return costs.lookahead_per_um2 * jnp.sum(jnp.maximum(costs.lookahead_margin_um - gap, 0.0) ** 2, axis=-1)
 
 
-def rollout(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, state: sc.SceneState, tracks: dict, start,
-            actions, *, config: MPCConfig, obstacle_config: ScenarioConfig):
+def rollout(
+    scene: sc.Scene,
+    route: RouteData,
+    offsets_um,
+    costs: MPCCosts,
+    state: sc.SceneState,
+    tracks: dict,
+    start,
+    actions,
+    *,
+    config: MPCConfig,
+    obstacle_config: ScenarioConfig,
+):
     """Roll out N action sequences (N, H, 3) from N scene states with the model's
     ``step_batch``; ``start`` (N, 3): the formation's arc, lateral offset and rotation
     now; ``tracks``: predicted obstacle tracks (N, K, ...). Returns the final state and
@@ -315,17 +353,20 @@ def rollout(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, stat
         new_state, events = sc.step_batch(scene, scene_state, velocity, key, propulsion)
         terms = step_cost_terms(scene, costs, new_state, events, obstacle_margin_um(costs, tracks, ahead_s, speed))
         change = action - previous
-        terms["smoothness"] = (costs.smooth_speed_per_um2_s2 * change[:, 0] ** 2
-                               + costs.smooth_lateral_per_um2 * change[:, 1] ** 2
-                               + costs.smooth_rotation_per_rad2 * change[:, 2] ** 2)
+        terms["smoothness"] = (
+            costs.smooth_speed_per_um2_s2 * change[:, 0] ** 2
+            + costs.smooth_lateral_per_um2 * change[:, 1] ** 2
+            + costs.smooth_rotation_per_rad2 * change[:, 2] ** 2
+        )
         terms["offset"] = costs.lateral_per_um2 * lateral**2 + costs.rotation_per_rad2 * rotation**2
         progress = cell_arc_um(route, new_state.physics.pose[:, cell_index, :2], arc_next) - arc0
         return (new_state, arc_next, action), (terms, progress)
 
     first = jnp.stack([jnp.zeros_like(start[:, 0]), start[:, 1], start[:, 2]], axis=-1)
     ahead_s = step_s * jnp.arange(1, actions.shape[1] + 1, dtype=actions.dtype)
-    (final, _, _), (terms, progress) = jax.lax.scan(one_step, (state, start[:, 0], first),
-                                                    (jnp.swapaxes(actions, 0, 1), ahead_s))
+    (final, _, _), (terms, progress) = jax.lax.scan(
+        one_step, (state, start[:, 0], first), (jnp.swapaxes(actions, 0, 1), ahead_s)
+    )
     summed = {name: jnp.sum(value, axis=0) for name, value in terms.items()}
     summed["lookahead"] = lookahead_cost(scene, costs, final, tracks)
     summed["progress"] = -costs.progress_per_um * jnp.mean(progress, axis=0)
@@ -371,8 +412,21 @@ def candidates(key, nominal, config: MPCConfig):
     return jnp.clip(plans, low, high)
 
 
-def replan(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, state: sc.SceneState, tracks: dict, start,
-           committed, nominal, key, *, config: MPCConfig, obstacle_config: ScenarioConfig):
+def replan(
+    scene: sc.Scene,
+    route: RouteData,
+    offsets_um,
+    costs: MPCCosts,
+    state: sc.SceneState,
+    tracks: dict,
+    start,
+    committed,
+    nominal,
+    key,
+    *,
+    config: MPCConfig,
+    obstacle_config: ScenarioConfig,
+):
     """One replan of B environments: ``state`` (B) and ``tracks`` (B, K, ...) as the
     model's start, ``start`` (B, 3) the formation now, ``committed`` (B, 3) the action
     executed until the next replan, ``nominal`` (B, L, 3) the warm start. Returns the
@@ -382,9 +436,18 @@ def replan(scene: sc.Scene, route: RouteData, offsets_um, costs: MPCCosts, state
     n_rollouts = plans.shape[1]
     repeat = lambda a: jnp.repeat(a, n_rollouts, axis=0)  # noqa: E731
     actions = jnp.concatenate([jnp.broadcast_to(committed[:, None, None], (n_env, n_rollouts, 1, 3)), plans], axis=2)
-    _, terms = rollout(scene, route, offsets_um, costs, jax.tree.map(repeat, state), jax.tree.map(repeat, tracks),
-                       repeat(start), actions.reshape(n_env * n_rollouts, -1, 3), config=config,
-                       obstacle_config=obstacle_config)
+    _, terms = rollout(
+        scene,
+        route,
+        offsets_um,
+        costs,
+        jax.tree.map(repeat, state),
+        jax.tree.map(repeat, tracks),
+        repeat(start),
+        actions.reshape(n_env * n_rollouts, -1, 3),
+        config=config,
+        obstacle_config=obstacle_config,
+    )
     terms = {name: value.reshape(n_env, n_rollouts) for name, value in terms.items()}
     total = sum(terms.values())
     best = jnp.argmin(total, axis=1)
@@ -419,8 +482,9 @@ def settled_contact_force_pn(scene: sc.Scene, centre_um, heading_rad, extra_sque
     return np.asarray(events.contact_force_pn).mean(axis=1)
 
 
-def grip_squeeze_um(real_scene: sc.Scene, model_scene: sc.Scene, centre_um, heading_rad,
-                    candidates_um=np.linspace(0.0, 2.0, 81)) -> float:
+def grip_squeeze_um(
+    real_scene: sc.Scene, model_scene: sc.Scene, centre_um, heading_rad, candidates_um=np.linspace(0.0, 2.0, 81)
+) -> float:
     """Squeeze (um) of the model's traps towards the cell, beyond the real scene's,
     that gives the model's gripped assembly at rest the robot-cell contact force the
     real scene's has (``settled_contact_force_pn``; the smallest such squeeze). The
@@ -431,10 +495,12 @@ def grip_squeeze_um(real_scene: sc.Scene, model_scene: sc.Scene, centre_um, head
     force = settled_contact_force_pn(model_scene, centre_um, heading_rad, np.asarray(candidates_um))
     reached = np.flatnonzero(force >= target)
     if reached.size == 0 or reached[0] == 0:
-        raise ValueError(f"no model squeeze in [{candidates_um[0]}, {candidates_um[-1]}] um gives the real grip "
-                         f"force {target:.2f} pN (model: {force.min():.2f}-{force.max():.2f} pN)")
+        raise ValueError(
+            f"no model squeeze in [{candidates_um[0]}, {candidates_um[-1]}] um gives the real grip "
+            f"force {target:.2f} pN (model: {force.min():.2f}-{force.max():.2f} pN)"
+        )
     i = reached[0]  # the first squeeze that grips as hard: interpolate from the one before
-    return float(np.interp(target, force[i - 1:i + 1], candidates_um[i - 1:i + 1]))
+    return float(np.interp(target, force[i - 1 : i + 1], candidates_um[i - 1 : i + 1]))
 
 
 def squeezed_offsets_um(offsets_um, extra_um: float) -> np.ndarray:

@@ -31,8 +31,15 @@ import jax.numpy as jnp
 import numpy as np
 
 from otgym import physics as ph
-from otgym.runtime.mpc import (MPCConfig, MPCCosts, cap_rigid, grip_squeeze_um, make_replan, model_scene_config,
-                               rate_limited, squeezed_offsets_um)
+from otgym.runtime.mpc import (
+    MPCConfig,
+    MPCCosts,
+    cap_rigid,
+    grip_squeeze_um,
+    make_replan,
+    model_scene_config,
+    squeezed_offsets_um,
+)
 from otgym.runtime.navigator import RouteNavigator, cap_speed
 from otgym.runtime.obstacle_prediction import ObstacleTracker
 from otgym.runtime.route_frame import clip_lateral, formation_places, formation_pose, route_data
@@ -44,11 +51,21 @@ TRACKER_WINDOW_S = 1.0
 
 
 class MPCNavigator:
-    def __init__(self, task: InteractiveTask, config: MPCConfig = MPCConfig(), costs: MPCCosts = MPCCosts(),
-                 seed: int = 0, chunk_envs: int = 8, max_speed_um_s: float = 20.0, carry_gain_per_s: float = 3.0):
+    def __init__(
+        self,
+        task: InteractiveTask,
+        config: MPCConfig = MPCConfig(),
+        costs: MPCCosts = MPCCosts(),
+        seed: int = 0,
+        chunk_envs: int = 8,
+        max_speed_um_s: float = 20.0,
+        carry_gain_per_s: float = 3.0,
+    ):
         ticks = config.step_s / task.config.tick_s
         if abs(ticks - round(ticks)) > 1e-6 or round(ticks) < 1:
-            raise ValueError(f"step_s={config.step_s} must be a whole number of the task's {task.config.tick_s} s ticks")
+            raise ValueError(
+                f"step_s={config.step_s} must be a whole number of the task's {task.config.tick_s} s ticks"
+            )
         if not (isinstance(chunk_envs, int) and chunk_envs >= 1):
             raise ValueError(f"chunk_envs must be a positive integer, got {chunk_envs!r}")
         self.task, self.config, self.costs, self.seed = task, config, costs, seed
@@ -57,15 +74,20 @@ class MPCNavigator:
         self.max_speed_um_s = max_speed_um_s
         self.carry_gain_per_s = carry_gain_per_s
         self.model = sc.build_scene(model_scene_config(task.config.scene, config))
-        self.route = route_data(task.route_um, task.route_arc_um, task.wall_distance_um,
-                                task.scene.assembly_radius_um + config.room_margin_um)
+        self.route = route_data(
+            task.route_um,
+            task.route_arc_um,
+            task.wall_distance_um,
+            task.scene.assembly_radius_um + config.room_margin_um,
+        )
         self.offsets_um = jnp.asarray(task.offsets_um, jnp.float32)
         start = task.route_um[0]
         heading = float(np.arctan2(*(task.route_um[8] - task.route_um[0])[::-1]))
         self.extra_squeeze_um = grip_squeeze_um(task.scene, self.model, start, heading)
         self.model_offsets_um = jnp.asarray(squeezed_offsets_um(task.offsets_um, self.extra_squeeze_um), jnp.float32)
-        self.approach = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, task.config.tick_s,
-                                       max_speed_um_s=max_speed_um_s)
+        self.approach = RouteNavigator(
+            task.route_um, task.route_arc_um, task.offsets_um, task.config.tick_s, max_speed_um_s=max_speed_um_s
+        )
         self.tracker = ObstacleTracker(TRACKER_WINDOW_S, task.config.tick_s)
         self._replan = make_replan(config, task.config.scenario)
         self._pose = jax.jit(formation_pose)
@@ -94,8 +116,16 @@ class MPCNavigator:
         reset: the first replan compiles for tens of seconds on 2 cores, which a live
         trial (an autonomy node answering a simulator) must not wait for."""
         k = len(self.task.scene.obstacles)  # obstacles parked at the route's end: no scenario to sample
-        parked = Scenario(0, np.zeros(k), np.zeros(k), np.tile(self.task.route_um[-1], (k, 1)), np.tile([1.0, 0.0], (k, 1)),
-                          np.ones(k), np.full(k, np.inf), np.full(k, np.inf))
+        parked = Scenario(
+            0,
+            np.zeros(k),
+            np.zeros(k),
+            np.tile(self.task.route_um[-1], (k, 1)),
+            np.tile([1.0, 0.0], (k, 1)),
+            np.ones(k),
+            np.full(k, np.inf),
+            np.full(k, np.inf),
+        )
         observation = self.task.reset([parked], jax.random.PRNGKey(0)).observation
         fields = dict(vars(observation), phase=np.full(1, CARRY))
         self.reset(1)
@@ -118,8 +148,13 @@ class MPCNavigator:
             seen, body = handles[:, 1] - handles[:, 0], offsets[1] - offsets[0]
             theta = np.arctan2(seen[:, 1], seen[:, 0]) - np.arctan2(body[1], body[0])
             mean_offset = offsets.mean(axis=0)
-            turned = np.stack([np.cos(theta) * mean_offset[0] - np.sin(theta) * mean_offset[1],
-                               np.sin(theta) * mean_offset[0] + np.cos(theta) * mean_offset[1]], axis=-1)
+            turned = np.stack(
+                [
+                    np.cos(theta) * mean_offset[0] - np.sin(theta) * mean_offset[1],
+                    np.sin(theta) * mean_offset[0] + np.cos(theta) * mean_offset[1],
+                ],
+                axis=-1,
+            )
             pose[:, robot, :2] = handles.mean(axis=1) - turned
             pose[:, robot, 2] = theta
         pose[:, scene.payload, :2] = obs.cell_xy_um
@@ -128,8 +163,11 @@ class MPCNavigator:
         towards_cell /= np.maximum(np.linalg.norm(towards_cell, axis=-1, keepdims=True), 1e-9)
         traps = obs.trap_xy_um + self.extra_squeeze_um * towards_cell[:, trap_robot]
         f32 = lambda a: jnp.asarray(a, jnp.float32)  # noqa: E731
-        return sc.SceneState(ph.PhysicsState(f32(pose), f32(traps)),
-                             jnp.zeros((n_env, len(scene.obstacles), 2), jnp.float32), f32(obs.time_s))
+        return sc.SceneState(
+            ph.PhysicsState(f32(pose), f32(traps)),
+            jnp.zeros((n_env, len(scene.obstacles), 2), jnp.float32),
+            f32(obs.time_s),
+        )
 
     def increments(self, obs: Observation) -> np.ndarray:
         """dP_r (E, T, 2) in um for this tick."""
@@ -145,13 +183,22 @@ class MPCNavigator:
         if self.segment_valid.any():
             rows = np.flatnonzero(self.segment_valid)
             low = phase_tick / self.ticks_per_step
-            places_now, places_next = (np.asarray(a, float) for a in self._places(
-                self.route, self.offsets_um, jnp.asarray(self.segment_start[rows]),
-                jnp.asarray(self.segment_action[rows]), low, low + 1.0 / self.ticks_per_step,
-                step_s=self.config.step_s))
+            places_now, places_next = (
+                np.asarray(a, float)
+                for a in self._places(
+                    self.route,
+                    self.offsets_um,
+                    jnp.asarray(self.segment_start[rows]),
+                    jnp.asarray(self.segment_action[rows]),
+                    low,
+                    low + 1.0 / self.ticks_per_step,
+                    step_s=self.config.step_s,
+                )
+            )
             correction = self.carry_gain_per_s * self.task.config.tick_s * (places_now - obs.trap_xy_um[rows])
-            step[rows] = np.asarray(cap_rigid(places_next - places_now + correction,
-                                              self.max_speed_um_s * self.task.config.tick_s))
+            step[rows] = np.asarray(
+                cap_rigid(places_next - places_now + correction, self.max_speed_um_s * self.task.config.tick_s)
+            )
         return np.where(carrying[:, None, None], step, cap_speed(chase, self.max_speed_um_s * self.task.config.tick_s))
 
     def _start_segments(self, obs: Observation) -> None:
@@ -163,9 +210,18 @@ class MPCNavigator:
             self.segment_valid[:] = False
             return
         rows = np.flatnonzero(carrying)
-        start = np.stack([np.asarray(a, np.float32) for a in self._pose(
-            self.route, self.offsets_um, jnp.asarray(obs.trap_xy_um[rows], jnp.float32),
-            jnp.asarray(obs.cell_arc_um[rows], jnp.float32))], axis=-1)
+        start = np.stack(
+            [
+                np.asarray(a, np.float32)
+                for a in self._pose(
+                    self.route,
+                    self.offsets_um,
+                    jnp.asarray(obs.trap_xy_um[rows], jnp.float32),
+                    jnp.asarray(obs.cell_arc_um[rows], jnp.float32),
+                )
+            ],
+            axis=-1,
+        )
         planned = self.next_valid[rows]
         hold = np.stack([np.zeros(len(rows)), start[:, 1], start[:, 2]], axis=-1)
         committed = np.where(planned[:, None], self.next_plan[rows, 0], hold).astype(np.float32)
@@ -201,14 +257,22 @@ class MPCNavigator:
         for index, begin in enumerate(range(0, len(padded), chunk)):
             part = slice(begin, begin + chunk)
             f32 = lambda a: jnp.asarray(np.asarray(a)[part], jnp.float32)  # noqa: E731
-            plan, _, _ = self._replan(self.model, self.route, self.model_offsets_um, self.costs,
-                                      jax.tree.map(lambda a: a[part], state), jax.tree.map(f32, tracks),
-                                      f32(start[padded]), f32(committed[padded]), f32(nominal[padded]),
-                                      jax.random.fold_in(key, index))
+            plan, _, _ = self._replan(
+                self.model,
+                self.route,
+                self.model_offsets_um,
+                self.costs,
+                jax.tree.map(lambda a: a[part], state),
+                jax.tree.map(f32, tracks),
+                f32(start[padded]),
+                f32(committed[padded]),
+                f32(nominal[padded]),
+                jax.random.fold_in(key, index),
+            )
             plans.append(np.asarray(plan))
         self.replan_seconds.append(time.perf_counter() - began)
         self.replan_sizes.append(len(rows))
-        return np.concatenate(plans)[:len(rows)]
+        return np.concatenate(plans)[: len(rows)]
 
 
 def _segment_places(route, offsets_um, start, action, low, high, *, step_s: float):
@@ -230,4 +294,3 @@ def observation_rows(obs: Observation, rows) -> Observation:
     """The observation of the environments ``rows`` only."""
     fields = {name: (value[rows] if isinstance(value, np.ndarray) else value) for name, value in vars(obs).items()}
     return Observation(**fields)
-

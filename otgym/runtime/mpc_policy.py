@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 import jax
 import jax.numpy as jnp
@@ -35,19 +35,32 @@ from otgym.runtime.mpc_navigator import MPCNavigator
 from otgym.runtime.route_frame import route_frame
 
 
-def route_features(route, start, committed, cell_xy_um, cell_arc_um, cell_velocity_um_s, obstacle_xy_um,
-                   obstacle_velocity_um_s) -> np.ndarray:
+def route_features(
+    route, start, committed, cell_xy_um, cell_arc_um, cell_velocity_um_s, obstacle_xy_um, obstacle_velocity_um_s
+) -> np.ndarray:
     """Features (E, 10 + 4K) in the route frame at the cell's arc (see module doc)."""
-    point, tangent, normal, _ = (np.asarray(a, float) for a in route_frame(route, jnp.asarray(cell_arc_um, jnp.float32)))
+    point, tangent, normal, _ = (
+        np.asarray(a, float) for a in route_frame(route, jnp.asarray(cell_arc_um, jnp.float32))
+    )
     along = lambda v: np.sum(v * (tangent[:, None] if v.ndim == 3 else tangent), axis=-1)  # noqa: E731
     across = lambda v: np.sum(v * (normal[:, None] if v.ndim == 3 else normal), axis=-1)  # noqa: E731
     relative = obstacle_xy_um - cell_xy_um[:, None]
     length = float(route.path.length_um)
-    columns = [across(cell_xy_um - point), along(cell_velocity_um_s), across(cell_velocity_um_s),
-               start[:, 0] - cell_arc_um, start[:, 1], start[:, 2], committed[:, 0], committed[:, 1], committed[:, 2],
-               length - cell_arc_um]
-    obstacles = np.stack([along(relative), across(relative), along(obstacle_velocity_um_s),
-                          across(obstacle_velocity_um_s)], axis=-1).reshape(len(start), -1)
+    columns = [
+        across(cell_xy_um - point),
+        along(cell_velocity_um_s),
+        across(cell_velocity_um_s),
+        start[:, 0] - cell_arc_um,
+        start[:, 1],
+        start[:, 2],
+        committed[:, 0],
+        committed[:, 1],
+        committed[:, 2],
+        length - cell_arc_um,
+    ]
+    obstacles = np.stack(
+        [along(relative), across(relative), along(obstacle_velocity_um_s), across(obstacle_velocity_um_s)], axis=-1
+    ).reshape(len(start), -1)
     return np.concatenate([np.stack(columns, axis=-1), obstacles], axis=-1).astype(np.float32)
 
 
@@ -58,9 +71,19 @@ class _FeatureMixin:
         velocity = np.zeros((len(rows), 2))
         if last is not None and len(last[0]) == len(obs.time_s):
             dt = now - last[1][rows]
-            velocity = np.where((dt > 0)[:, None], (obs.cell_xy_um[rows] - last[0][rows]) / np.maximum(dt, 1e-9)[:, None], 0.0)
-        return route_features(self.route, start, committed, obs.cell_xy_um[rows], obs.cell_arc_um[rows], velocity,
-                              self.tracker.latest_um()[rows], self.tracker.velocity_um_s()[rows])
+            velocity = np.where(
+                (dt > 0)[:, None], (obs.cell_xy_um[rows] - last[0][rows]) / np.maximum(dt, 1e-9)[:, None], 0.0
+            )
+        return route_features(
+            self.route,
+            start,
+            committed,
+            obs.cell_xy_um[rows],
+            obs.cell_arc_um[rows],
+            velocity,
+            self.tracker.latest_um()[rows],
+            self.tracker.velocity_um_s()[rows],
+        )
 
     def _remember(self, obs) -> None:
         self._last_cell = (obs.cell_xy_um.copy(), obs.time_s.copy())
@@ -113,13 +136,19 @@ class ClonedPolicy:
         return np.asarray(_forward(self.layers, jnp.asarray(x))) * self.action_std + self.action_mean
 
     def save(self, path) -> None:
-        arrays = {f"w{i}": np.asarray(l["w"]) for i, l in enumerate(self.layers)}
-        arrays |= {f"b{i}": np.asarray(l["b"]) for i, l in enumerate(self.layers)}
-        np.savez(path, feature_mean=self.feature_mean, feature_std=self.feature_std, action_mean=self.action_mean,
-                 action_std=self.action_std, **arrays)
+        arrays = {f"w{i}": np.asarray(layer["w"]) for i, layer in enumerate(self.layers)}
+        arrays |= {f"b{i}": np.asarray(layer["b"]) for i, layer in enumerate(self.layers)}
+        np.savez(
+            path,
+            feature_mean=self.feature_mean,
+            feature_std=self.feature_std,
+            action_mean=self.action_mean,
+            action_std=self.action_std,
+            **arrays,
+        )
 
     @classmethod
-    def load(cls, path) -> "ClonedPolicy":
+    def load(cls, path) -> ClonedPolicy:
         data = np.load(path)
         n = sum(1 for k in data.files if k.startswith("w"))
         layers = [{"w": jnp.asarray(data[f"w{i}"]), "b": jnp.asarray(data[f"b{i}"])} for i in range(n)]
@@ -129,8 +158,15 @@ class ClonedPolicy:
 _forward = jax.jit(mlp)
 
 
-def train(features, actions, hidden=(128, 128), epochs: int = 200, batch: int = 256, learning_rate: float = 1e-3,
-          seed: int = 0) -> ClonedPolicy:
+def train(
+    features,
+    actions,
+    hidden=(128, 128),
+    epochs: int = 200,
+    batch: int = 256,
+    learning_rate: float = 1e-3,
+    seed: int = 0,
+) -> ClonedPolicy:
     """Fit the MLP by MSE on normalised features and actions (Adam, minibatches)."""
     features, actions = np.asarray(features, np.float32), np.asarray(actions, np.float32)
     f_mean, f_std = features.mean(0), features.std(0) + 1e-6
@@ -154,7 +190,7 @@ def train(features, actions, hidden=(128, 128), epochs: int = 200, batch: int = 
         key, perm_key = jax.random.split(key)
         order = jax.random.permutation(perm_key, n)
         for begin in range(0, n - size + 1, size):
-            index = order[begin:begin + size]
+            index = order[begin : begin + size]
             layers, opt_state, _ = step(layers, opt_state, x[index], y[index])
     return ClonedPolicy(layers, f_mean, f_std, a_mean, a_std)
 
@@ -223,8 +259,17 @@ class DAggerNavigator(PolicyNavigator):
     environment where it labelled the decision before, else from the executed one.
     Keeps ``features`` and ``actions`` (the MPC's) and ``taken`` (decisions it executed)."""
 
-    def __init__(self, task, config, costs, seed: int = 0, policy: ClonedPolicy | None = None, beta: float = 0.0,
-                 label_every: int = 5, **kwargs):
+    def __init__(
+        self,
+        task,
+        config,
+        costs,
+        seed: int = 0,
+        policy: ClonedPolicy | None = None,
+        beta: float = 0.0,
+        label_every: int = 5,
+        **kwargs,
+    ):
         if not 0.0 <= beta <= 1.0:
             raise ValueError(f"beta must be in [0, 1], got {beta}")
         if not (isinstance(label_every, int) and label_every >= 1):
@@ -238,7 +283,7 @@ class DAggerNavigator(PolicyNavigator):
         super().reset(n_env)
         self.expert_plan = np.zeros((n_env, self.config.plan_steps, 3), np.float32)
         self.expert_fresh = np.zeros(n_env, bool)
-        self.since_label = np.full(n_env, 10 ** 6)
+        self.since_label = np.full(n_env, 10**6)
 
     def _plan(self, obs, rows, start, committed, nominal) -> np.ndarray:
         self.since_label[rows] += 1

@@ -41,22 +41,25 @@ HEADING_LOOKAROUND_UM = 2.0
 def route_point(route_um, route_arc_um, arc_um):
     """Points (..., 2) on the route at arc lengths ``arc_um`` (...,), clipped to its ends."""
     arc = np.clip(arc_um, 0.0, route_arc_um[-1])
-    return np.stack([np.interp(arc, route_arc_um, route_um[:, 0]), np.interp(arc, route_arc_um, route_um[:, 1])],
-                    axis=-1)
+    return np.stack(
+        [np.interp(arc, route_arc_um, route_um[:, 0]), np.interp(arc, route_arc_um, route_um[:, 1])], axis=-1
+    )
 
 
 def route_heading(route_um, route_arc_um, arc_um):
     """Tangent angle (rad) of the route at ``arc_um``, by a central difference."""
-    delta = route_point(route_um, route_arc_um, arc_um + HEADING_LOOKAROUND_UM) - \
-        route_point(route_um, route_arc_um, arc_um - HEADING_LOOKAROUND_UM)
+    delta = route_point(route_um, route_arc_um, arc_um + HEADING_LOOKAROUND_UM) - route_point(
+        route_um, route_arc_um, arc_um - HEADING_LOOKAROUND_UM
+    )
     return np.arctan2(delta[..., 1], delta[..., 0])
 
 
 def rotate(vectors, angle):
     """Rotate (..., T, 2) vectors by ``angle`` (...,) rad."""
     cos, sin = np.cos(angle)[..., None], np.sin(angle)[..., None]
-    return np.stack([cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]],
-                    axis=-1)
+    return np.stack(
+        [cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]], axis=-1
+    )
 
 
 def cap_speed(increment_um, max_step_um: float):
@@ -66,13 +69,29 @@ def cap_speed(increment_um, max_step_um: float):
 
 
 class RouteNavigator:
-    def __init__(self, route_um, route_arc_um, offsets_um, tick_s: float, cruise_speed_um_s: float = 5.0,
-                 lead_um: float = 1.0, max_speed_um_s: float = 20.0, carry_gain_per_s: float = 3.0):
-        if not (cruise_speed_um_s > 0 and max_speed_um_s >= cruise_speed_um_s and lead_um > 0 and tick_s > 0
-                and 0 < carry_gain_per_s * tick_s <= 1):
-            raise ValueError(f"need 0 < cruise_speed_um_s <= max_speed_um_s, lead_um > 0, tick_s > 0 and "
-                             f"0 < carry_gain_per_s * tick_s <= 1; got {cruise_speed_um_s}, {max_speed_um_s}, "
-                             f"{lead_um}, {tick_s}, {carry_gain_per_s}")
+    def __init__(
+        self,
+        route_um,
+        route_arc_um,
+        offsets_um,
+        tick_s: float,
+        cruise_speed_um_s: float = 5.0,
+        lead_um: float = 1.0,
+        max_speed_um_s: float = 20.0,
+        carry_gain_per_s: float = 3.0,
+    ):
+        if not (
+            cruise_speed_um_s > 0
+            and max_speed_um_s >= cruise_speed_um_s
+            and lead_um > 0
+            and tick_s > 0
+            and 0 < carry_gain_per_s * tick_s <= 1
+        ):
+            raise ValueError(
+                f"need 0 < cruise_speed_um_s <= max_speed_um_s, lead_um > 0, tick_s > 0 and "
+                f"0 < carry_gain_per_s * tick_s <= 1; got {cruise_speed_um_s}, {max_speed_um_s}, "
+                f"{lead_um}, {tick_s}, {carry_gain_per_s}"
+            )
         self.route_um = np.asarray(route_um, float)
         self.route_arc_um = np.asarray(route_arc_um, float)
         self.offsets_um = np.asarray(offsets_um, float)
@@ -100,8 +119,9 @@ class RouteNavigator:
         start = carrying & (self.commanded_arc_um < obs.cell_arc_um - self.lead_um)
         self.commanded_arc_um = np.where(start | (obs.phase == APPROACH), obs.cell_arc_um, self.commanded_arc_um)
         previous_arc = self.commanded_arc_um
-        advanced = np.minimum(self.commanded_arc_um + self.cruise_speed_um_s * self.tick_s,
-                              obs.cell_arc_um + self.lead_um)
+        advanced = np.minimum(
+            self.commanded_arc_um + self.cruise_speed_um_s * self.tick_s, obs.cell_arc_um + self.lead_um
+        )
         self.commanded_arc_um = np.where(carrying, advanced, self.commanded_arc_um)
         # each command only where some environment uses it (one environment: one of the two)
         carry = self._carry(obs, previous_arc) if carrying.any() else 0.0
@@ -117,5 +137,6 @@ class RouteNavigator:
         feed_forward = places - self.formation_targets(advanced_from, self.route_point_at(advanced_from))
         correction = self.carry_gain_per_s * self.tick_s * (places - obs.trap_xy_um)
         common = correction.mean(axis=1, keepdims=True)  # the formation's drift as a whole
-        return feed_forward + cap_speed(common, self.carry_gain_per_s * self.lead_um * self.tick_s) \
-            + (correction - common)
+        return (
+            feed_forward + cap_speed(common, self.carry_gain_per_s * self.lead_um * self.tick_s) + (correction - common)
+        )

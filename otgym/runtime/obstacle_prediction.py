@@ -54,7 +54,8 @@ class ObstacleTracker:
         self.xy_um[rows, slot] = np.asarray(obstacle_xy_um, float)
         self.count += 1
         self.seen_moving |= (self.count >= self.capacity)[:, None] & (
-            np.linalg.norm(self.velocity_um_s(), axis=-1) > MOVING_SPEED_UM_S)
+            np.linalg.norm(self.velocity_um_s(), axis=-1) > MOVING_SPEED_UM_S
+        )
 
     def latest_um(self) -> np.ndarray:
         """The last observed positions (E, K, 2)."""
@@ -86,5 +87,11 @@ class ObstacleTracker:
         now = np.broadcast_to(np.asarray(now_s, float)[:, None], speed.shape)
         latest = self.latest_um()
         # departed one second ago from one second back along the line: moving from the first model step on
-        return {"start_um": latest - velocity, "direction": direction, "speed_um_s": speed, "depart_s": now - 1.0,
-                "end_s": now + PREDICTION_LENGTH_S, "idle": (~self.seen_moving).astype(float)}
+        return {
+            "start_um": latest - velocity,
+            "direction": direction,
+            "speed_um_s": speed,
+            "depart_s": now - 1.0,
+            "end_s": now + PREDICTION_LENGTH_S,
+            "idle": (~self.seen_moving).astype(float),
+        }

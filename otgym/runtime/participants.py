@@ -202,11 +202,13 @@ def _unit(vectors):
     return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-9)
 
 
-def _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float,
-                until_s=None, then_um_s=None):
+def _closest_um(
+    cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float, until_s=None, then_um_s=None
+):
     """(E, K) the closest each obstacle comes to the cell within ``horizon_s`` if the
     assembly moves at ``assembly_velocity_um_s`` (E, 2), or at it until ``until_s`` (E,)
     and at ``then_um_s`` (E, 2) after (a step aside that a wall ends)."""
+
     def closest(relative, closing, duration_s):
         speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
         t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, duration_s)
@@ -218,8 +220,10 @@ def _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_
         return closest(relative, closing, horizon_s)
     until = np.clip(until_s, 0.0, horizon_s)[:, None]
     later = relative + closing * until[..., None]
-    return np.minimum(closest(relative, closing, until),
-                      closest(later, obstacle_velocity_um_s - then_um_s[:, None], horizon_s - until))
+    return np.minimum(
+        closest(relative, closing, until),
+        closest(later, obstacle_velocity_um_s - then_um_s[:, None], horizon_s - until),
+    )
 
 
 def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
@@ -252,8 +256,9 @@ def _option_ranks():
     return np.stack([crossing, along])
 
 
-def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, route_direction, task: ParticipantTask,
-                    room_um=None):
+def choose_velocity(
+    cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, route_direction, task: ParticipantTask, room_um=None
+):
     """The person's choice of assembly velocity (E, 2) and whether it differs from
     ``want_um_s``. Options: intended, hurried, slowed, still, backing along the route,
     stepping away, and side-steps to either side of the route (``SIDE_STEP_DEG``). Safe:
@@ -273,16 +278,28 @@ def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, rou
     speed_k = np.linalg.norm(obstacle_velocity_um_s, axis=-1)  # (E, K)
     still_k = speed_k < task.still_speed_um_s
     clearance = np.where(still_k, task.still_clearance_um, task.clearance_um)
-    worst = np.argmin(_closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, task.horizon_s)
-                      - clearance, axis=1)
+    worst = np.argmin(
+        _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, task.horizon_s) - clearance, axis=1
+    )
     pace = np.linalg.norm(want_um_s, axis=-1, keepdims=True)
     left = np.stack([-route_direction[:, 1], route_direction[:, 0]], axis=-1)
-    side = [(np.cos(a) * route_direction + sign * np.sin(a) * left) * pace
-            for a in np.radians(SIDE_STEP_DEG) for sign in (1.0, -1.0)]
-    options = [want_um_s, task.hurry_factor * want_um_s, 0.5 * want_um_s, np.zeros_like(want_um_s),
-               -route_direction * pace, away * pace, *side]
+    side = [
+        (np.cos(a) * route_direction + sign * np.sin(a) * left) * pace
+        for a in np.radians(SIDE_STEP_DEG)
+        for sign in (1.0, -1.0)
+    ]
+    options = [
+        want_um_s,
+        task.hurry_factor * want_um_s,
+        0.5 * want_um_s,
+        np.zeros_like(want_um_s),
+        -route_direction * pace,
+        away * pace,
+        *side,
+    ]
     heading_cos = np.abs(np.sum(obstacle_velocity_um_s[rows, worst] * route_direction, axis=-1)) / np.maximum(
-        speed_k[rows, worst], 1e-9)
+        speed_k[rows, worst], 1e-9
+    )
     along = still_k[rows, worst] | (heading_cos >= np.cos(np.radians(task.along_angle_deg)))
     rank = _option_ranks()[along.astype(int)]  # (E, options)
     room = []
@@ -293,15 +310,24 @@ def choose_velocity(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, rou
             sideways_um_s = np.sum(velocity * left, axis=-1)
             free_um = np.where(sideways_um_s > 0, room_um[:, 0], room_um[:, 1])
             until_s = free_um / np.maximum(np.abs(sideways_um_s), 1e-9)
-            miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, velocity, task.horizon_s, until_s,
-                               velocity - sideways_um_s[:, None] * left)
+            miss = _closest_um(
+                cell_um,
+                obstacle_um,
+                obstacle_velocity_um_s,
+                velocity,
+                task.horizon_s,
+                until_s,
+                velocity - sideways_um_s[:, None] * left,
+            )
             if index >= len(SPEED_OPTIONS):
                 miss = np.where((free_um < task.side_step_resolution_um)[:, None], -np.inf, miss)
         room.append((miss - clearance).min(axis=1))
     room = np.stack(room, axis=1)  # (E, options)
     safe = room >= 0.0
-    onward = np.array([name in ("intended", "hurried", "slowed") for name in SPEED_OPTIONS]
-                      + [a < 90.0 for a in SIDE_STEP_DEG for _ in range(2)])
+    onward = np.array(
+        [name in ("intended", "hurried", "slowed") for name in SPEED_OPTIONS]
+        + [a < 90.0 for a in SIDE_STEP_DEG for _ in range(2)]
+    )
     squeeze = still_k[rows, worst][:, None] & onward & ~safe & (room >= -task.squeeze_um)
     rank = np.where(squeeze, _option_ranks()[1, SPEED_OPTIONS.index("still")] - 0.5, rank)  # just before waiting
     chosen = safe | squeeze
@@ -319,9 +345,18 @@ class SimulatedParticipants:
     to do (for their efference copy; ``human_weight`` (E,) is tau * alpha, the share of
     dP_h in dP_s) and ``feel(obs, ...)`` what their hands feel next."""
 
-    def __init__(self, params: list[HumanParams], tick_s: float, seed: int, navigator,
-                 retarget: RetargetConfig, feedback: FeedbackConfig, bend_distance_um: float,
-                 task: ParticipantTask = ParticipantTask(), wall_distance_um=None):
+    def __init__(
+        self,
+        params: list[HumanParams],
+        tick_s: float,
+        seed: int,
+        navigator,
+        retarget: RetargetConfig,
+        feedback: FeedbackConfig,
+        bend_distance_um: float,
+        task: ParticipantTask = ParticipantTask(),
+        wall_distance_um=None,
+    ):
         self.n_env = len(params)
         self.wall_distance_um = wall_distance_um
         """``(n, 2) um -> (n,)`` distance to the chip's walls, or None (no walls)."""
@@ -332,8 +367,9 @@ class SimulatedParticipants:
         self.feedback_config = feedback
         self.bend_distance_um = bend_distance_um
         hands = [p for p in params for _ in range(N_HANDS)]
-        self.motor = HumanMotor(hands, 1.0 / tick_s, np.random.default_rng(seed),
-                                hands_per_person=N_HANDS if task.bimanual else 1)
+        self.motor = HumanMotor(
+            hands, 1.0 / tick_s, np.random.default_rng(seed), hands_per_person=N_HANDS if task.bimanual else 1
+        )
         self.retargeter = BatchRetargeter(retarget, 1.0 / tick_s, self.n_env * N_HANDS)
         self.delay_s = self.motor.delay_ticks[::N_HANDS] * tick_s
         self._glimpses = max(1, int(round(task.glimpse_s / tick_s)))
@@ -354,8 +390,9 @@ class SimulatedParticipants:
         centre = (traps_now - rotate(offsets[None], heading)).mean(axis=1)  # the formation centre the traps imply
         along = np.abs(np.sum((cell_now - centre) * np.stack([np.cos(heading), np.sin(heading)], axis=-1), axis=-1))
         approach = phase == APPROACH
-        closing = np.where(approach, along < np.where(self.closing, 2.0, 1.0) * task.align_tolerance_um,
-                           along < task.seat_tolerance_um)
+        closing = np.where(
+            approach, along < np.where(self.closing, 2.0, 1.0) * task.align_tolerance_um, along < task.seat_tolerance_um
+        )
         self.closing = closing
         side = np.sign(np.array([offsets[trap_robot == r, 1].mean() for r in range(N_HANDS)]))[trap_robot]  # (T,)
         opened = offsets + np.where(closing[:, None, None], 0.0, task.open_gap_um * side[None, :, None] * [0.0, 1.0])
@@ -429,9 +466,17 @@ class SimulatedParticipants:
         if self._moved_um is None:
             self._moved_um = np.zeros_like(obs.trap_xy_um)
         n_traps, n_obs = obs.trap_xy_um.shape[1], obs.obstacle_xy_um.shape[1]
-        now = np.concatenate([obs.cell_xy_um, obs.trap_xy_um.reshape(self.n_env, -1),
-                              obs.obstacle_xy_um.reshape(self.n_env, -1), obs.cell_arc_um[:, None],
-                              obs.phase[:, None].astype(float), self._moved_um.reshape(self.n_env, -1)], axis=1)
+        now = np.concatenate(
+            [
+                obs.cell_xy_um,
+                obs.trap_xy_um.reshape(self.n_env, -1),
+                obs.obstacle_xy_um.reshape(self.n_env, -1),
+                obs.cell_arc_um[:, None],
+                obs.phase[:, None].astype(float),
+                self._moved_um.reshape(self.n_env, -1),
+            ],
+            axis=1,
+        )
         seen = self.motor.perceive(np.repeat(now, N_HANDS, axis=0))[::N_HANDS]
         self._history.append(seen)
         if len(self._history) > self._glimpses + 1:
@@ -444,8 +489,16 @@ class SimulatedParticipants:
         velocity = (obstacles - earlier[2].reshape(self.n_env, n_obs, 2)) / elapsed
         cell_velocity = (cell - earlier[0]) / elapsed
         since_um = self._moved_um - moved.reshape(self.n_env, n_traps, 2) + self._pending_um[:, trap_robot]
-        return (cell, cell_velocity, traps.reshape(self.n_env, n_traps, 2), obstacles, velocity, arc[:, 0],
-                phase[:, 0].round().astype(int), since_um)
+        return (
+            cell,
+            cell_velocity,
+            traps.reshape(self.n_env, n_traps, 2),
+            obstacles,
+            velocity,
+            arc[:, 0],
+            phase[:, 0].round().astype(int),
+            since_um,
+        )
 
     def intend(self, obs, mode: np.ndarray, alpha: np.ndarray, robot_increment_um: np.ndarray, trap_robot):
         """Plan the hands' sub-movements (those due) and return dP_h (E, 2 hands, 2) um for this tick."""
@@ -459,10 +512,14 @@ class SimulatedParticipants:
         route_direction = _unit(self.navigator.route_point_at(arc + task.lookahead_um) - cell_now)
         autonomy_um_s = robot_increment_um / self.tick_s  # (E, T, 2)
         shared = mode == "shared"
-        pace = np.where(shared, np.minimum(np.linalg.norm(autonomy_um_s.mean(axis=1), axis=-1),
-                                           self.navigator.cruise_speed_um_s), task.carry_speed_um_s)
-        want = np.where(carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH,
-                                                                             cell_velocity, 0.0))
+        pace = np.where(
+            shared,
+            np.minimum(np.linalg.norm(autonomy_um_s.mean(axis=1), axis=-1), self.navigator.cruise_speed_um_s),
+            task.carry_speed_um_s,
+        )
+        want = np.where(
+            carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH, cell_velocity, 0.0)
+        )
         room = self._side_room_um(traps_now, route_direction, float(pace.max()) * task.horizon_s)
         chosen, _ = choose_velocity(cell_now, obstacles_now, velocity, want, route_direction, task, room)
         want = np.where(carrying, chosen, want)
@@ -473,17 +530,21 @@ class SimulatedParticipants:
         scale = self.retarget_config.motion_scale_um_per_mm
         limit_mm_s = self.retarget_config.max_trap_speed_um_s / scale
         tolerance_mm = task.grip_tolerance_um / scale
-        duration = self.motor.submovement_duration_s(np.linalg.norm(error, axis=-1).ravel() / scale, tolerance_mm,
-                                                     limit_mm_s).reshape(self.n_env, N_HANDS)
+        duration = self.motor.submovement_duration_s(
+            np.linalg.norm(error, axis=-1).ravel() / scale, tolerance_mm, limit_mm_s
+        ).reshape(self.n_env, N_HANDS)
         # where the hands go in this sub-movement: the places where they will be when it
         # ends, kept off the walls
         ahead = places + want[:, None] * duration[:, trap_robot, None]  # (E, T, 2)
         off_wall = self._off_walls(ahead, (phase == CARRY) & self.closing, trap_robot) - ahead
-        per_hand = lambda traps: np.stack([traps[:, trap_robot == r].mean(axis=1)  # noqa: E731
-                                           for r in range(N_HANDS)], axis=1)
+
+        def per_hand(traps):
+            return np.stack([traps[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+
         reach_um = per_hand(ahead - traps_now)
-        duration = self.motor.submovement_duration_s(np.linalg.norm(reach_um + per_hand(off_wall), axis=-1).ravel()
-                                                     / scale, tolerance_mm, limit_mm_s).reshape(self.n_env, N_HANDS)
+        duration = self.motor.submovement_duration_s(
+            np.linalg.norm(reach_um + per_hand(off_wall), axis=-1).ravel() / scale, tolerance_mm, limit_mm_s
+        ).reshape(self.n_env, N_HANDS)
         reach_um = self._guard_closing(reach_um, want, duration, traps_now, places, phase, trap_robot)
         reach_um = reach_um + per_hand(off_wall)  # a wall is escaped at once, not closed on carefully
         if not task.bimanual:
@@ -496,9 +557,12 @@ class SimulatedParticipants:
         hand_um_s = np.where(shared[:, None, None], np.where(cue[:, None, None], override, 0.0), hand_um_s)
         planar_mm_s = (hand_um_s * np.array([1.0, -1.0]) / scale).reshape(-1, 2)  # chip -> stylus x, y
         speed_mm_s = np.maximum(np.linalg.norm(planar_mm_s, axis=-1), 1e-6)
-        self.motor.plan(planar_mm_s * duration.reshape(-1, 1), tolerance_mm, np.minimum(speed_mm_s * 1.0001, limit_mm_s))
-        planned_um = (self.motor.command_mm_s * np.array([1.0, -1.0]) * scale * self.tick_s).reshape(self.n_env,
-                                                                                                      N_HANDS, 2)
+        self.motor.plan(
+            planar_mm_s * duration.reshape(-1, 1), tolerance_mm, np.minimum(speed_mm_s * 1.0001, limit_mm_s)
+        )
+        planned_um = (self.motor.command_mm_s * np.array([1.0, -1.0]) * scale * self.tick_s).reshape(
+            self.n_env, N_HANDS, 2
+        )
         stylus = self.motor.step(self.feedback_n.reshape(-1, 2) * np.array([1.0, -1.0]))
         increments = self.retargeter(stylus).reshape(self.n_env, N_HANDS, 2)
         if not task.bimanual:
@@ -510,9 +574,17 @@ class SimulatedParticipants:
         """The stylus force each hand feels next tick, from its robot's handle forces (E, T, 2)."""
         offsets = obs.trap_xy_um - obs.handle_xy_um
         valid = np.ones(offsets.shape[:2], bool)
-        forces = [chip_force_n(trap_force_pn[:, trap_robot == r], offsets[:, trap_robot == r],
-                               obs.contact_force_pn[:, r], valid[:, trap_robot == r], self.feedback_config,
-                               self.bend_distance_um) for r in range(N_HANDS)]
+        forces = [
+            chip_force_n(
+                trap_force_pn[:, trap_robot == r],
+                offsets[:, trap_robot == r],
+                obs.contact_force_pn[:, r],
+                valid[:, trap_robot == r],
+                self.feedback_config,
+                self.bend_distance_um,
+            )
+            for r in range(N_HANDS)
+        ]
         force = np.stack(forces, axis=1)
         norm = np.linalg.norm(force, axis=-1, keepdims=True)
         limit = self.feedback_config.force_limit_n

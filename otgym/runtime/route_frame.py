@@ -32,8 +32,15 @@ class RouteData:
     room_right_um: jnp.ndarray  # (G,) room towards the right normal
 
 
-def lateral_room_um(route_um, route_arc_um, wall_distance_um, clearance_um: float, spacing_um: float = 1.0,
-                    reach_um: float = 40.0, resolution_um: float = 0.25):
+def lateral_room_um(
+    route_um,
+    route_arc_um,
+    wall_distance_um,
+    clearance_um: float,
+    spacing_um: float = 1.0,
+    reach_um: float = 40.0,
+    resolution_um: float = 0.25,
+):
     """Arc grid (G,) and the room (G,) on each side of the route: how far the
     formation's centre may move along the route's normal with its bounding circle
     ``clearance_um`` clear of the walls (numpy; ``wall_distance_um(points (n, 2)) -> (n,)``)."""
@@ -62,8 +69,9 @@ def route_data(route_um, route_arc_um, wall_distance_um, clearance_um: float) ->
 
 def _rotate(vectors, angle):
     cos, sin = jnp.cos(angle)[..., None], jnp.sin(angle)[..., None]
-    return jnp.stack([cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]],
-                     axis=-1)
+    return jnp.stack(
+        [cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]], axis=-1
+    )
 
 
 def route_frame(route: RouteData, arc_um):

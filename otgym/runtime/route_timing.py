@@ -85,10 +85,20 @@ class Passage:
         return self.arrival_s - self.free_s
 
 
-def earliest_passage(scenario: Scenario, route_um, route_arc_um, shape: AssemblyShape, obstacle_radius_um: float,
-                     start_arc_um: float, start_time_s: float, max_speed_um_s: float, margin_um: float = 0.0,
-                     goal_arc_um: float | None = None, arc_step_um: float = 0.25,
-                     time_limit_s: float = 300.0) -> Passage:
+def earliest_passage(
+    scenario: Scenario,
+    route_um,
+    route_arc_um,
+    shape: AssemblyShape,
+    obstacle_radius_um: float,
+    start_arc_um: float,
+    start_time_s: float,
+    max_speed_um_s: float,
+    margin_um: float = 0.0,
+    goal_arc_um: float | None = None,
+    arc_step_um: float = 0.25,
+    time_limit_s: float = 300.0,
+) -> Passage:
     """The earliest time the assembly, starting at ``start_arc_um`` at
     ``start_time_s`` and moving along the route (M, 2; cumulative arc (M,)) at speeds up
     to ``max_speed_um_s`` either way, reaches ``goal_arc_um`` (default: the route's
@@ -105,8 +115,13 @@ def earliest_passage(scenario: Scenario, route_um, route_arc_um, shape: Assembly
     points, heading = _route_poses(route_um, route_arc_um, arcs)
     c, s = np.cos(heading), np.sin(heading)
     offsets = np.asarray(shape.offsets_um, float)
-    spheres = points[:, None] + np.stack([c[:, None] * offsets[:, 0] - s[:, None] * offsets[:, 1],
-                                          s[:, None] * offsets[:, 0] + c[:, None] * offsets[:, 1]], axis=-1)  # (A, P, 2)
+    spheres = points[:, None] + np.stack(
+        [
+            c[:, None] * offsets[:, 0] - s[:, None] * offsets[:, 1],
+            s[:, None] * offsets[:, 0] + c[:, None] * offsets[:, 1],
+        ],
+        axis=-1,
+    )  # (A, P, 2)
     reach_limit = np.asarray(shape.radii_um, float)[None, :, None] + obstacle_radius_um + margin_um  # (1, P, 1)
     free_s = start_time_s + (goal_arc_um - start_arc_um) / max_speed_um_s
     reached = np.zeros(len(arcs), bool)

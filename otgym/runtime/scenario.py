@@ -68,8 +68,15 @@ class ScenarioConfig:
             raise ValueError(f"n_obstacles must be a non-negative integer, got {self.n_obstacles!r}")
         for name in ("cruise_speed_um_s", "obstacle_speed_um_s", "track_gain_per_s", "max_propulsion_um_s"):
             require_positive_scalar(name, getattr(self, name))
-        for name in ("grip_time_s", "timing_jitter_s", "min_crossing_separation_um", "park_clearance_um", "run_out_um",
-                     "wall_margin_um", "max_crossing_angle_deg"):
+        for name in (
+            "grip_time_s",
+            "timing_jitter_s",
+            "min_crossing_separation_um",
+            "park_clearance_um",
+            "run_out_um",
+            "wall_margin_um",
+            "max_crossing_angle_deg",
+        ):
             require_non_negative(name, getattr(self, name))
         low, high = self.crossing_arc_fraction
         if not 0 <= low < high <= 1:
@@ -110,8 +117,14 @@ def _route_distance_um(route_um: np.ndarray, point_um: np.ndarray) -> float:
     return float(np.min(np.linalg.norm(route_um - point_um, axis=1)))
 
 
-def make_scenario(seed: int, route_um: np.ndarray, route_arc_um: np.ndarray, distance_fn, obstacle_radius_um: float,
-                  config: ScenarioConfig = ScenarioConfig()) -> Scenario:
+def make_scenario(
+    seed: int,
+    route_um: np.ndarray,
+    route_arc_um: np.ndarray,
+    distance_fn,
+    obstacle_radius_um: float,
+    config: ScenarioConfig = ScenarioConfig(),
+) -> Scenario:
     """One seeded scenario along the route (M, 2) with cumulative arc (M,).
     ``distance_fn(points (n, 2)) -> (n,)`` is the wall distance in um. Raises
     ValueError if the route has no open water for the crossings."""
@@ -132,8 +145,12 @@ def make_scenario(seed: int, route_um: np.ndarray, route_arc_um: np.ndarray, dis
         tangent = (ahead - behind) / max(np.linalg.norm(ahead - behind), 1e-9)
         normal = np.array([-tangent[1], tangent[0]]) * rng.choice((-1.0, 1.0))
         angle = math.radians(rng.uniform(-config.max_crossing_angle_deg, config.max_crossing_angle_deg))
-        direction = np.array([math.cos(angle) * normal[0] - math.sin(angle) * normal[1],
-                              math.sin(angle) * normal[0] + math.cos(angle) * normal[1]])
+        direction = np.array(
+            [
+                math.cos(angle) * normal[0] - math.sin(angle) * normal[1],
+                math.sin(angle) * normal[0] + math.cos(angle) * normal[1],
+            ]
+        )
         crossing_time = config.grip_time_s + arc / config.cruise_speed_um_s + rng.normal(0.0, config.timing_jitter_s)
         crossing_time = max(crossing_time, 1.0)
         before = _free_run_um(distance_fn, point, -direction, clearance, config.obstacle_speed_um_s * crossing_time)
@@ -150,13 +167,16 @@ def make_scenario(seed: int, route_um: np.ndarray, route_arc_um: np.ndarray, dis
         departs.append(crossing_time - before / speed)
         ends.append(crossing_time + after / speed)
     if len(arcs) < config.n_obstacles:
-        raise ValueError(f"found open water for only {len(arcs)} of {config.n_obstacles} obstacle crossings "
-                         f"between {config.crossing_arc_fraction[0]:.0%} and {config.crossing_arc_fraction[1]:.0%} "
-                         "of the route")
+        raise ValueError(
+            f"found open water for only {len(arcs)} of {config.n_obstacles} obstacle crossings "
+            f"between {config.crossing_arc_fraction[0]:.0%} and {config.crossing_arc_fraction[1]:.0%} "
+            "of the route"
+        )
     order = np.argsort(arcs)
     pick = lambda values: np.asarray(values, float)[order]  # noqa: E731
-    return Scenario(seed, pick(arcs), pick(times), pick(starts), pick(directions), pick(speeds), pick(departs),
-                    pick(ends))
+    return Scenario(
+        seed, pick(arcs), pick(times), pick(starts), pick(directions), pick(speeds), pick(departs), pick(ends)
+    )
 
 
 def stack_tracks(scenarios: list[Scenario]) -> dict[str, jnp.ndarray]:

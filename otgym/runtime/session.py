@@ -46,7 +46,7 @@ import dataclasses
 import math
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -88,8 +88,9 @@ class Snapshot:
         return float(self.observation.time_s[0])
 
 
-def smoothed_velocity(previous_um_s: np.ndarray, before_um: np.ndarray, after_um: np.ndarray,
-                      tick_s: float) -> np.ndarray:
+def smoothed_velocity(
+    previous_um_s: np.ndarray, before_um: np.ndarray, after_um: np.ndarray, tick_s: float
+) -> np.ndarray:
     """The obstacles' velocity estimate after one tick: a first-order low-pass
     (``OBSTACLE_VELOCITY_SMOOTHING_S``) of their displacement over the tick."""
     raw = (after_um - before_um) / tick_s
@@ -102,10 +103,21 @@ class Session:
     trial's loop (``InteractiveLoop``'s; None: its own navigator). ``forwarded``:
     devices among the bindings' that ``feed`` and ``lose`` reach by index."""
 
-    def __init__(self, task: InteractiveTask, bindings: list[DeviceBinding], participant: str, mode: str,
-                 seed: int, duration_s: float | None = None, clock: Callable[[], float] = time.monotonic,
-                 sink=None, *, autonomy=None, hold_between_trials: bool = True,
-                 forwarded: tuple[ForwardedDevice, ...] = ()):
+    def __init__(
+        self,
+        task: InteractiveTask,
+        bindings: list[DeviceBinding],
+        participant: str,
+        mode: str,
+        seed: int,
+        duration_s: float | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        sink=None,
+        *,
+        autonomy=None,
+        hold_between_trials: bool = True,
+        forwarded: tuple[ForwardedDevice, ...] = (),
+    ):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         self.task = task
@@ -163,8 +175,7 @@ class Session:
     def _warm_up(self) -> None:
         """Two ticks of a throwaway loop on trial 1's scenario: the jitted step and the
         loop's helpers compile here, not in the first seconds of the trial."""
-        loop = InteractiveLoop(self.task, self.bindings, self.task.scenario(self._scenario_seed(1)), self.mode,
-                               seed=0)
+        loop = InteractiveLoop(self.task, self.bindings, self.task.scenario(self._scenario_seed(1)), self.mode, seed=0)
         loop.tick()
         loop.tick()
         for binding in self.bindings:
@@ -245,8 +256,11 @@ class Session:
         self.post(lambda: [device.release() for device in self._drag_devices(None)])
 
     def _drag_devices(self, robot: int | None) -> list[MouseDragDevice]:
-        return [binding.device for binding in self.bindings if isinstance(binding.device, MouseDragDevice)
-                and (robot is None or binding.device.robot == robot)]
+        return [
+            binding.device
+            for binding in self.bindings
+            if isinstance(binding.device, MouseDragDevice) and (robot is None or binding.device.robot == robot)
+        ]
 
     def take_finished(self) -> dict | None:
         """The row of a trial that ended, once; None when none is waiting."""
@@ -291,8 +305,12 @@ class Session:
         if record.autonomy_live != self._autonomy_live:
             self._autonomy_live = record.autonomy_live
             if self.sink is not None:
-                self.sink.event("autonomy_back" if record.autonomy_live else "autonomy_lost", trial=self.trial,
-                                time_s=record.time_s, mode=record.mode)
+                self.sink.event(
+                    "autonomy_back" if record.autonomy_live else "autonomy_lost",
+                    trial=self.trial,
+                    time_s=record.time_s,
+                    mode=record.mode,
+                )
         self._publish(record, before)
         if self.sink is not None:
             self.sink.tick(record, self.snapshot.sphere_xy_um, record.mode)
@@ -308,13 +326,25 @@ class Session:
         previous = self.snapshot
         velocity = np.zeros_like(obs.obstacle_xy_um[0])
         if before is not None and previous is not None and previous.trial == self.trial:
-            velocity = smoothed_velocity(previous.obstacle_velocity_um_s, before.obstacle_xy_um[0],
-                                         obs.obstacle_xy_um[0], loop.tick_s)
+            velocity = smoothed_velocity(
+                previous.obstacle_velocity_um_s, before.obstacle_xy_um[0], obs.obstacle_xy_um[0], loop.tick_s
+            )
         metrics = loop.state.metrics
         alpha = record.alpha if record is not None else float(previous.alpha if previous else 0.0)
-        self.snapshot = Snapshot(self.trial, self.mode, self.paused, obs, record, loop.sphere_xy_um(), velocity,
-                                 metrics.encountered[0].copy(), metrics.collided[0].copy(), alpha,
-                                 tuple(f"device{i}" for i in loop.lost_devices), self._autonomy_live)
+        self.snapshot = Snapshot(
+            self.trial,
+            self.mode,
+            self.paused,
+            obs,
+            record,
+            loop.sphere_xy_um(),
+            velocity,
+            metrics.encountered[0].copy(),
+            metrics.collided[0].copy(),
+            alpha,
+            tuple(f"device{i}" for i in loop.lost_devices),
+            self._autonomy_live,
+        )
 
     def _end_trial(self, ended_by: str | None = None) -> None:
         """End the trial: by the task (DONE: goal, trap lost or its time limit) when
@@ -325,16 +355,26 @@ class Session:
             ended_by = "goal" if row["reached_goal"] else "trap_lost" if row["trap_losses"] else "time_limit"
         if not math.isfinite(row["completion_time_s"]):
             row["completion_time_s"] = loop.time_s
-        row.update(participant=self.participant, mode=self._modes_used[0], trial=self.trial,
-                   scenario=self._scenario_seed(self.trial), modes_used="+".join(self._modes_used),
-                   ended_by=ended_by)
+        row.update(
+            participant=self.participant,
+            mode=self._modes_used[0],
+            trial=self.trial,
+            scenario=self._scenario_seed(self.trial),
+            modes_used="+".join(self._modes_used),
+            ended_by=ended_by,
+        )
         self._spent_s += loop.time_s
         self.over = self.duration_s is not None and self._spent_s >= self.duration_s - 0.5 * loop.tick_s
         self._waiting = True
         self._finished.append(row)
         if self.sink is not None:
-            self.sink.event("trial_end", **{key: None if isinstance(value, float) and not math.isfinite(value)
-                                            else value for key, value in row.items()})
+            self.sink.event(
+                "trial_end",
+                **{
+                    key: None if isinstance(value, float) and not math.isfinite(value) else value
+                    for key, value in row.items()
+                },
+            )
 
     def _scenario_seed(self, trial: int) -> int:
         return self.seed * 10_000 + trial
@@ -344,15 +384,27 @@ class Session:
             return
         self.trial += 1
         scenario_seed = self._scenario_seed(self.trial)
-        self.loop = InteractiveLoop(self.task, self.bindings, self.task.scenario(scenario_seed), self.mode,
-                                    seed=scenario_seed, autonomy=self.autonomy)
+        self.loop = InteractiveLoop(
+            self.task,
+            self.bindings,
+            self.task.scenario(scenario_seed),
+            self.mode,
+            seed=scenario_seed,
+            autonomy=self.autonomy,
+        )
         self._modes_used = [self.mode]
         self._waiting = False
         self._next_tick_wall_s = self.clock()
         self._publish(None, None)
         if self.sink is not None:
-            self.sink.event("trial_start", trial=self.trial, scenario=scenario_seed, mode=self.mode,
-                            participant=self.participant, sphere_radius_um=self.loop.sphere_radius_um.tolist())
+            self.sink.event(
+                "trial_start",
+                trial=self.trial,
+                scenario=scenario_seed,
+                mode=self.mode,
+                participant=self.participant,
+                sphere_radius_um=self.loop.sphere_radius_um.tolist(),
+            )
 
     def _set_mode(self, mode: str) -> None:
         self.mode = mode
@@ -375,7 +427,10 @@ class Session:
         else:
             self._next_tick_wall_s = self.clock()
         if self.sink is not None:
-            self.sink.event("paused" if paused else "resumed", trial=self.trial,
-                            time_s=self.loop.time_s if self.loop is not None else 0.0)
+            self.sink.event(
+                "paused" if paused else "resumed",
+                trial=self.trial,
+                time_s=self.loop.time_s if self.loop is not None else 0.0,
+            )
         if self.snapshot is not None:
             self.snapshot = dataclasses.replace(self.snapshot, paused=self.paused)

@@ -114,12 +114,20 @@ class TrialMetrics:
     band_time_s: np.ndarray  # (E, 3) time in ALPHA_BANDS
 
     @classmethod
-    def empty(cls, n_env: int, n_obstacles: int) -> "TrialMetrics":
+    def empty(cls, n_env: int, n_obstacles: int) -> TrialMetrics:
         zeros = lambda *shape, dtype=float: np.zeros(shape, dtype)  # noqa: E731
-        return cls(zeros(n_env, dtype=bool), zeros(n_env, dtype=bool), np.full(n_env, np.nan),
-                   np.full(n_env, np.nan), zeros(n_env, n_obstacles, dtype=bool),
-                   zeros(n_env, n_obstacles, dtype=bool), zeros(n_env, dtype=int), zeros(n_env, dtype=int),
-                   zeros(n_env), zeros(n_env, len(ALPHA_BANDS)))
+        return cls(
+            zeros(n_env, dtype=bool),
+            zeros(n_env, dtype=bool),
+            np.full(n_env, np.nan),
+            np.full(n_env, np.nan),
+            zeros(n_env, n_obstacles, dtype=bool),
+            zeros(n_env, n_obstacles, dtype=bool),
+            zeros(n_env, dtype=int),
+            zeros(n_env, dtype=int),
+            zeros(n_env),
+            zeros(n_env, len(ALPHA_BANDS)),
+        )
 
     def rows(self) -> list[dict]:
         """One dict per trial with the experiment's columns."""
@@ -127,20 +135,22 @@ class TrialMetrics:
         for e in range(len(self.done)):
             encountered = int(self.encountered[e].sum())
             avoided = int((self.encountered[e] & ~self.collided[e]).sum())
-            rows.append({
-                "completion_time_s": float(self.completion_time_s[e]),
-                "obstacles_encountered": encountered,
-                "obstacles_avoided": avoided,
-                "collisions": int(self.collided[e].sum()),
-                "success": avoided / encountered if encountered else float("nan"),
-                "reached_goal": bool(self.reached_goal[e]),
-                "trap_losses": int(self.trap_losses[e]),
-                "detached": bool(self.detachments[e] > 0),
-                "detachments": int(self.detachments[e]),
-                "peak_contact_force_pn": float(self.peak_contact_force_pn[e]),
-                "grip_time_s": float(self.grip_time_s[e]),
-                **{f"time_{name}_s": float(self.band_time_s[e, i]) for i, (name, _, _) in enumerate(ALPHA_BANDS)},
-            })
+            rows.append(
+                {
+                    "completion_time_s": float(self.completion_time_s[e]),
+                    "obstacles_encountered": encountered,
+                    "obstacles_avoided": avoided,
+                    "collisions": int(self.collided[e].sum()),
+                    "success": avoided / encountered if encountered else float("nan"),
+                    "reached_goal": bool(self.reached_goal[e]),
+                    "trap_losses": int(self.trap_losses[e]),
+                    "detached": bool(self.detachments[e] > 0),
+                    "detachments": int(self.detachments[e]),
+                    "peak_contact_force_pn": float(self.peak_contact_force_pn[e]),
+                    "grip_time_s": float(self.grip_time_s[e]),
+                    **{f"time_{name}_s": float(self.band_time_s[e, i]) for i, (name, _, _) in enumerate(ALPHA_BANDS)},
+                }
+            )
         return rows
 
 
@@ -173,8 +183,14 @@ class InteractiveTask:
         self.scene = sc.build_scene(config.scene)
         chip = config.scene.chip if isinstance(config.scene.chip, Chip) else load_chip(config.scene.chip)
         self.chip = chip
-        plan = plan_path(chip.image, chip.pixel_size_um, config.start_um, config.goal_um,
-                         robot_radius_um=self.scene.assembly_radius_um, threshold=0.5)
+        plan = plan_path(
+            chip.image,
+            chip.pixel_size_um,
+            config.start_um,
+            config.goal_um,
+            robot_radius_um=self.scene.assembly_radius_um,
+            threshold=0.5,
+        )
         self.route = fm.dense_path(plan.smoothed_um)
         self.route_um = np.asarray(self.route.points_um, float)
         self.route_arc_um = np.asarray(self.route.arc_um, float)
@@ -199,8 +215,14 @@ class InteractiveTask:
         return self.scene.model.n_traps
 
     def scenario(self, seed: int) -> Scenario:
-        return make_scenario(seed, self.route_um, self.route_arc_um, self.wall_distance_um,
-                             self.config.scene.obstacle_radius_um, self.config.scenario)
+        return make_scenario(
+            seed,
+            self.route_um,
+            self.route_arc_um,
+            self.wall_distance_um,
+            self.config.scene.obstacle_radius_um,
+            self.config.scenario,
+        )
 
     def wall_distance_um(self, points_um) -> np.ndarray:
         """Wall distance (n,) at points (n, 2) (what the microscope shows of the chip), padded to a power of two so that one
@@ -208,8 +230,8 @@ class InteractiveTask:
         points = np.asarray(points_um, np.float32)
         size = 1 << max(int(np.ceil(np.log2(max(len(points), 1)))), 4)
         padded = np.zeros((size, 2), np.float32)
-        padded[:len(points)] = points
-        return np.asarray(self._distance_jit(self.scene.model.walls, jnp.asarray(padded)))[:len(points)]
+        padded[: len(points)] = points
+        return np.asarray(self._distance_jit(self.scene.model.walls, jnp.asarray(padded)))[: len(points)]
 
     def reset(self, scenarios: list[Scenario], key) -> TaskState:
         """E environments, one per scenario: the cell at the route's start, the robots
@@ -229,9 +251,16 @@ class InteractiveTask:
         pose[:, obstacles, :2] = np.stack([s.start_um for s in scenarios])
         dtype = state.physics.pose.dtype
         physics = state.physics.replace(pose=jnp.asarray(pose, dtype), trap_xy_um=jnp.asarray(traps, dtype))
-        scene_state = state.replace(physics=physics, obstacle_propulsion_um_s=jnp.zeros_like(state.obstacle_propulsion_um_s))
-        task_state = TaskState(scene_state, stack_tracks(scenarios), np.full(n_env, APPROACH), np.zeros(n_env, int),
-                               TrialMetrics.empty(n_env, len(obstacles)))
+        scene_state = state.replace(
+            physics=physics, obstacle_propulsion_um_s=jnp.zeros_like(state.obstacle_propulsion_um_s)
+        )
+        task_state = TaskState(
+            scene_state,
+            stack_tracks(scenarios),
+            np.full(n_env, APPROACH),
+            np.zeros(n_env, int),
+            TrialMetrics.empty(n_env, len(obstacles)),
+        )
         task_state.observation = self._observe(task_state, *self._measure(scene_state))
         return task_state
 
@@ -272,15 +301,20 @@ class InteractiveTask:
         cell = measured["cell_xy_um"].astype(float)
         state.route_index = self.route_index(cell, state.route_index)
         return Observation(
-            time_s=np.asarray(scene_state.time_s, float), phase=state.phase.copy(), cell_xy_um=cell,
-            cell_arc_um=self.route_arc_um[state.route_index], trap_xy_um=measured["trap_xy_um"].astype(float),
-            handle_xy_um=measured["handle_xy_um"].astype(float), robot_xy_um=measured["robot_xy_um"].astype(float),
+            time_s=np.asarray(scene_state.time_s, float),
+            phase=state.phase.copy(),
+            cell_xy_um=cell,
+            cell_arc_um=self.route_arc_um[state.route_index],
+            trap_xy_um=measured["trap_xy_um"].astype(float),
+            handle_xy_um=measured["handle_xy_um"].astype(float),
+            robot_xy_um=measured["robot_xy_um"].astype(float),
             obstacle_xy_um=measured["obstacle_xy_um"].astype(float),
             obstacle_gap_um=measured["obstacle_gap_um"].astype(float),
             contact_force_pn=measured["contact_force_pn"].astype(float),
             cell_gap_um=measured["cell_gap_um"].astype(float),
             trap_distance_um=measured["trap_distance_um"].astype(float),
-            obstacle_touched=measured["obstacle_touched"].astype(bool))
+            obstacle_touched=measured["obstacle_touched"].astype(bool),
+        )
 
     def route_index(self, cell_xy, previous):
         """Nearest route point (E,) to each cell (E, 2), searched in a window ahead of the last one (E,)."""
@@ -305,15 +339,18 @@ class InteractiveTask:
         near = obs.obstacle_gap_um < config.encounter_gap_um
         metrics.encountered |= active[:, None] & near
         metrics.collided |= active[:, None] & ((obs.obstacle_gap_um <= 0.0) | obs.obstacle_touched)
-        metrics.peak_contact_force_pn = np.where(active, np.maximum(metrics.peak_contact_force_pn,
-                                                                     obs.contact_force_pn.max(axis=1)),
-                                                 metrics.peak_contact_force_pn)
+        metrics.peak_contact_force_pn = np.where(
+            active,
+            np.maximum(metrics.peak_contact_force_pn, obs.contact_force_pn.max(axis=1)),
+            metrics.peak_contact_force_pn,
+        )
         if alpha is not None:
             alpha = np.broadcast_to(np.asarray(alpha, float), active.shape)
             for i, (_, low, high) in enumerate(ALPHA_BANDS):
                 metrics.band_time_s[:, i] += tick * (active & (alpha >= low) & (alpha < high))
-        at_goal = (state.phase == CARRY) & (np.linalg.norm(obs.cell_xy_um - self.route_um[-1], axis=1)
-                                            <= config.goal_tolerance_um)
+        at_goal = (state.phase == CARRY) & (
+            np.linalg.norm(obs.cell_xy_um - self.route_um[-1], axis=1) <= config.goal_tolerance_um
+        )
         metrics.trap_losses += active & lost
         timeout = obs.time_s >= config.time_limit_s - 0.5 * tick  # time_s is float32
         finished = active & (at_goal | lost | timeout)
@@ -341,14 +378,24 @@ def _measure(scene: sc.Scene, scene_state: sc.SceneState, config: InteractiveCon
     gap = jnp.min(between - radius[payload][:, None] - radius[obstacle_spheres][None], axis=1)
     grippers = xy[:, np.asarray(scene.gripper_spheres)]  # (E, R, 2, 2)
     cell = pose[:, scene.payload, :2]
-    surface = jnp.linalg.norm(grippers - cell[:, None, None], axis=-1) - config.scene.cell_radius_um \
+    surface = (
+        jnp.linalg.norm(grippers - cell[:, None, None], axis=-1)
+        - config.scene.cell_radius_um
         - radius[scene.gripper_spheres[0][0]]
-    return {"sphere_xy_um": xy, "cell_xy_um": cell, "trap_xy_um": traps, "handle_xy_um": handles,
-            "robot_xy_um": pose[:, np.asarray(scene.robots), :2], "obstacle_xy_um": pose[:, obstacles, :2],
-            "obstacle_gap_um": gap, "cell_gap_um": jnp.min(surface, axis=-1),
-            "trap_distance_um": jnp.linalg.norm(handles - traps, axis=-1),
-            "contact_force_pn": jnp.zeros((pose.shape[0], len(scene.robots)), pose.dtype),  # set by _advance
-            "obstacle_touched": jnp.zeros((pose.shape[0], len(obstacles)), bool)}  # set by _advance
+    )
+    return {
+        "sphere_xy_um": xy,
+        "cell_xy_um": cell,
+        "trap_xy_um": traps,
+        "handle_xy_um": handles,
+        "robot_xy_um": pose[:, np.asarray(scene.robots), :2],
+        "obstacle_xy_um": pose[:, obstacles, :2],
+        "obstacle_gap_um": gap,
+        "cell_gap_um": jnp.min(surface, axis=-1),
+        "trap_distance_um": jnp.linalg.norm(handles - traps, axis=-1),
+        "contact_force_pn": jnp.zeros((pose.shape[0], len(scene.robots)), pose.dtype),  # set by _advance
+        "obstacle_touched": jnp.zeros((pose.shape[0], len(obstacles)), bool),
+    }  # set by _advance
 
 
 def _advance(scene: sc.Scene, scene_state: sc.SceneState, increment_um, key, tracks, config: InteractiveConfig):

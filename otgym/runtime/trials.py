@@ -20,7 +20,7 @@ tested), and the interactive loop (``otgym.runtime.loop``) feeds the real sensor
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable
+from collections.abc import Callable
 
 import jax
 import numpy as np
@@ -29,11 +29,11 @@ from otgym.planning.human import HumanParams
 from otgym.runtime.mpc import MPCConfig, MPCCosts
 from otgym.runtime.mpc_navigator import MPCNavigator, observation_rows
 from otgym.runtime.navigator import RouteNavigator, cap_speed
+from otgym.runtime.participants import ParticipantTask, SimulatedParticipants
 from otgym.runtime.task import InteractiveTask
 from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
 from otgym.teleop.feedback import FeedbackConfig, stable_newtons_per_pn
 from otgym.teleop.retarget import RetargetConfig
-from otgym.runtime.participants import ParticipantTask, SimulatedParticipants
 
 TASK_RETARGET = RetargetConfig(dead_band_mm_s=0.3, max_trap_speed_um_s=20.0)
 """Stylus-to-trap mapping of the task: 2 um/mm; a 0.3 mm/s dead band (0.6 um/s at the
@@ -50,8 +50,20 @@ navigator's dP_r (``otgym.runtime.mpc``) instead of the route navigator's."""
 AUTONOMIES = ("route", "mpc")
 
 
-TRIAL_COLUMNS = ["participant", "mode", "trial", "scenario", "completion_time_s", "obstacles_encountered",
-                 "obstacles_avoided", "success", "reached_goal", "trap_losses", "detached", "peak_contact_force_pn"]
+TRIAL_COLUMNS = [
+    "participant",
+    "mode",
+    "trial",
+    "scenario",
+    "completion_time_s",
+    "obstacles_encountered",
+    "obstacles_avoided",
+    "success",
+    "reached_goal",
+    "trap_losses",
+    "detached",
+    "peak_contact_force_pn",
+]
 """The columns of trials.csv, first in this order, for simulated participants
 (``otgym experiment shared-control``) and people (``otgym play``) alike."""
 
@@ -73,8 +85,9 @@ def task_feedback(trap_law, retarget: RetargetConfig, handles_per_robot: int) ->
     the contact cue, the largest at which the hand-trap loop is stable
     (``stable_newtons_per_pn``; the 0.6 N full scale of ``newtons_per_pn_for`` made the
     simulated hands oscillate against the 50 pN/um literature traps)."""
-    scale = stable_newtons_per_pn(trap_law.centre_stiffness_pn_per_um, handles_per_robot,
-                                  retarget.motion_scale_um_per_mm)
+    scale = stable_newtons_per_pn(
+        trap_law.centre_stiffness_pn_per_um, handles_per_robot, retarget.motion_scale_um_per_mm
+    )
     contact_limit_pn = FeedbackConfig().contact_limit_pn
     return FeedbackConfig(newtons_per_pn=scale, contact_gain_n=scale * contact_limit_pn)
 
@@ -102,12 +115,22 @@ def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig)
     return alpha
 
 
-def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict[int, HumanParams], seed: int,
-               arbitration: ArbitrationConfig = ArbitrationConfig(), retarget: RetargetConfig = TASK_RETARGET,
-               participant_task: ParticipantTask = ParticipantTask(), cruise_speed_um_s: float = CRUISE_SPEED_UM_S,
-               progress: Callable[[float], None] | None = None, shared_autonomy: str = "route",
-               mpc_config: MPCConfig = MPCConfig(), mpc_costs: MPCCosts = MPCCosts(),
-               mpc_stats: dict | None = None, mpc_navigator: Callable | None = None) -> list[dict]:
+def run_trials(
+    task: InteractiveTask,
+    specs: list[TrialSpec],
+    participants: dict[int, HumanParams],
+    seed: int,
+    arbitration: ArbitrationConfig = ArbitrationConfig(),
+    retarget: RetargetConfig = TASK_RETARGET,
+    participant_task: ParticipantTask = ParticipantTask(),
+    cruise_speed_um_s: float = CRUISE_SPEED_UM_S,
+    progress: Callable[[float], None] | None = None,
+    shared_autonomy: str = "route",
+    mpc_config: MPCConfig = MPCConfig(),
+    mpc_costs: MPCCosts = MPCCosts(),
+    mpc_stats: dict | None = None,
+    mpc_navigator: Callable | None = None,
+) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The
     model-predictive navigator gives dP_r to ``mpc`` trials and, with
@@ -127,16 +150,31 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
     key = jax.random.PRNGKey(seed)
     key, reset_key = jax.random.split(key)
     state = task.reset(scenarios, reset_key)
-    navigator = RouteNavigator(task.route_um, task.route_arc_um, task.offsets_um, tick, cruise_speed_um_s,
-                               max_speed_um_s=retarget.max_trap_speed_um_s)
+    navigator = RouteNavigator(
+        task.route_um,
+        task.route_arc_um,
+        task.offsets_um,
+        tick,
+        cruise_speed_um_s,
+        max_speed_um_s=retarget.max_trap_speed_um_s,
+    )
     navigator.reset(len(specs))
     mpc = (mpc_navigator or MPCNavigator)(task, mpc_config, mpc_costs, seed=seed) if len(mpc_rows) else None
     if mpc is not None:
         mpc.reset(len(mpc_rows))
     law = task.config.scene.trap_law
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
-    people = SimulatedParticipants([participants[s.participant] for s in specs], tick, seed, navigator, retarget,
-                                   feedback, law.escape_distance, participant_task, task.wall_distance_um)
+    people = SimulatedParticipants(
+        [participants[s.participant] for s in specs],
+        tick,
+        seed,
+        navigator,
+        retarget,
+        feedback,
+        law.escape_distance,
+        participant_task,
+        task.wall_distance_um,
+    )
     max_step = retarget.max_trap_speed_um_s * tick
     obs = state.observation
     total_ticks = int(np.ceil(task.config.time_limit_s / tick))
@@ -158,10 +196,18 @@ def run_trials(task: InteractiveTask, specs: list[TrialSpec], participants: dict
     if progress is not None:
         progress(1.0)
     if mpc is not None and mpc_stats is not None:
-        mpc_stats.update(replans=len(mpc.replan_seconds), replan_seconds=list(mpc.replan_seconds),
-                         environments_planned=list(mpc.replan_sizes))
+        mpc_stats.update(
+            replans=len(mpc.replan_seconds),
+            replan_seconds=list(mpc.replan_seconds),
+            environments_planned=list(mpc.replan_sizes),
+        )
     rows = state.metrics.rows()
     for spec, row, planned in zip(specs, rows, uses_mpc):
-        row.update(participant=spec.participant, mode=spec.mode, trial=spec.trial, scenario=spec.scenario,
-                   autonomy="mpc" if planned else "route")
+        row.update(
+            participant=spec.participant,
+            mode=spec.mode,
+            trial=spec.trial,
+            scenario=spec.scenario,
+            autonomy="mpc" if planned else "route",
+        )
     return rows

@@ -52,7 +52,8 @@ import struct
 import threading
 import time
 import traceback
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 
@@ -99,7 +100,7 @@ class LatestBytes:
             before = header[0]
             if before % 2:
                 continue
-            payload = bytes(view[:header[1]])
+            payload = bytes(view[: header[1]])
             if header[0] == before:
                 return (before // 2, payload) if before else None
         return None
@@ -199,8 +200,14 @@ def pin_to_one_core() -> None:
         os.sched_setaffinity(0, {cores[-1]})
 
 
-def _worker_main(spec: WorkerSpec, commands, events, snapshot_block: LatestBytes | None,
-                 device_blocks: list[LatestBytes], parent_pid: int) -> None:
+def _worker_main(
+    spec: WorkerSpec,
+    commands,
+    events,
+    snapshot_block: LatestBytes | None,
+    device_blocks: list[LatestBytes],
+    parent_pid: int,
+) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     pin_to_one_core()
@@ -220,12 +227,23 @@ def _worker_main(spec: WorkerSpec, commands, events, snapshot_block: LatestBytes
 
     parts = session = None
     try:
-        forwarded = [ForwardedDevice(caps, on_force=force_sender(i) if spec.forwarded_haptics else None)
-                     for i, caps in enumerate(spec.forwarded_caps)]
+        forwarded = [
+            ForwardedDevice(caps, on_force=force_sender(i) if spec.forwarded_haptics else None)
+            for i, caps in enumerate(spec.forwarded_caps)
+        ]
         parts = spec.setup(forwarded, lambda payload: send(("publish", payload)))
-        session = Session(parts.task, parts.bindings, spec.participant, spec.mode, spec.seed, spec.duration_s,
-                          sink=parts.sink, autonomy=parts.autonomy, hold_between_trials=spec.hold_between_trials,
-                          forwarded=tuple(forwarded))
+        session = Session(
+            parts.task,
+            parts.bindings,
+            spec.participant,
+            spec.mode,
+            spec.seed,
+            spec.duration_s,
+            sink=parts.sink,
+            autonomy=parts.autonomy,
+            hold_between_trials=spec.hold_between_trials,
+            forwarded=tuple(forwarded),
+        )
         session.start()
     except DeviceError as error:
         if parts is not None and parts.on_failure is not None:
@@ -298,8 +316,14 @@ class SessionProcess:
     the worker's ``publish`` and ``force`` events (from ``poll``, or from the thread
     of ``serve_events``)."""
 
-    def __init__(self, spec: WorkerSpec, *, on_publish: Callable[[Any], None] | None = None,
-                 on_force: Callable[[int, Any], None] | None = None, start_timeout_s: float = 900.0):
+    def __init__(
+        self,
+        spec: WorkerSpec,
+        *,
+        on_publish: Callable[[Any], None] | None = None,
+        on_force: Callable[[int, Any], None] | None = None,
+        start_timeout_s: float = 900.0,
+    ):
         self.spec = spec
         self.participant = spec.participant
         self.on_publish, self.on_force = on_publish, on_force
@@ -328,8 +352,10 @@ class SessionProcess:
         command_reader, self._commands = self._context.Pipe(duplex=False)
         self._events, event_writer = self._context.Pipe(duplex=False)
         self.process = self._context.Process(
-            target=_worker_main, name="otgym-session",
-            args=(self.spec, command_reader, event_writer, self._snapshots, self._device_blocks, os.getpid()))
+            target=_worker_main,
+            name="otgym-session",
+            args=(self.spec, command_reader, event_writer, self._snapshots, self._device_blocks, os.getpid()),
+        )
         limits = thread_limits(self.spec.threads)
         saved = {name: os.environ.get(name) for name in limits}
         os.environ.update(limits)  # the spawned interpreter inherits the environment at its start
@@ -348,8 +374,9 @@ class SessionProcess:
             if not self._events.poll(0.1):
                 if not self.process.is_alive() or time.monotonic() > deadline:
                     self._kill()
-                    raise WorkerError(f"the simulation process ended before it was ready (exit code "
-                                      f"{self.process.exitcode})")
+                    raise WorkerError(
+                        f"the simulation process ended before it was ready (exit code {self.process.exitcode})"
+                    )
                 continue
             message = self._events.recv()
             if message[0] == "ready":

@@ -12,5 +12,13 @@ from otgym.shared.arbitration import (
     step_alpha,
 )
 
-__all__ = ["ALPHA_LAWS", "MODES", "ArbitrationConfig", "alpha_for_mode", "blend", "paper_alpha", "smooth_alpha",
-           "step_alpha"]
+__all__ = [
+    "ALPHA_LAWS",
+    "MODES",
+    "ArbitrationConfig",
+    "alpha_for_mode",
+    "blend",
+    "paper_alpha",
+    "smooth_alpha",
+    "step_alpha",
+]

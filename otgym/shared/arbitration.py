@@ -103,5 +103,4 @@ def alpha_for_mode(mode: str, distance_um, config: ArbitrationConfig = Arbitrati
 def blend(human_increment_um, robot_increment_um, alpha, tau: float = 1.0):
     """dP_s = tau (alpha dP_h + (1 - alpha) dP_r); alpha broadcasts over the last axis
     of the increments (shape (..., ) against (..., T, 2) needs alpha[..., None, None])."""
-    return tau * (alpha * np.asarray(human_increment_um, float)
-                  + (1.0 - alpha) * np.asarray(robot_increment_um, float))
+    return tau * (alpha * np.asarray(human_increment_um, float) + (1.0 - alpha) * np.asarray(robot_increment_um, float))

@@ -64,8 +64,12 @@ def chip_fields(chip: Chip) -> ChipFields:
     path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".npz", delete=False) as handle:
         np.savez_compressed(
-            handle, distance_um=fields.distance_um, normal=fields.normal, u_faces=fields.flow.u_faces,
-            v_faces=fields.flow.v_faces, median_width_um=fields.median_width_um,
+            handle,
+            distance_um=fields.distance_um,
+            normal=fields.normal,
+            u_faces=fields.flow.u_faces,
+            v_faces=fields.flow.v_faces,
+            median_width_um=fields.median_width_um,
         )
     os.replace(handle.name, path)
     return fields

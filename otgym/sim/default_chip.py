@@ -67,8 +67,7 @@ def default_chip(pixel_size_um: float = PIXEL_SIZE_UM) -> Chip:
     image = np.clip(0.5 + default_chip_distance_um(points) / pixel_size_um, 0.0, 1.0)
     names = ("inlet_top", "inlet_bottom", "outlet_top", "outlet_bottom")
     ports = tuple(
-        Port(name, name.split("_")[0], port_end, INLET_FLOW_UM3_S)
-        for name, (port_end, _) in zip(names, BRANCHES_UM)
+        Port(name, name.split("_")[0], port_end, INLET_FLOW_UM3_S) for name, (port_end, _) in zip(names, BRANCHES_UM)
     )
     return Chip("default", image, pixel_size_um, CHANNEL_HEIGHT_UM, ports)
 

@@ -19,7 +19,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from otgym.sim.cache import ChipFields, chip_fields as cached_chip_fields
+from otgym.sim.cache import ChipFields
+from otgym.sim.cache import chip_fields as cached_chip_fields
 from otgym.sim.chip import Chip
 
 
@@ -50,7 +51,7 @@ class GridFlow:
     pixel_size_um: float = struct.field(pytree_node=False)
 
     @classmethod
-    def from_arrays(cls, velocity, vorticity, pixel_size_um: float) -> "GridFlow":
+    def from_arrays(cls, velocity, vorticity, pixel_size_um: float) -> GridFlow:
         return cls(jnp.concatenate([velocity, vorticity[..., None]], axis=-1), pixel_size_um)
 
     @property
@@ -61,7 +62,7 @@ class GridFlow:
     def vorticity(self):
         return self.packed[..., 2]
 
-    def scaled(self, factor: float) -> "GridFlow":
+    def scaled(self, factor: float) -> GridFlow:
         """The same flow with every rate multiplied by ``factor`` (creeping flow is linear)."""
         return self.replace(packed=self.packed * factor)
 
@@ -88,7 +89,7 @@ class GridWalls:
     pixel_size_um: float = struct.field(pytree_node=False)
 
     @classmethod
-    def from_arrays(cls, distance, normal, pixel_size_um: float) -> "GridWalls":
+    def from_arrays(cls, distance, normal, pixel_size_um: float) -> GridWalls:
         return cls(jnp.concatenate([distance[..., None], normal], axis=-1), pixel_size_um)
 
     @property
@@ -124,8 +125,9 @@ def fields_from(fields: ChipFields, fluid: np.ndarray, dtype=jnp.float32) -> tup
         jnp.asarray(factor * fields.flow.node_vorticity_per_s(fluid), dtype),
         fields.flow.pixel_size_um,
     )
-    walls = GridWalls.from_arrays(jnp.asarray(fields.distance_um, dtype), jnp.asarray(fields.normal, dtype),
-                                  fields.flow.pixel_size_um)
+    walls = GridWalls.from_arrays(
+        jnp.asarray(fields.distance_um, dtype), jnp.asarray(fields.normal, dtype), fields.flow.pixel_size_um
+    )
     return flow, walls
 
 

@@ -41,8 +41,22 @@ LOCATE_ROUNDS = 2
 
 
 @numba.njit(cache=True)
-def locate_handles(images, frame_of, traps_px, box, lattice, lattice_penalty, ring, ray_s, ray_dx, ray_dy,
-                   directions, blocked_margin, ray_step_px, radius_px):
+def locate_handles(
+    images,
+    frame_of,
+    traps_px,
+    box,
+    lattice,
+    lattice_penalty,
+    ring,
+    ray_s,
+    ray_dx,
+    ray_dy,
+    directions,
+    blocked_margin,
+    ray_step_px,
+    radius_px,
+):
     """Handle centres (M, 2) (column, row) and whether each was found (M,), for the
     handle of trap m (``traps_px[m]``, column and row) in frame ``frame_of[m]`` of
     ``images`` (B, h, w) float32. ``box``: side of the detection's box filter;
@@ -64,22 +78,39 @@ def locate_handles(images, frame_of, traps_px, box, lattice, lattice_penalty, ri
     usable = np.empty(n_rays, np.bool_)
     for m in range(count):
         image = images[frame_of[m]]
-        start_x, start_y, dark = _detect(smoothed[frame_of[m]], traps_px[m, 0], traps_px[m, 1], lattice,
-                                         lattice_penalty)
+        start_x, start_y, dark = _detect(
+            smoothed[frame_of[m]], traps_px[m, 0], traps_px[m, 1], lattice, lattice_penalty
+        )
         bright = _ring_median(image, start_x, start_y, ring)
         contrast_ok = bright - dark > np.float32(MIN_CONTRAST) * bright
         threshold = np.float32(0.5) * (dark + bright)
         centre_x, centre_y = start_x, start_y
         ok = False
         for _ in range(LOCATE_ROUNDS):
-            _edges(image, centre_x, centre_y, threshold, ray_s, ray_dx, ray_dy, directions, ray_step_px,
-                   profile, points, found)
+            _edges(
+                image,
+                centre_x,
+                centre_y,
+                threshold,
+                ray_s,
+                ray_dx,
+                ray_dy,
+                directions,
+                ray_step_px,
+                profile,
+                points,
+                found,
+            )
             _unblocked(found, blocked_margin, usable)
             fitted_x, fitted_y, radius, fit_ok = _robust_circle(points, usable)
             shift_x = fitted_x - start_x
             shift_y = fitted_y - start_y
-            ok = (contrast_ok and fit_ok and abs(radius - radius_px) < RADIUS_TOLERANCE * radius_px
-                  and np.sqrt(shift_x**2 + shift_y**2) < MAX_START_SHIFT * radius_px)
+            ok = (
+                contrast_ok
+                and fit_ok
+                and abs(radius - radius_px) < RADIUS_TOLERANCE * radius_px
+                and np.sqrt(shift_x**2 + shift_y**2) < MAX_START_SHIFT * radius_px
+            )
             if ok:
                 centre_x, centre_y = fitted_x, fitted_y
         centres[m, 0] = centre_x
@@ -179,8 +210,9 @@ def _ring_median(image, x, y, ring):
 
 
 @numba.njit(cache=True)
-def _edges(image, centre_x, centre_y, threshold, ray_s, ray_dx, ray_dy, directions, ray_step_px, profile, points,
-           found):
+def _edges(
+    image, centre_x, centre_y, threshold, ray_s, ray_dx, ray_dy, directions, ray_step_px, profile, points, found
+):
     """Step 2: along each ray from the centre, where the profile first rises through
     the threshold, by linear interpolation between the two samples around it. Fills
     ``points`` (R, 2) and ``found`` (R,); a ray that finds no rise gets the point of

@@ -94,13 +94,26 @@ def microscope_images(
     chip_pixel_um = np.float32(1.0 if chip is None else chip.pixel_size_um)
     p = params
     noise = rng.standard_normal((origin.shape[0], height, width), dtype=np.float32)
-    return _render(_read_only(centres), _read_only(radii), _read_only(origin),
-                   np.float32(p.pixel_size_um), chip_image, chip_pixel_um, chip is not None,
-                   np.float32(p.background), np.float32(p.wall_level), np.float32(p.background - p.wall_level),
-                   np.float32(1.0 - p.body_transmission), np.float32(p.halo_strength), np.float32(p.halo_width_um),
-                   _gaussian_weights(p.defocus_sigma_um / p.pixel_size_um),
-                   np.float32(p.photons_at_background / p.background), np.float32((p.read_noise * p.background) ** 2),
-                   np.float32(2**p.bit_depth - 1), noise)
+    return _render(
+        _read_only(centres),
+        _read_only(radii),
+        _read_only(origin),
+        np.float32(p.pixel_size_um),
+        chip_image,
+        chip_pixel_um,
+        chip is not None,
+        np.float32(p.background),
+        np.float32(p.wall_level),
+        np.float32(p.background - p.wall_level),
+        np.float32(1.0 - p.body_transmission),
+        np.float32(p.halo_strength),
+        np.float32(p.halo_width_um),
+        _gaussian_weights(p.defocus_sigma_um / p.pixel_size_um),
+        np.float32(p.photons_at_background / p.background),
+        np.float32((p.read_noise * p.background) ** 2),
+        np.float32(2**p.bit_depth - 1),
+        noise,
+    )
 
 
 def microscope_image(sphere_xy_um, sphere_radius_um, origin_um, shape, params=MicroscopeParams(), rng=0, chip=None):
@@ -142,9 +155,26 @@ def _gaussian_weights(sigma_px: float) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _render(centres, radii, origin, pixel_um, chip_image, chip_pixel_um, has_chip, background, wall_level,
-            wall_to_background, absorbed, halo_strength, halo_width_um, blur, photons_scale, read_variance, levels,
-            noise):
+def _render(
+    centres,
+    radii,
+    origin,
+    pixel_um,
+    chip_image,
+    chip_pixel_um,
+    has_chip,
+    background,
+    wall_level,
+    wall_to_background,
+    absorbed,
+    halo_strength,
+    halo_width_um,
+    blur,
+    photons_scale,
+    read_variance,
+    levels,
+    noise,
+):
     """Steps 1-5 of the image model for every frame (B, h, w) float32: per pixel the
     distance to the nearest body surface, its coverage and halo, the illumination
     (the chip's gray level, or the background without one), the defocus blur and the
@@ -189,8 +219,15 @@ def _render(centres, radii, origin, pixel_um, chip_image, chip_pixel_um, has_chi
                     distance[j] = min(distance[j], np.sqrt(dx * dx + dy2) - r)
             if has_chip:
                 if chip_y[3][i]:
-                    _chip_row(chip_image[chip_y[0][i]], chip_image[chip_y[1][i]], chip_y[2][i], chip_x, wall_level,
-                              wall_to_background, light)
+                    _chip_row(
+                        chip_image[chip_y[0][i]],
+                        chip_image[chip_y[1][i]],
+                        chip_y[2][i],
+                        chip_x,
+                        wall_level,
+                        wall_to_background,
+                        light,
+                    )
                 else:
                     for j in range(width):
                         light[j] = wall_level
@@ -267,8 +304,12 @@ def _chip_row(top, bottom, tr, columns, wall_level, wall_to_background, light):
             c0 = start[j]
             c1 = end[j]
             tc = fraction[j]
-            gray = np.float32(top[c0] * (1.0 - tr) * (1.0 - tc) + top[c1] * (1.0 - tr) * tc
-                              + bottom[c0] * tr * (1.0 - tc) + bottom[c1] * tr * tc)
+            gray = np.float32(
+                top[c0] * (1.0 - tr) * (1.0 - tc)
+                + top[c1] * (1.0 - tr) * tc
+                + bottom[c0] * tr * (1.0 - tc)
+                + bottom[c1] * tr * tc
+            )
         light[j] = wall_level + wall_to_background * gray
 
 

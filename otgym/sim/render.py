@@ -40,8 +40,13 @@ class SceneRenderer:
     (``FlowSolution.node_velocity_um_s``) to draw arrows. ``chip`` None (its region
     then required): a plain channel-coloured field, for a scene whose chip is unknown."""
 
-    def __init__(self, chip: Chip | None, size_px: tuple[int, int] = (512, 512), flow_velocity_um_s=None,
-                 region_um: tuple[float, float, float, float] | None = None):
+    def __init__(
+        self,
+        chip: Chip | None,
+        size_px: tuple[int, int] = (512, 512),
+        flow_velocity_um_s=None,
+        region_um: tuple[float, float, float, float] | None = None,
+    ):
         width, height = size_px
         if width < 16 or height < 16:
             raise ValueError(f"size_px must be at least 16 x 16, got {size_px}")
@@ -51,8 +56,12 @@ class SceneRenderer:
         if not (x1 > x0 and y1 > y0):
             raise ValueError(f"region_um must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {region_um}")
         self.scale = min(width / (x1 - x0), height / (y1 - y0))
-        self.offset = np.array([(width - (x1 - x0) * self.scale) / 2 - x0 * self.scale,
-                                (height - (y1 - y0) * self.scale) / 2 - y0 * self.scale])
+        self.offset = np.array(
+            [
+                (width - (x1 - x0) * self.scale) / 2 - x0 * self.scale,
+                (height - (y1 - y0) * self.scale) / 2 - y0 * self.scale,
+            ]
+        )
         self.background = self._background(chip, (height, width))
         if flow_velocity_um_s is not None:
             _draw_arrows(self.background, self, np.asarray(flow_velocity_um_s), chip.pixel_size_um)
@@ -64,7 +73,7 @@ class SceneRenderer:
     def _background(self, chip: Chip | None, shape) -> np.ndarray:
         if chip is None:
             return np.broadcast_to(CHANNEL_RGB, (*shape, 3)).copy()
-        rows, cols = np.mgrid[0:shape[0], 0:shape[1]]
+        rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
         x_um = (cols + 0.5 - self.offset[0]) / self.scale
         y_um = (rows + 0.5 - self.offset[1]) / self.scale
         index = [y_um / chip.pixel_size_um - 0.5, x_um / chip.pixel_size_um - 0.5]
@@ -141,7 +150,9 @@ def _draw_arrows(background, renderer: SceneRenderer, node_velocity, pixel_size_
     peak = speed.max()
     if peak <= 0:
         return
-    rows, cols = np.mgrid[ARROW_SPACING_PX // 2:height:ARROW_SPACING_PX, ARROW_SPACING_PX // 2:width:ARROW_SPACING_PX]
+    rows, cols = np.mgrid[
+        ARROW_SPACING_PX // 2 : height : ARROW_SPACING_PX, ARROW_SPACING_PX // 2 : width : ARROW_SPACING_PX
+    ]
     base_px = np.stack([cols.ravel(), rows.ravel()], axis=-1).astype(float)
     base_um = (base_px - renderer.offset) / renderer.scale
     index = [base_um[:, 1] / pixel_size_um, base_um[:, 0] / pixel_size_um]

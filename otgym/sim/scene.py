@@ -144,14 +144,19 @@ class SceneEvents:
 
 def _bodies(config: SceneConfig):
     if config.kind == "transport":
-        bodies = [ph.two_handle_robot("robot_a"), ph.two_handle_robot("robot_b"),
-                  ph.cell("cell", radius_um=config.cell_radius_um)]
+        bodies = [
+            ph.two_handle_robot("robot_a"),
+            ph.two_handle_robot("robot_b"),
+            ph.cell("cell", radius_um=config.cell_radius_um),
+        ]
     elif config.kind == "navigation":
         bodies = [ph.two_handle_robot("robot")]
     else:
         bodies = [ph.bead("bead", radius_um=config.bead_radius_um)]
-    bodies += [ph.obstacle(f"obstacle_{i}", radius_um=config.obstacle_radius_um, kinematic=False)
-               for i in range(config.n_obstacles)]
+    bodies += [
+        ph.obstacle(f"obstacle_{i}", radius_um=config.obstacle_radius_um, kinematic=False)
+        for i in range(config.n_obstacles)
+    ]
     return bodies
 
 
@@ -188,10 +193,15 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     flow = flow.scaled(config.flow_scale)
     bodies = _bodies(config)
     physics_config = ph.PhysicsConfig(
-        dt_s=config.control_period_s / config.substeps, substeps=config.substeps,
-        temperature_k=config.temperature_k, viscosity_pa_s=config.viscosity_pa_s, trap_law=config.trap_law,
-        adhesion=config.adhesion, field_refresh_substeps=config.field_refresh,
-        contact_overlap_cap=config.contact_overlap_cap)
+        dt_s=config.control_period_s / config.substeps,
+        substeps=config.substeps,
+        temperature_k=config.temperature_k,
+        viscosity_pa_s=config.viscosity_pa_s,
+        trap_law=config.trap_law,
+        adhesion=config.adhesion,
+        field_refresh_substeps=config.field_refresh,
+        contact_overlap_cap=config.contact_overlap_cap,
+    )
     model = ph.build_model(bodies, physics_config, flow=flow, walls=walls)
     n_payload = len(bodies) - config.n_obstacles
     distance = np.asarray(walls.distance)
@@ -201,13 +211,13 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     clearance = _assembly_radius_um(model, config, n_payload) + PLACEMENT_MARGIN_UM
     starts = centres[free > clearance]
     if starts.size == 0:
-        raise ValueError(f"chip {chip.name!r} has no place {2 * clearance:.1f} um wide for the "
-                         f"{config.kind} assembly")
+        raise ValueError(f"chip {chip.name!r} has no place {2 * clearance:.1f} um wide for the {config.kind} assembly")
     obstacle_spots = centres[free > config.obstacle_radius_um + 2 * config.obstacle_motion.wall_margin_um]
     if config.n_obstacles and obstacle_spots.size == 0:
         raise ValueError(f"chip {chip.name!r} has no room for obstacles of radius {config.obstacle_radius_um} um")
-    ports = {kind: np.array([p.xy_um for p in chip.ports if p.kind == kind]).reshape(-1, 2)
-             for kind in ("inlet", "outlet")}
+    ports = {
+        kind: np.array([p.xy_um for p in chip.ports if p.kind == kind]).reshape(-1, 2) for kind in ("inlet", "outlet")
+    }
     near_inlet = np.zeros(len(obstacle_spots), bool)
     for inlet in ports["inlet"]:
         near_inlet |= np.linalg.norm(obstacle_spots - inlet, axis=1) < PORT_ZONE_UM
@@ -242,8 +252,9 @@ def reset_at(scene: Scene, key, start_um, heading_rad) -> SceneState:
     payload_pose = _assembly_pose(model, config, start, heading).astype(dtype)
     n_obstacles = len(scene.obstacles)
     pick_key, drift_key = jax.random.split(key)
-    chosen = _spots_away_from(pick_key, scene.obstacle_candidates_um, start, config.min_obstacle_distance_um,
-                              n_obstacles)
+    chosen = _spots_away_from(
+        pick_key, scene.obstacle_candidates_um, start, config.min_obstacle_distance_um, n_obstacles
+    )
     obstacle_pose = jnp.concatenate([chosen, jnp.zeros((n_obstacles, 1), dtype)], axis=1)
     pose = jnp.concatenate([payload_pose, obstacle_pose])
     trap_xy = ph.sphere_positions_um(model, pose)[np.asarray(model.trap_sphere, int)]
@@ -268,8 +279,9 @@ def _recirculate(scene: Scene, key, pose):
     obstacles = np.asarray(scene.obstacles)
     xy = pose[obstacles, :2]
     at_exit = jnp.min(jnp.linalg.norm(xy[:, None] - scene.outlets_um[None], axis=-1), axis=1) < PORT_ZONE_UM
-    fresh = _spots_away_from(key, scene.inlet_spawns_um, pose[scene.payload, :2],
-                             scene.config.min_obstacle_distance_um, len(obstacles))
+    fresh = _spots_away_from(
+        key, scene.inlet_spawns_um, pose[scene.payload, :2], scene.config.min_obstacle_distance_um, len(obstacles)
+    )
     return pose.at[obstacles, :2].set(jnp.where(at_exit[:, None], fresh, xy))
 
 
@@ -298,15 +310,24 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key, obstacl
     if scene.obstacles:
         obstacles = np.asarray(scene.obstacles)
         keys = jax.random.split(obstacle_key, n_env)
-        propulsion = jnp.asarray(obstacle_propulsion_um_s, dtype) if obstacle_propulsion_um_s is not None else jax.vmap(
-            lambda k, xy, u: next_propulsion(k, xy, u, config.obstacle_radius_um, model.walls,
-                                             config.obstacle_motion, config.control_period_s)
-        )(keys, state.physics.pose[:, obstacles, :2], propulsion)
-        force = ph.drag_force_pn(model, state.physics.pose, jnp.zeros_like(state.physics.pose[..., :2])
-                                 .at[:, obstacles].set(propulsion))
+        propulsion = (
+            jnp.asarray(obstacle_propulsion_um_s, dtype)
+            if obstacle_propulsion_um_s is not None
+            else jax.vmap(
+                lambda k, xy, u: next_propulsion(
+                    k, xy, u, config.obstacle_radius_um, model.walls, config.obstacle_motion, config.control_period_s
+                )
+            )(keys, state.physics.pose[:, obstacles, :2], propulsion)
+        )
+        force = ph.drag_force_pn(
+            model, state.physics.pose, jnp.zeros_like(state.physics.pose[..., :2]).at[:, obstacles].set(propulsion)
+        )
         external = external.at[:, obstacles, :2].set(force[:, obstacles])
-    controls = ph.Controls(trap_velocity_um_s=jnp.asarray(trap_velocity_um_s, dtype),
-                           body_velocity=jnp.zeros_like(external), external_force=external)
+    controls = ph.Controls(
+        trap_velocity_um_s=jnp.asarray(trap_velocity_um_s, dtype),
+        body_velocity=jnp.zeros_like(external),
+        external_force=external,
+    )
     physics, report = ph.control_step_batch(model, state.physics, controls, physics_key)
     if scene.obstacles and scene.outlets_um.shape[0] and obstacle_propulsion_um_s is None:
         pose = jax.vmap(lambda k, p: _recirculate(scene, k, p))(jax.random.split(spawn_key, n_env), physics.pose)
@@ -339,10 +360,19 @@ def _events(scene: Scene, physics: ph.PhysicsState, report: ph.StepReport) -> Sc
     dtype = physics.pose.dtype
     dynamic = [b for b in range(model.n_bodies) if b not in scene.obstacles]
     obstacle_pairs = [model.body_pair_index(d, o) for d in dynamic for o in scene.obstacles]
-    obstacle_collision = jnp.any(report.contact[:, np.asarray(obstacle_pairs, int)], axis=-1) \
-        if obstacle_pairs else jnp.zeros(n_env, bool)
-    touched = [jnp.any(report.contact[:, np.asarray([model.body_pair_index(d, o) for d in dynamic], int)], axis=-1)
-               for o in scene.obstacles] if dynamic else []
+    obstacle_collision = (
+        jnp.any(report.contact[:, np.asarray(obstacle_pairs, int)], axis=-1)
+        if obstacle_pairs
+        else jnp.zeros(n_env, bool)
+    )
+    touched = (
+        [
+            jnp.any(report.contact[:, np.asarray([model.body_pair_index(d, o) for d in dynamic], int)], axis=-1)
+            for o in scene.obstacles
+        ]
+        if dynamic
+        else []
+    )
     obstacle_touched = jnp.stack(touched, axis=-1) if touched else jnp.zeros((n_env, 0), bool)
     wall_collision = jnp.any(report.wall_contact[:, np.asarray(dynamic)], axis=-1)
     if config.kind == "transport":
@@ -358,7 +388,13 @@ def _events(scene: Scene, physics: ph.PhysicsState, report: ph.StepReport) -> Sc
     else:
         force = gap = jnp.zeros((n_env, 0), dtype)
         detached = jnp.zeros(n_env, bool)
-    return SceneEvents(trap_lost=report.trap_lost, trap_distance_um=report.trap_distance_um,
-                       contact_force_pn=force, cell_gap_um=gap, cell_detached=detached,
-                       obstacle_collision=obstacle_collision, obstacle_touched=obstacle_touched,
-                       wall_collision=wall_collision)
+    return SceneEvents(
+        trap_lost=report.trap_lost,
+        trap_distance_um=report.trap_distance_um,
+        contact_force_pn=force,
+        cell_gap_um=gap,
+        cell_detached=detached,
+        obstacle_collision=obstacle_collision,
+        obstacle_touched=obstacle_touched,
+        wall_collision=wall_collision,
+    )

@@ -108,9 +108,10 @@ class VisionForceSensor:
         force = trap_force_pn(self.trap_law, traps - handle_um)
         return SensorReading(handle_um, np.where(valid[..., None], force, np.nan), valid)
 
-    def _geometry(self, pixel_size_um: float) -> "_Geometry":
-        return _geometry(self.handle_radius_um, self.search_radius_um, self.n_rays, self.ray_step_px,
-                         float(pixel_size_um))
+    def _geometry(self, pixel_size_um: float) -> _Geometry:
+        return _geometry(
+            self.handle_radius_um, self.search_radius_um, self.n_rays, self.ray_step_px, float(pixel_size_um)
+        )
 
     def _locate(self, images, traps_px, pixel_size_um):
         frames, k = traps_px.shape[:2]
@@ -119,9 +120,21 @@ class VisionForceSensor:
         images = np.ascontiguousarray(images).view()
         images.flags.writeable = False  # one numba type whatever the caller passed: one compile
         centres, valid = locate_handles(
-            images, frame_of, np.ascontiguousarray(traps_px.reshape(-1, 2)), g.box, g.lattice,
-            g.lattice_penalty, g.ring, g.ray_s, g.ray_dx, g.ray_dy, g.directions, g.blocked_margin,
-            float(self.ray_step_px), g.radius_px)
+            images,
+            frame_of,
+            np.ascontiguousarray(traps_px.reshape(-1, 2)),
+            g.box,
+            g.lattice,
+            g.lattice_penalty,
+            g.ring,
+            g.ray_s,
+            g.ray_dx,
+            g.ray_dy,
+            g.directions,
+            g.blocked_margin,
+            float(self.ray_step_px),
+            g.radius_px,
+        )
         return centres.reshape(frames, k, 2), valid.reshape(frames, k)
 
 
@@ -153,14 +166,22 @@ def _geometry(handle_radius_um, search_radius_um, n_rays, ray_step_px, pixel_siz
     directions = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
     s = np.arange(0.3 * radius_px, RAY_REACH * radius_px, ray_step_px)
     if len(s) < 2:
-        raise ValueError(f"ray_step_px {ray_step_px} leaves fewer than two samples per ray on a handle of "
-                         f"{radius_px:g} pixels")
+        raise ValueError(
+            f"ray_step_px {ray_step_px} leaves fewer than two samples per ray on a handle of {radius_px:g} pixels"
+        )
     offsets = s[None, :, None] * directions[:, None, :]
     geometry = _Geometry(
-        radius_px=radius_px, box=max(int(round(radius_px)) | 1, 1), lattice=lattice,
-        lattice_penalty=1e-3 * np.linalg.norm(lattice, axis=-1) / max(reach, 1.0), ring=ring, directions=directions,
-        ray_s=s, ray_dx=np.ascontiguousarray(offsets[..., 0]), ray_dy=np.ascontiguousarray(offsets[..., 1]),
-        blocked_margin=int(np.ceil(BLOCKED_MARGIN_DEG / (360.0 / n_rays))))
+        radius_px=radius_px,
+        box=max(int(round(radius_px)) | 1, 1),
+        lattice=lattice,
+        lattice_penalty=1e-3 * np.linalg.norm(lattice, axis=-1) / max(reach, 1.0),
+        ring=ring,
+        directions=directions,
+        ray_s=s,
+        ray_dx=np.ascontiguousarray(offsets[..., 0]),
+        ray_dy=np.ascontiguousarray(offsets[..., 1]),
+        blocked_margin=int(np.ceil(BLOCKED_MARGIN_DEG / (360.0 / n_rays))),
+    )
     for field in dataclasses.fields(geometry):
         value = getattr(geometry, field.name)
         if isinstance(value, np.ndarray):

@@ -61,7 +61,8 @@ def channel_widths_um(chip: Chip, distance_um: np.ndarray) -> np.ndarray:
     count as a wall), unless that leaves none."""
     skeleton = skeletonize(chip.fluid)
     rows, cols = np.indices(chip.shape)
-    to_border = chip.pixel_size_um * (np.minimum(np.minimum(rows, chip.shape[0] - 1 - rows),
-                                                 np.minimum(cols, chip.shape[1] - 1 - cols)) + 0.5)
+    to_border = chip.pixel_size_um * (
+        np.minimum(np.minimum(rows, chip.shape[0] - 1 - rows), np.minimum(cols, chip.shape[1] - 1 - cols)) + 0.5
+    )
     inner = skeleton & (to_border > distance_um)
     return 2.0 * distance_um[inner if inner.any() else skeleton]

@@ -13,5 +13,14 @@ from otgym.study.paper_fig8 import PAPER_FIG8
 from otgym.study.stats import MODE_ORDER, compare_modes, participant_means, stars, wilson_interval
 from otgym.study.summary import summarize, write_summary
 
-__all__ = ["MODE_ORDER", "PAPER_FIG8", "compare_modes", "participant_means", "plot_fig8", "stars", "summarize",
-           "wilson_interval", "write_summary"]
+__all__ = [
+    "MODE_ORDER",
+    "PAPER_FIG8",
+    "compare_modes",
+    "participant_means",
+    "plot_fig8",
+    "stars",
+    "summarize",
+    "wilson_interval",
+    "write_summary",
+]

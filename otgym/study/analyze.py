@@ -26,8 +26,20 @@ from otgym.study.questionnaires import SCORE_COLUMNS, participant_measures, read
 from otgym.study.stats import ordered_modes
 from otgym.study.summary import json_safe, write_summary
 
-TRIALS_COLUMNS = ["participant", "mode", "trial", "scenario", "completion_time_s", "obstacles_encountered",
-                  "obstacles_avoided", "success", "reached_goal", "trap_losses", "detached", "peak_contact_force_pn"]
+TRIALS_COLUMNS = [
+    "participant",
+    "mode",
+    "trial",
+    "scenario",
+    "completion_time_s",
+    "obstacles_encountered",
+    "obstacles_avoided",
+    "success",
+    "reached_goal",
+    "trap_losses",
+    "detached",
+    "peak_contact_force_pn",
+]
 """The columns every ``trials.csv`` must have (others are kept and ignored)."""
 
 _COUNTS = ("trial", "scenario", "obstacles_encountered", "obstacles_avoided", "trap_losses")
@@ -55,14 +67,19 @@ def _check_trials(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
         frame[column] = values.astype(int)
     if (frame["obstacles_avoided"] > frame["obstacles_encountered"]).any():
         raise ValueError(f"{source}: obstacles_avoided exceeds obstacles_encountered in some row")
-    for column, low, high in (("completion_time_s", 0.0, np.inf), ("peak_contact_force_pn", 0.0, np.inf),
-                              ("success", 0.0, 1.0)):
+    for column, low, high in (
+        ("completion_time_s", 0.0, np.inf),
+        ("peak_contact_force_pn", 0.0, np.inf),
+        ("success", 0.0, 1.0),
+    ):
         values = pd.to_numeric(frame[column], errors="coerce")
         allowed_nan = column == "success"  # a trial that met no obstacle has no success rate
         bad = (values < low) | (values > high) | np.isinf(values) | (values.isna() if not allowed_nan else False)
         if bad.any():
-            raise ValueError(f"{source}: {column} must lie in [{low:g}, {high:g}]"
-                             f"{' (or be empty)' if allowed_nan else ''} in every row; got {frame[column][bad].iloc[0]}")
+            raise ValueError(
+                f"{source}: {column} must lie in [{low:g}, {high:g}]"
+                f"{' (or be empty)' if allowed_nan else ''} in every row; got {frame[column][bad].iloc[0]}"
+            )
         frame[column] = values
     for column in _FLAGS:
         text = frame[column].astype(str).str.strip().str.lower()
@@ -90,8 +107,9 @@ def _folder_table(folder: Path) -> StudyTable:
     if not path.is_file():
         raise FileNotFoundError(f"{folder} has no trials.csv (nor session*.mcap recordings)")
     answers = folder / "questionnaires.csv"
-    return StudyTable(str(path), pd.read_csv(path, dtype={"participant": str, "mode": str}),
-                      answers if answers.is_file() else None)
+    return StudyTable(
+        str(path), pd.read_csv(path, dtype={"participant": str, "mode": str}), answers if answers.is_file() else None
+    )
 
 
 def _name(source) -> str:
@@ -112,20 +130,32 @@ def load_study(sources) -> tuple[pd.DataFrame, pd.DataFrame | None]:
         if table.answers is not None:
             answered = read_answers(table.answers)
             known = set(zip(checked["participant"], checked["mode"], checked["trial"]))
-            orphans = [key for key in zip(answered["participant"], answered["mode"], answered["trial"])
-                       if key not in known]
+            orphans = [
+                key for key in zip(answered["participant"], answered["mode"], answered["trial"]) if key not in known
+            ]
             if orphans:
-                raise ValueError(f"{table.answers} answers (participant, mode, trial) {orphans[0]} "
-                                 f"that {table.source} lacks")
+                raise ValueError(
+                    f"{table.answers} answers (participant, mode, trial) {orphans[0]} that {table.source} lacks"
+                )
             answers.append(answered)
     trials = pd.concat(trials, ignore_index=True)
     twice = trials[trials.duplicated(["participant", "mode", "trial"], keep=False)]
     if len(twice):
         first = twice.iloc[0]
-        where = sorted(set(twice.loc[(twice["participant"] == first["participant"]) & (twice["mode"] == first["mode"])
-                                     & (twice["trial"] == first["trial"]), "source"]))
-        raise ValueError(f"participant {first['participant']}, mode {first['mode']}, trial {first['trial']} appears "
-                         f"twice (in {', '.join(where)}); participant ids must be unique across folders")
+        where = sorted(
+            set(
+                twice.loc[
+                    (twice["participant"] == first["participant"])
+                    & (twice["mode"] == first["mode"])
+                    & (twice["trial"] == first["trial"]),
+                    "source",
+                ]
+            )
+        )
+        raise ValueError(
+            f"participant {first['participant']}, mode {first['mode']}, trial {first['trial']} appears "
+            f"twice (in {', '.join(where)}); participant ids must be unique across folders"
+        )
     return trials, (validate_answers(pd.concat(answers, ignore_index=True)) if answers else None)
 
 
@@ -145,25 +175,38 @@ def questionnaire_markdown(means: pd.DataFrame | None, tests: dict) -> str:
     mode, then the paired tests; or a line saying that no answers were recorded."""
     lines = ["## Questionnaires (Fig. 8 c, d)", ""]
     if means is None:
-        return "\n".join(lines + ["No questionnaire answers were recorded (no questionnaires.csv in the folders): "
-                                  "Fig. 8 has panels (a, b) only.", ""])
+        return "\n".join(
+            lines
+            + [
+                "No questionnaire answers were recorded (no questionnaires.csv in the folders): "
+                "Fig. 8 has panels (a, b) only.",
+                "",
+            ]
+        )
     modes = ordered_modes(means["mode"])
-    lines += ["NASA-TLX ratings 0-100 (lower: less workload; raw = mean of the six, weighted = sum(weight x "
-              "rating)/15); UEQ-S scored -3..+3 (higher: better; pragmatic = items 1-4, hedonic = items 5-8). "
-              "Mean ± SD over participants, each participant's trials in a mode averaged first.", "",
-              "| measure | " + " | ".join(modes) + " |", "|---|" + "---:|" * len(modes)]
+    lines += [
+        "NASA-TLX ratings 0-100 (lower: less workload; raw = mean of the six, weighted = sum(weight x "
+        "rating)/15); UEQ-S scored -3..+3 (higher: better; pragmatic = items 1-4, hedonic = items 5-8). "
+        "Mean ± SD over participants, each participant's trials in a mode averaged first.",
+        "",
+        "| measure | " + " | ".join(modes) + " |",
+        "|---|" + "---:|" * len(modes),
+    ]
     for measure in TLX_MEASURES + UEQ_MEASURES:
         here = means[means["measure"] == measure]
         if len(here):
-            lines.append(f"| {measure} | " + " | ".join(_mean_sd(here.loc[here["mode"] == m, "value"])
-                                                         for m in modes) + " |")
+            lines.append(
+                f"| {measure} | " + " | ".join(_mean_sd(here.loc[here["mode"] == m, "value"]) for m in modes) + " |"
+            )
     for key, title in (("tlx", "NASA-TLX"), ("ueq", "UEQ-S")):
         if tests.get(key) is None:
             continue
         lines += ["", f"{title}: paired t-tests, Holm-corrected over the panel's {len(tests[key]['tests'])} tests:", ""]
         for t in tests[key]["tests"]:
-            lines.append(f"- {t['measure']}: {t['a']} vs {t['b']} (n = {t['n']}): t({_p(t['dof'])}) = {_p(t['T'])}, "
-                         f"p = {_p(t['p_unc'])}, Holm p = {_p(t['p_holm'])} {t['stars']}".rstrip())
+            lines.append(
+                f"- {t['measure']}: {t['a']} vs {t['b']} (n = {t['n']}): t({_p(t['dof'])}) = {_p(t['T'])}, "
+                f"p = {_p(t['p_unc'])}, Holm p = {_p(t['p_holm'])} {t['stars']}".rstrip()
+            )
         if tests[key]["note"]:
             lines += ["", f"Note: {tests[key]['note']}"]
     return "\n".join(lines + [""])
@@ -189,9 +232,13 @@ def analyze(dirs, out_dir) -> dict:
         pd.DataFrame(columns=SCORE_COLUMNS).to_csv(out / "questionnaire_scores.csv", index=False)
     stats = write_summary(trials, out, "\n" + questionnaire_markdown(means, tests))
     panels = plot_fig8(trials, out / "fig8.png", stats, {"means": means, **tests} if means is not None else None)
-    result = {"dirs": [_name(d) for d in dirs], "trials": len(trials),
-              "participants": int(trials["participant"].nunique()),
-              "questionnaire_rows": 0 if answers is None else len(answers), "panels": panels,
-              "questionnaire_tests": tests}
+    result = {
+        "dirs": [_name(d) for d in dirs],
+        "trials": len(trials),
+        "participants": int(trials["participant"].nunique()),
+        "questionnaire_rows": 0 if answers is None else len(answers),
+        "panels": panels,
+        "questionnaire_tests": tests,
+    }
     (out / "analysis.json").write_text(json.dumps(json_safe(result), indent=2) + "\n", encoding="utf-8")
     return result

@@ -23,16 +23,27 @@ from otgym.study.questionnaire_stats import TLX_MEASURES, UEQ_MEASURES
 from otgym.study.questionnaires import UEQ_ITEMS
 from otgym.study.stats import compare_modes, ordered_modes, participant_means
 
-_PANELS = (("success", "(a) Success rate", "Obstacles avoided (%)", 100.0, "success_mean", "success_sd", 100.0),
-           ("time", "(b) Task completion time", "Completion time (s)", 1.0, "time_mean_s", "time_sd_s", math.inf))
+_PANELS = (
+    ("success", "(a) Success rate", "Obstacles avoided (%)", 100.0, "success_mean", "success_sd", 100.0),
+    ("time", "(b) Task completion time", "Completion time (s)", 1.0, "time_mean_s", "time_sd_s", math.inf),
+)
 """Per panel: metric, title, y label, scale to the plotted unit, the paper's mean and SD
 keys, and the largest y tick (a rate's axis stops at 100 % below the brackets)."""
 _QUESTIONNAIRE_PANELS = {
-    "tlx": ("(c) NASA-TLX (lower: less workload)", "Rating (0-100)", (0.0, 100.0), TLX_MEASURES,
-            ("Mental", "Physical", "Temporal", "Perfor-\nmance", "Effort", "Frustra-\ntion", "Raw\nTLX",
-             "Weighted\nTLX")),
-    "ueq": ("(d) UEQ-S (higher: better)", "Score (-3 to +3)", (-3.0, 3.0), UEQ_MEASURES,
-            ("Pragmatic", "Hedonic", "Overall") + tuple(positive.replace(" ", "\n") for _, positive in UEQ_ITEMS)),
+    "tlx": (
+        "(c) NASA-TLX (lower: less workload)",
+        "Rating (0-100)",
+        (0.0, 100.0),
+        TLX_MEASURES,
+        ("Mental", "Physical", "Temporal", "Perfor-\nmance", "Effort", "Frustra-\ntion", "Raw\nTLX", "Weighted\nTLX"),
+    ),
+    "ueq": (
+        "(d) UEQ-S (higher: better)",
+        "Score (-3 to +3)",
+        (-3.0, 3.0),
+        UEQ_MEASURES,
+        ("Pragmatic", "Hedonic", "Overall") + tuple(positive.replace(" ", "\n") for _, positive in UEQ_ITEMS),
+    ),
 }
 """Per questionnaire panel: title, y label, scale limits, measures and their x labels
 (UEQ-S items by their positive pole)."""
@@ -43,8 +54,10 @@ _PAPER_OFFSET = 0.32
 def _brackets(ax, pairs: list[dict], x_of: dict, top: float, span: float) -> float:
     """Draw a bracket with stars for each significant pair, stacked above ``top``; return the new top."""
     step = 0.11 * span
-    for pair in sorted((p for p in pairs if p["p_holm"] is not None and not math.isnan(p["p_holm"])
-                        and p["p_holm"] < 0.05), key=lambda p: abs(x_of[p["a"]] - x_of[p["b"]])):
+    for pair in sorted(
+        (p for p in pairs if p["p_holm"] is not None and not math.isnan(p["p_holm"]) and p["p_holm"] < 0.05),
+        key=lambda p: abs(x_of[p["a"]] - x_of[p["b"]]),
+    ):
         top += step
         x1, x2 = sorted((x_of[pair["a"]], x_of[pair["b"]]))
         ax.plot([x1, x1, x2, x2], [top - 0.3 * step, top, top, top - 0.3 * step], color="black", lw=1.0)
@@ -61,19 +74,54 @@ def _panel(ax, means: pd.DataFrame, modes: list[str], result: dict, panel: tuple
         x = x_of[mode]
         mean = values.mean() if len(values) else math.nan
         sd = values.std(ddof=1) if len(values) > 1 else 0.0  # one participant: no spread to draw
-        ax.bar(x, mean, width=0.5, color=_COLORS.get(mode, "#937860"), alpha=0.75,
-               yerr=sd, capsize=5, error_kw={"lw": 1.2}, label="mean ± SD" if x == 0 else None)
-        ax.scatter(x + rng.uniform(-0.12, 0.12, len(values)), values, s=14, color="black", alpha=0.7, zorder=3,
-                   label="participant mean" if x == 0 else None)
+        ax.bar(
+            x,
+            mean,
+            width=0.5,
+            color=_COLORS.get(mode, "#937860"),
+            alpha=0.75,
+            yerr=sd,
+            capsize=5,
+            error_kw={"lw": 1.2},
+            label="mean ± SD" if x == 0 else None,
+        )
+        ax.scatter(
+            x + rng.uniform(-0.12, 0.12, len(values)),
+            values,
+            s=14,
+            color="black",
+            alpha=0.7,
+            zorder=3,
+            label="participant mean" if x == 0 else None,
+        )
         top = max([top, np.nanmax(values, initial=0.0), (mean + sd) if len(values) else 0.0])
         if not len(values):  # say why a bar is missing rather than leave a blank
-            ax.text(x, 0.02, "no data", transform=ax.get_xaxis_transform(), ha="center", va="bottom",
-                    fontsize=9, color="dimgray", rotation=90)
+            ax.text(
+                x,
+                0.02,
+                "no data",
+                transform=ax.get_xaxis_transform(),
+                ha="center",
+                va="bottom",
+                fontsize=9,
+                color="dimgray",
+                rotation=90,
+            )
         if mode in PAPER_FIG8:
             paper = PAPER_FIG8[mode]
-            ax.errorbar(x + _PAPER_OFFSET, paper[paper_mean] * scale, yerr=paper[paper_sd] * scale, fmt="D",
-                        mfc="white", mec="black", color="black", ms=6, capsize=3, lw=1.0,
-                        label="paper (Fig. 8)" if x == 0 else None)
+            ax.errorbar(
+                x + _PAPER_OFFSET,
+                paper[paper_mean] * scale,
+                yerr=paper[paper_sd] * scale,
+                fmt="D",
+                mfc="white",
+                mec="black",
+                color="black",
+                ms=6,
+                capsize=3,
+                lw=1.0,
+                label="paper (Fig. 8)" if x == 0 else None,
+            )
             top = max(top, (paper[paper_mean] + paper[paper_sd]) * scale)
     span = top if top > 0 else 1.0
     top = _brackets(ax, result["posthoc"], x_of, top, span)
@@ -89,8 +137,16 @@ def _panel(ax, means: pd.DataFrame, modes: list[str], result: dict, panel: tuple
     ax.set_axisbelow(True)
     p = result["anova"]["p"]
     if p is None or math.isnan(p):  # no brackets then means "no test", not "not significant"
-        ax.text(0.5, 0.98, "tests undefined (see the stats note)", transform=ax.transAxes, ha="center", va="top",
-                fontsize=8, color="dimgray")
+        ax.text(
+            0.5,
+            0.98,
+            "tests undefined (see the stats note)",
+            transform=ax.transAxes,
+            ha="center",
+            va="top",
+            fontsize=8,
+            color="dimgray",
+        )
 
 
 def _measures_panel(ax, means: pd.DataFrame, result: dict, panel: tuple, rng) -> None:
@@ -109,10 +165,25 @@ def _measures_panel(ax, means: pd.DataFrame, result: dict, panel: tuple, rng) ->
             if not len(values):
                 continue
             mean, sd = values.mean(), (values.std(ddof=1) if len(values) > 1 else 0.0)
-            ax.bar(x_of[mode], mean, width=0.92 * width, color=_COLORS.get(mode, "#937860"), alpha=0.75, yerr=sd,
-                   capsize=3, error_kw={"lw": 1.0}, label=mode if g == 0 else None)
-            ax.scatter(x_of[mode] + rng.uniform(-0.2, 0.2, len(values)) * width, values, s=8, color="black",
-                       alpha=0.6, zorder=3)
+            ax.bar(
+                x_of[mode],
+                mean,
+                width=0.92 * width,
+                color=_COLORS.get(mode, "#937860"),
+                alpha=0.75,
+                yerr=sd,
+                capsize=3,
+                error_kw={"lw": 1.0},
+                label=mode if g == 0 else None,
+            )
+            ax.scatter(
+                x_of[mode] + rng.uniform(-0.2, 0.2, len(values)) * width,
+                values,
+                s=8,
+                color="black",
+                alpha=0.6,
+                zorder=3,
+            )
             group_top = max(group_top, values.max(), mean + sd)
         pairs = [p for p in result["tests"] if p["measure"] == measure]
         top = max(top, _brackets(ax, pairs, x_of, group_top, span))
@@ -154,10 +225,12 @@ def plot_fig8(trials: pd.DataFrame, path, stats: dict | None = None, questionnai
         _panel(ax, means, ordered_modes(means["mode"]), stats[panel[0]], panel, rng)
     for name, key in zip("cd", extra):
         _measures_panel(axes[name], questionnaires["means"], questionnaires[key], _QUESTIONNAIRE_PANELS[key], rng)
-    fig.legend(*axes["a"].get_legend_handles_labels(), loc="outside lower center", ncols=3, fontsize=8,
-               frameon=False)
-    fig.suptitle(f"Shared-control study: success and completion time{' and questionnaires' if extra else ''} "
-                 "per mode (stars: Holm-corrected paired t-tests)", fontsize=11)
+    fig.legend(*axes["a"].get_legend_handles_labels(), loc="outside lower center", ncols=3, fontsize=8, frameon=False)
+    fig.suptitle(
+        f"Shared-control study: success and completion time{' and questionnaires' if extra else ''} "
+        "per mode (stars: Holm-corrected paired t-tests)",
+        fontsize=11,
+    )
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=150)

@@ -34,15 +34,18 @@ def compare_measures(means: pd.DataFrame, measures) -> dict:
         wide = here.pivot(index="participant", columns="mode", values="value")
         modes = ordered_modes(here["mode"])
         for i, a in enumerate(modes):
-            for b in modes[i + 1:]:
+            for b in modes[i + 1 :]:
                 both = wide[[a, b]].dropna()
                 row = {"measure": measure, "a": a, "b": b, "n": len(both)}
                 if len(both) < 2:
                     short.append(f"{measure} {a} vs {b} (n = {len(both)})")
                     row.update(T=math.nan, dof=math.nan, p_unc=math.nan)
                 else:
-                    long = both.rename_axis(columns=None).reset_index().melt(
-                        id_vars="participant", var_name="mode", value_name="value")
+                    long = (
+                        both.rename_axis(columns=None)
+                        .reset_index()
+                        .melt(id_vars="participant", var_name="mode", value_name="value")
+                    )
                     test = paired_tests(long, [a, b])[0]
                     row.update(T=test["T"], dof=test["dof"], p_unc=test["p_unc"])
                     if math.isnan(test["T"]):

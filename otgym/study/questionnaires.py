@@ -41,12 +41,24 @@ TLX_ITEMS = {
     "mental": ("Mental demand", "How mentally demanding was the task?", "Very low", "Very high"),
     "physical": ("Physical demand", "How physically demanding was the task?", "Very low", "Very high"),
     "temporal": ("Temporal demand", "How hurried or rushed was the pace of the task?", "Very low", "Very high"),
-    "performance": ("Performance", "How successful were you in accomplishing what you were asked to do?",
-                    "Perfect", "Failure"),
-    "effort": ("Effort", "How hard did you have to work to accomplish your level of performance?",
-               "Very low", "Very high"),
-    "frustration": ("Frustration", "How insecure, discouraged, irritated, stressed, and annoyed were you?",
-                    "Very low", "Very high"),
+    "performance": (
+        "Performance",
+        "How successful were you in accomplishing what you were asked to do?",
+        "Perfect",
+        "Failure",
+    ),
+    "effort": (
+        "Effort",
+        "How hard did you have to work to accomplish your level of performance?",
+        "Very low",
+        "Very high",
+    ),
+    "frustration": (
+        "Frustration",
+        "How insecure, discouraged, irritated, stressed, and annoyed were you?",
+        "Very low",
+        "Very high",
+    ),
 }
 """Per subscale: title, question, left pole (0), right pole (100), as on the NASA form (Hart 2006)."""
 
@@ -60,9 +72,16 @@ TLX_PAIRS = tuple(itertools.combinations(TLX_SUBSCALES, 2))
 
 TLX_PAIR_COUNT = len(TLX_PAIRS)  # 15: the weights' sum
 
-UEQ_ITEMS = (("obstructive", "supportive"), ("complicated", "easy"), ("inefficient", "efficient"),
-             ("confusing", "clear"), ("boring", "exciting"), ("not interesting", "interesting"),
-             ("conventional", "inventive"), ("usual", "leading edge"))
+UEQ_ITEMS = (
+    ("obstructive", "supportive"),
+    ("complicated", "easy"),
+    ("inefficient", "efficient"),
+    ("confusing", "clear"),
+    ("boring", "exciting"),
+    ("not interesting", "interesting"),
+    ("conventional", "inventive"),
+    ("usual", "leading edge"),
+)
 """UEQ-S items 1-8 (Schrepp et al. 2017), each (negative pole = 1, positive pole = 7)."""
 
 UEQ_ITEM_NAMES = tuple(f"ueq{i}" for i in range(1, len(UEQ_ITEMS) + 1))
@@ -73,9 +92,11 @@ UEQ_NEUTRAL = 4
 SCORE_COLUMNS = ["participant", "mode", "raw_tlx", "weighted_tlx", "ueq_pragmatic", "ueq_hedonic", "ueq_overall"]
 """Columns of ``score``'s table."""
 
-_RANGES = {**{(NASA_TLX, item): (0, 100) for item in TLX_SUBSCALES},
-           **{(NASA_TLX, item): (0, TLX_PAIR_COUNT // 3) for item in TLX_WEIGHT_ITEMS},
-           **{(UEQ_S, item): (1, 7) for item in UEQ_ITEM_NAMES}}
+_RANGES = {
+    **{(NASA_TLX, item): (0, 100) for item in TLX_SUBSCALES},
+    **{(NASA_TLX, item): (0, TLX_PAIR_COUNT // 3) for item in TLX_WEIGHT_ITEMS},
+    **{(UEQ_S, item): (1, 7) for item in UEQ_ITEM_NAMES},
+}
 """Allowed (lowest, highest) value per (instrument, item); weights: each subscale meets 5 others."""
 
 _TRIAL = ["participant", "mode", "trial"]
@@ -88,8 +109,9 @@ def weights_from_choices(choices: dict) -> dict:
     if set(choices) != set(TLX_PAIRS):
         missing = [pair for pair in TLX_PAIRS if pair not in choices]
         extra = [pair for pair in choices if pair not in TLX_PAIRS]
-        raise ValueError(f"need a choice for each of the {TLX_PAIR_COUNT} TLX pairs; missing {missing}, "
-                         f"unknown {extra}")
+        raise ValueError(
+            f"need a choice for each of the {TLX_PAIR_COUNT} TLX pairs; missing {missing}, unknown {extra}"
+        )
     weights = dict.fromkeys(TLX_WEIGHT_ITEMS, 0)
     for pair, chosen in choices.items():
         if chosen not in pair:
@@ -120,38 +142,48 @@ def validate_answers(frame: pd.DataFrame) -> pd.DataFrame:
         where = f"participant {row.participant}, mode {row.mode}, trial {row.trial}"
         key = (row.instrument, row.item)
         if row.instrument not in (NASA_TLX, UEQ_S):
-            raise ValueError(f"questionnaire answers: unknown instrument {row.instrument!r} ({where}); "
-                             f"known: {[NASA_TLX, UEQ_S]}")
+            raise ValueError(
+                f"questionnaire answers: unknown instrument {row.instrument!r} ({where}); known: {[NASA_TLX, UEQ_S]}"
+            )
         if key not in _RANGES:
             known = [item for instrument, item in _RANGES if instrument == row.instrument]
-            raise ValueError(f"questionnaire answers: unknown item {row.item!r} of {row.instrument} ({where}); "
-                             f"known: {known}")
+            raise ValueError(
+                f"questionnaire answers: unknown item {row.item!r} of {row.instrument} ({where}); known: {known}"
+            )
         low, high = _RANGES[key]
         step = TLX_STEP if row.item in TLX_SUBSCALES else 1
         if not (np.isfinite(number) and low <= number <= high and number % step == 0):
-            raise ValueError(f"questionnaire answers: {row.instrument} {row.item} = {row.value} ({where}) must be "
-                             f"{'a multiple of ' + str(step) if step > 1 else 'a whole number'} in [{low}, {high}]")
+            raise ValueError(
+                f"questionnaire answers: {row.instrument} {row.item} = {row.value} ({where}) must be "
+                f"{'a multiple of ' + str(step) if step > 1 else 'a whole number'} in [{low}, {high}]"
+            )
     frame["value"] = value
     duplicated = frame.duplicated(_TRIAL + ["instrument", "item"])
     if duplicated.any():
         row = frame[duplicated].iloc[0]
-        raise ValueError(f"questionnaire answers: {row['instrument']} {row['item']} answered twice for participant "
-                         f"{row['participant']}, mode {row['mode']}, trial {row['trial']}")
+        raise ValueError(
+            f"questionnaire answers: {row['instrument']} {row['item']} answered twice for participant "
+            f"{row['participant']}, mode {row['mode']}, trial {row['trial']}"
+        )
     for (participant, mode, trial_no), group in frame.groupby(_TRIAL, sort=False):
         items = set(group["item"])
         where = f"participant {participant}, mode {mode}, trial {trial_no}"
-        for name, needed in (("NASA-TLX ratings", TLX_SUBSCALES), ("TLX weights", TLX_WEIGHT_ITEMS),
-                             ("UEQ-S items", UEQ_ITEM_NAMES)):
+        for name, needed in (
+            ("NASA-TLX ratings", TLX_SUBSCALES),
+            ("TLX weights", TLX_WEIGHT_ITEMS),
+            ("UEQ-S items", UEQ_ITEM_NAMES),
+        ):
             if items & set(needed) and not items >= set(needed):
-                raise ValueError(f"questionnaire answers: incomplete {name} ({where}): missing "
-                                 f"{[item for item in needed if item not in items]}")
+                raise ValueError(
+                    f"questionnaire answers: incomplete {name} ({where}): missing "
+                    f"{[item for item in needed if item not in items]}"
+                )
         if items & set(TLX_WEIGHT_ITEMS):
             if not items >= set(TLX_SUBSCALES):
                 raise ValueError(f"questionnaire answers: TLX weights without ratings ({where})")
             total = group.loc[group["item"].isin(TLX_WEIGHT_ITEMS), "value"].sum()
             if total != TLX_PAIR_COUNT:
-                raise ValueError(f"questionnaire answers: TLX weights sum to {total:g}, not {TLX_PAIR_COUNT} "
-                                 f"({where})")
+                raise ValueError(f"questionnaire answers: TLX weights sum to {total:g}, not {TLX_PAIR_COUNT} ({where})")
     return frame.reset_index(drop=True)
 
 
@@ -177,8 +209,9 @@ def append_answers(path, rows: list[dict]) -> None:
     new = pd.DataFrame(rows, columns=QUESTIONNAIRE_COLUMNS)
     path = Path(path)
     old = pd.read_csv(path, dtype={"participant": str, "mode": str}) if path.is_file() else None
-    validate_answers(new if old is None else pd.concat([old, new.astype({"participant": str, "mode": str})],
-                                                ignore_index=True))
+    validate_answers(
+        new if old is None else pd.concat([old, new.astype({"participant": str, "mode": str})], ignore_index=True)
+    )
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("a", newline="", encoding="utf-8") as file:
         writer = csv.DictWriter(file, fieldnames=QUESTIONNAIRE_COLUMNS)
@@ -200,7 +233,9 @@ def trial_measures(answers: pd.DataFrame) -> pd.DataFrame:
     for name in TLX_SUBSCALES:
         measures[f"tlx_{name}"] = ratings[name]
     measures["raw_tlx"] = ratings.mean(axis=1, skipna=False)
-    measures["weighted_tlx"] = np.sum(ratings.to_numpy() * weights.to_numpy(), axis=1) / TLX_PAIR_COUNT  # NaN unweighted
+    measures["weighted_tlx"] = (
+        np.sum(ratings.to_numpy() * weights.to_numpy(), axis=1) / TLX_PAIR_COUNT
+    )  # NaN unweighted
     for name in UEQ_ITEM_NAMES:
         measures[name] = ueq[name]
     measures["ueq_pragmatic"] = ueq[list(UEQ_PRAGMATIC)].mean(axis=1, skipna=False)
@@ -212,8 +247,7 @@ def trial_measures(answers: pd.DataFrame) -> pd.DataFrame:
 def participant_measures(answers: pd.DataFrame) -> pd.DataFrame:
     """Each measure of ``trial_measures`` averaged over a participant's trials in a mode
     (the trials that have it). Columns participant, mode, measure, value."""
-    return (trial_measures(answers).groupby(["participant", "mode", "measure"], sort=False)["value"].mean()
-            .reset_index())
+    return trial_measures(answers).groupby(["participant", "mode", "measure"], sort=False)["value"].mean().reset_index()
 
 
 def score(answers: pd.DataFrame) -> pd.DataFrame:

@@ -22,8 +22,10 @@ MODE_ORDER = ("manual", "autonomous", "shared", "mpc")
 """The order of modes in tables and figures: the paper's three, then MPC."""
 
 METRICS = ("success", "time")
-_METRIC_COLUMNS = {"success": ("obstacles_encountered", "obstacles_avoided"),
-                   "time": ("completion_time_s", "reached_goal")}
+_METRIC_COLUMNS = {
+    "success": ("obstacles_encountered", "obstacles_avoided"),
+    "time": ("completion_time_s", "reached_goal"),
+}
 _MISSING_REASON = {"success": "no obstacle encountered", "time": "no trial that reached the goal"}
 
 
@@ -44,8 +46,12 @@ def ordered_modes(modes) -> list[str]:
 
 def _sort_by_mode(frame: pd.DataFrame) -> pd.DataFrame:
     rank = {mode: i for i, mode in enumerate(ordered_modes(frame["mode"]))}
-    return (frame.assign(_rank=frame["mode"].map(rank)).sort_values(["_rank", "participant"])
-            .drop(columns="_rank").reset_index(drop=True))
+    return (
+        frame.assign(_rank=frame["mode"].map(rank))
+        .sort_values(["_rank", "participant"])
+        .drop(columns="_rank")
+        .reset_index(drop=True)
+    )
 
 
 def participant_means(trials: pd.DataFrame, metric: str) -> pd.DataFrame:
@@ -109,17 +115,26 @@ def _anova(long: pd.DataFrame, notes: list[str]) -> dict:
     with warnings.catch_warnings():  # degenerate data (pingouin then omits F and p): NaN below, with a note
         warnings.simplefilter("ignore")
         try:
-            row = pg.rm_anova(data=long, dv="value", within="mode", subject="participant",
-                              correction=True, detailed=False).iloc[0]
+            row = pg.rm_anova(
+                data=long, dv="value", within="mode", subject="participant", correction=True, detailed=False
+            ).iloc[0]
         except ZeroDivisionError:  # pingouin's Mauchly test (run even uncorrected) divides by zero on some data
             return _anova_uncorrected(long, notes)
-    result = {"F": _float(row.get("F", np.nan)), "ddof1": int(row["ddof1"]), "ddof2": int(row["ddof2"]),
-              "p_unc": _float(row.get("p_unc", np.nan)), "p_gg_corr": _float(row.get("p_GG_corr", np.nan)),
-              "eps": _float(row.get("eps", np.nan)), "ng2": _float(row.get("ng2", np.nan))}
+    result = {
+        "F": _float(row.get("F", np.nan)),
+        "ddof1": int(row["ddof1"]),
+        "ddof2": int(row["ddof2"]),
+        "p_unc": _float(row.get("p_unc", np.nan)),
+        "p_gg_corr": _float(row.get("p_GG_corr", np.nan)),
+        "eps": _float(row.get("eps", np.nan)),
+        "ng2": _float(row.get("ng2", np.nan)),
+    }
     if math.isnan(result["F"]):
         result["p_unc"] = result["p_gg_corr"] = math.nan
-        notes.append("ANOVA undefined: the residual (participant x mode) variance is zero, e.g. every "
-                     "value identical, so F is 0/0 or x/0; reported as NaN, not as significant.")
+        notes.append(
+            "ANOVA undefined: the residual (participant x mode) variance is zero, e.g. every "
+            "value identical, so F is 0/0 or x/0; reported as NaN, not as significant."
+        )
     result["p"] = result["p_gg_corr"] if not math.isnan(result["p_gg_corr"]) else result["p_unc"]
     return result
 
@@ -131,11 +146,21 @@ def _anova_uncorrected(long: pd.DataFrame, notes: list[str]) -> dict:
     from statsmodels.stats.anova import AnovaRM
 
     table = AnovaRM(long, depvar="value", subject="participant", within=["mode"]).fit().anova_table.iloc[0]
-    notes.append("Sphericity test undefined for these data (pingouin's Mauchly test failed); the ANOVA is "
-                 "statsmodels' AnovaRM and its p is uncorrected.")
+    notes.append(
+        "Sphericity test undefined for these data (pingouin's Mauchly test failed); the ANOVA is "
+        "statsmodels' AnovaRM and its p is uncorrected."
+    )
     p = _float(table["Pr > F"])
-    return {"F": _float(table["F Value"]), "ddof1": int(table["Num DF"]), "ddof2": int(table["Den DF"]),
-            "p_unc": p, "p_gg_corr": math.nan, "eps": math.nan, "ng2": math.nan, "p": p}
+    return {
+        "F": _float(table["F Value"]),
+        "ddof1": int(table["Num DF"]),
+        "ddof2": int(table["Den DF"]),
+        "p_unc": p,
+        "p_gg_corr": math.nan,
+        "eps": math.nan,
+        "ng2": math.nan,
+        "p": p,
+    }
 
 
 def paired_tests(long: pd.DataFrame, modes: list[str]) -> list[dict]:
@@ -146,15 +171,23 @@ def paired_tests(long: pd.DataFrame, modes: list[str]) -> list[dict]:
     not p = 0."""
     with warnings.catch_warnings():  # degenerate pairs (pingouin then omits T and p): NaN below
         warnings.simplefilter("ignore")
-        table = pg.pairwise_tests(data=long, dv="value", within="mode", subject="participant",
-                                  parametric=True, padjust="none")
+        table = pg.pairwise_tests(
+            data=long, dv="value", within="mode", subject="participant", parametric=True, padjust="none"
+        )
     rows = []
     for i, a in enumerate(modes):
-        for b in modes[i + 1:]:
+        for b in modes[i + 1 :]:
             match = table[((table["A"] == a) & (table["B"] == b)) | ((table["A"] == b) & (table["B"] == a))].iloc[0]
             t = _float(match.get("T", np.nan)) * (1.0 if match["A"] == a else -1.0)
-            rows.append({"a": a, "b": b, "T": t, "dof": _float(match["dof"]),
-                         "p_unc": math.nan if math.isnan(t) else _float(match.get("p_unc", np.nan))})
+            rows.append(
+                {
+                    "a": a,
+                    "b": b,
+                    "T": t,
+                    "dof": _float(match["dof"]),
+                    "p_unc": math.nan if math.isnan(t) else _float(match.get("p_unc", np.nan)),
+                }
+            )
     return rows
 
 
@@ -174,8 +207,10 @@ def _posthoc(long: pd.DataFrame, modes: list[str], notes: list[str]) -> list[dic
     rows = paired_tests(long, modes)
     undefined = [f"{row['a']} vs {row['b']}" for row in rows if math.isnan(row["T"])]
     if undefined:
-        notes.append(f"t undefined for {', '.join(undefined)}: the paired differences have zero variance "
-                     "(identical for every participant); reported as NaN and left out of the Holm correction.")
+        notes.append(
+            f"t undefined for {', '.join(undefined)}: the paired differences have zero variance "
+            "(identical for every participant); reported as NaN and left out of the Holm correction."
+        )
     return holm(rows)
 
 
@@ -202,24 +237,37 @@ def compare_modes(trials: pd.DataFrame, metric: str) -> dict:
     notes = []
     if len(modes) < 2:
         notes.append(f"only one mode ({modes[0]}): nothing to compare, no test.")
-        return {"metric": metric, "modes": modes, "n_participants": int(wide.notna().all(axis=1).sum()),
-                "anova": _no_test(), "posthoc": [], "note": " ".join(notes)}
+        return {
+            "metric": metric,
+            "modes": modes,
+            "n_participants": int(wide.notna().all(axis=1).sum()),
+            "anova": _no_test(),
+            "posthoc": [],
+            "note": " ".join(notes),
+        }
     incomplete = wide[wide.isna().any(axis=1)]
     if len(incomplete):
         gaps = "; ".join(f"participant {p}: {', '.join(row.index[row.isna()])}" for p, row in incomplete.iterrows())
-        notes.append(f"dropped {len(incomplete)} participant(s) with {_MISSING_REASON[metric]} in some mode "
-                     f"({gaps}).")
+        notes.append(f"dropped {len(incomplete)} participant(s) with {_MISSING_REASON[metric]} in some mode ({gaps}).")
     complete = wide.dropna()
     result = {"metric": metric, "modes": modes, "n_participants": len(complete)}
     if len(complete) < 2:
-        notes.append(f"no test is possible with n < 2 (n = {len(complete)} participant(s) with a value in every "
-                     "mode); reported as NaN.")
+        notes.append(
+            f"no test is possible with n < 2 (n = {len(complete)} participant(s) with a value in every "
+            "mode); reported as NaN."
+        )
         result["anova"] = _no_test()
-        result["posthoc"] = [{"a": a, "b": b, "T": math.nan, "dof": math.nan, "p_unc": math.nan,
-                              "p_holm": math.nan, "stars": ""} for i, a in enumerate(modes) for b in modes[i + 1:]]
+        result["posthoc"] = [
+            {"a": a, "b": b, "T": math.nan, "dof": math.nan, "p_unc": math.nan, "p_holm": math.nan, "stars": ""}
+            for i, a in enumerate(modes)
+            for b in modes[i + 1 :]
+        ]
     else:
-        long = complete.rename_axis(columns=None).reset_index().melt(id_vars="participant", var_name="mode",
-                                                                     value_name="value")
+        long = (
+            complete.rename_axis(columns=None)
+            .reset_index()
+            .melt(id_vars="participant", var_name="mode", value_name="value")
+        )
         result["anova"] = _anova(long, notes)
         result["posthoc"] = _posthoc(long, modes, notes)
     result["note"] = " ".join(notes)

@@ -15,18 +15,44 @@ from pathlib import Path
 import pandas as pd
 
 from otgym.study.paper_fig8 import PAPER_FIG8
-from otgym.study.stats import (compare_modes, ordered_modes, participant_means, require_columns, stars,
-                               wilson_interval)
+from otgym.study.stats import compare_modes, ordered_modes, participant_means, require_columns, stars, wilson_interval
 
-SUMMARY_INPUT_COLUMNS = ("participant", "mode", "obstacles_encountered", "obstacles_avoided", "reached_goal",
-                         "completion_time_s", "trap_losses", "detached")
+SUMMARY_INPUT_COLUMNS = (
+    "participant",
+    "mode",
+    "obstacles_encountered",
+    "obstacles_avoided",
+    "reached_goal",
+    "completion_time_s",
+    "trap_losses",
+    "detached",
+)
 """The columns of the trials table that ``summarize`` reads; others are ignored."""
 
-SUMMARY_COLUMNS = ("mode", "trials", "participants", "success_mean", "success_sd", "obstacles_encountered",
-                   "obstacles_avoided", "avoided_rate", "avoided_rate_ci_low", "avoided_rate_ci_high",
-                   "goals_reached", "goal_rate", "goal_rate_ci_low", "goal_rate_ci_high",
-                   "completion_time_mean_s", "completion_time_sd_s", "trap_losses", "detachments",
-                   "paper_success_mean", "paper_success_sd", "paper_time_mean_s", "paper_time_sd_s")
+SUMMARY_COLUMNS = (
+    "mode",
+    "trials",
+    "participants",
+    "success_mean",
+    "success_sd",
+    "obstacles_encountered",
+    "obstacles_avoided",
+    "avoided_rate",
+    "avoided_rate_ci_low",
+    "avoided_rate_ci_high",
+    "goals_reached",
+    "goal_rate",
+    "goal_rate_ci_low",
+    "goal_rate_ci_high",
+    "completion_time_mean_s",
+    "completion_time_sd_s",
+    "trap_losses",
+    "detachments",
+    "paper_success_mean",
+    "paper_success_sd",
+    "paper_time_mean_s",
+    "paper_time_sd_s",
+)
 """The columns of ``summarize``'s table, in order."""
 
 
@@ -50,20 +76,32 @@ def summarize(trials: pd.DataFrame) -> pd.DataFrame:
         goals = int(in_mode["reached_goal"].astype(bool).sum())
         avoided_ci, goal_ci = wilson_interval(avoided, encountered), wilson_interval(goals, len(in_mode))
         paper = PAPER_FIG8.get(mode, {})
-        rows.append({
-            "mode": mode, "trials": len(in_mode), "participants": in_mode["participant"].nunique(),
-            "success_mean": mode_success.mean(), "success_sd": mode_success.std(ddof=1),
-            "obstacles_encountered": encountered, "obstacles_avoided": avoided,
-            "avoided_rate": avoided / encountered if encountered else math.nan,
-            "avoided_rate_ci_low": avoided_ci[0], "avoided_rate_ci_high": avoided_ci[1],
-            "goals_reached": goals, "goal_rate": goals / len(in_mode),
-            "goal_rate_ci_low": goal_ci[0], "goal_rate_ci_high": goal_ci[1],
-            "completion_time_mean_s": mode_time.mean(), "completion_time_sd_s": mode_time.std(ddof=1),
-            "trap_losses": int(in_mode["trap_losses"].sum()),
-            "detachments": int(in_mode["detached"].astype(bool).sum()),
-            **{f"paper_{key}": paper.get(key, math.nan)
-               for key in ("success_mean", "success_sd", "time_mean_s", "time_sd_s")},
-        })
+        rows.append(
+            {
+                "mode": mode,
+                "trials": len(in_mode),
+                "participants": in_mode["participant"].nunique(),
+                "success_mean": mode_success.mean(),
+                "success_sd": mode_success.std(ddof=1),
+                "obstacles_encountered": encountered,
+                "obstacles_avoided": avoided,
+                "avoided_rate": avoided / encountered if encountered else math.nan,
+                "avoided_rate_ci_low": avoided_ci[0],
+                "avoided_rate_ci_high": avoided_ci[1],
+                "goals_reached": goals,
+                "goal_rate": goals / len(in_mode),
+                "goal_rate_ci_low": goal_ci[0],
+                "goal_rate_ci_high": goal_ci[1],
+                "completion_time_mean_s": mode_time.mean(),
+                "completion_time_sd_s": mode_time.std(ddof=1),
+                "trap_losses": int(in_mode["trap_losses"].sum()),
+                "detachments": int(in_mode["detached"].astype(bool).sum()),
+                **{
+                    f"paper_{key}": paper.get(key, math.nan)
+                    for key in ("success_mean", "success_sd", "time_mean_s", "time_sd_s")
+                },
+            }
+        )
     return pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
 
 
@@ -86,10 +124,12 @@ def _rate(rate: float, low: float, high: float) -> str:
 
 
 def _table_markdown(table: pd.DataFrame) -> list[str]:
-    lines = ["| mode | trials | participants | success % (mean ± SD) | paper success % | avoided / encountered "
-             "| avoided % [95 % CI] | goal % [95 % CI] | time s (mean ± SD) | paper time s | trap losses "
-             "| detachments |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        "| mode | trials | participants | success % (mean ± SD) | paper success % | avoided / encountered "
+        "| avoided % [95 % CI] | goal % [95 % CI] | time s (mean ± SD) | paper time s | trap losses "
+        "| detachments |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
     for row in table.itertuples():
         lines.append(
             f"| {row.mode} | {row.trials} | {row.participants} "
@@ -100,7 +140,8 @@ def _table_markdown(table: pd.DataFrame) -> list[str]:
             f"| {_rate(row.goal_rate, row.goal_rate_ci_low, row.goal_rate_ci_high)} "
             f"| {_mean_sd(row.completion_time_mean_s, row.completion_time_sd_s, 1, '.1f')} "
             f"| {_mean_sd(row.paper_time_mean_s, row.paper_time_sd_s, 1, '.1f')} "
-            f"| {row.trap_losses} | {row.detachments} |")
+            f"| {row.trap_losses} | {row.detachments} |"
+        )
     return lines
 
 
@@ -109,15 +150,22 @@ def _stats_markdown(title: str, result: dict) -> list[str]:
     if math.isnan(anova["F"]) and (len(result["modes"]) < 2 or result["n_participants"] < 2):
         return [f"## {title}", "", f"No test: {result['note']}", ""]
     corrected = "" if math.isnan(anova["p_gg_corr"]) else f", Greenhouse-Geisser p = {_p(anova['p_gg_corr'])}"
-    lines = [f"## {title}", "",
-             f"Repeated-measures ANOVA over modes (n = {result['n_participants']} participants): "
-             f"F({_num(anova['ddof1'], '.0f')}, {_num(anova['ddof2'], '.0f')}) = {_num(anova['F'], '.2f')}, "
-             f"p = {_p(anova['p_unc'])}{corrected} {stars(anova['p'])}, "
-             f"generalised eta² = {_num(anova['ng2'], '.3f')}.",
-             "", "Paired t-tests, Holm-corrected:", ""]
+    lines = [
+        f"## {title}",
+        "",
+        f"Repeated-measures ANOVA over modes (n = {result['n_participants']} participants): "
+        f"F({_num(anova['ddof1'], '.0f')}, {_num(anova['ddof2'], '.0f')}) = {_num(anova['F'], '.2f')}, "
+        f"p = {_p(anova['p_unc'])}{corrected} {stars(anova['p'])}, "
+        f"generalised eta² = {_num(anova['ng2'], '.3f')}.",
+        "",
+        "Paired t-tests, Holm-corrected:",
+        "",
+    ]
     for pair in result["posthoc"]:
-        lines.append(f"- {pair['a']} vs {pair['b']}: t({_num(pair['dof'], '.0f')}) = {_num(pair['T'], '.2f')}, "
-                     f"p = {_p(pair['p_unc'])}, Holm p = {_p(pair['p_holm'])} {pair['stars']}".rstrip())
+        lines.append(
+            f"- {pair['a']} vs {pair['b']}: t({_num(pair['dof'], '.0f')}) = {_num(pair['T'], '.2f')}, "
+            f"p = {_p(pair['p_unc'])}, Holm p = {_p(pair['p_holm'])} {pair['stars']}".rstrip()
+        )
     if result["note"]:
         lines += ["", f"Note: {result['note']}"]
     return lines + [""]
@@ -126,12 +174,19 @@ def _stats_markdown(title: str, result: dict) -> list[str]:
 def summary_markdown(table: pd.DataFrame, stats: dict) -> str:
     """``summary.md``: the per-mode table with the paper's values beside ours, then the
     ANOVA and post-hoc lines for success and completion time."""
-    lines = ["# Shared-control study (paper Sec. III-C, Fig. 8)", ""] + _table_markdown(table) + [
-        "", "Success: obstacles avoided / encountered, pooled per participant and mode; means and SDs are over "
-        "participants' means. Time: mean over trials that reached the goal. CIs: 95 % Wilson intervals on "
-        "pooled counts. Paper: Sec. III-C's mean ± SD (\"-\" where the paper has no such mode). "
-        "Stars (Fig. 8): * p < 0.05, ** p < 0.01, *** p < 0.001, ns otherwise; on the ANOVA, the "
-        "Greenhouse-Geisser p where there is one.", ""]
+    lines = (
+        ["# Shared-control study (paper Sec. III-C, Fig. 8)", ""]
+        + _table_markdown(table)
+        + [
+            "",
+            "Success: obstacles avoided / encountered, pooled per participant and mode; means and SDs are over "
+            "participants' means. Time: mean over trials that reached the goal. CIs: 95 % Wilson intervals on "
+            'pooled counts. Paper: Sec. III-C\'s mean ± SD ("-" where the paper has no such mode). '
+            "Stars (Fig. 8): * p < 0.05, ** p < 0.01, *** p < 0.001, ns otherwise; on the ANOVA, the "
+            "Greenhouse-Geisser p where there is one.",
+            "",
+        ]
+    )
     lines += _stats_markdown("Success rate", stats["success"]) + _stats_markdown("Completion time", stats["time"])
     return "\n".join(lines)
 

@@ -51,8 +51,9 @@ class Sample:
     @property
     def finite(self) -> bool:
         """True when time, position and velocity are all finite."""
-        return bool(math.isfinite(self.time_s) and np.isfinite(self.position_mm).all()
-                    and np.isfinite(self.velocity_mm_s).all())
+        return bool(
+            math.isfinite(self.time_s) and np.isfinite(self.position_mm).all() and np.isfinite(self.velocity_mm_s).all()
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,7 +107,7 @@ class Device(abc.ABC):
     def read(self) -> Sample | None:
         """The latest sample without blocking; None before the first."""
 
-    def set_force(self, force_n) -> None:
+    def set_force(self, force_n) -> None:  # noqa: B027 (a no-op default, overridden by haptic devices)
         """Command a (3,) tip force in newtons, saturated to ``caps.force_limit_n``;
         a no-op for devices without haptics (this default)."""
 

@@ -87,8 +87,9 @@ def newtons_per_pn_for(trap_law: TrapLaw, peak_force_n: float = 0.6) -> float:
     return peak_force_n / trap_law.max_force_pn
 
 
-def stable_newtons_per_pn(trap_stiffness_pn_per_um: float, handles: int, motion_scale_um_per_mm: float,
-                          arm_stiffness_n_per_m: float = 300.0) -> float:
+def stable_newtons_per_pn(
+    trap_stiffness_pn_per_um: float, handles: int, motion_scale_um_per_mm: float, arm_stiffness_n_per_m: float = 300.0
+) -> float:
     """The largest force scale at which the hand-trap loop's quasi-static gain is one:
     a trap offset d pushes the hand (stiffness k_arm) back by F / k_arm, which moves the
     traps by tau F / k_arm; with F = s * H * K d that is d again when
@@ -100,9 +101,12 @@ def stable_newtons_per_pn(trap_stiffness_pn_per_um: float, handles: int, motion_
     (Pacoret & Regnier, Rev. Sci. Instrum. 84, 081301, 2013); the paper says only that
     its forces were "empirically scaled". Default arm stiffness: the 300 N/m of
     ``otgym.planning.human.HumanParams``."""
-    for name, value in (("trap_stiffness_pn_per_um", trap_stiffness_pn_per_um), ("handles", handles),
-                        ("motion_scale_um_per_mm", motion_scale_um_per_mm),
-                        ("arm_stiffness_n_per_m", arm_stiffness_n_per_m)):
+    for name, value in (
+        ("trap_stiffness_pn_per_um", trap_stiffness_pn_per_um),
+        ("handles", handles),
+        ("motion_scale_um_per_mm", motion_scale_um_per_mm),
+        ("arm_stiffness_n_per_m", arm_stiffness_n_per_m),
+    ):
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ValueError(f"{name} must be positive and finite, got {value!r}")
     return arm_stiffness_n_per_m / (handles * trap_stiffness_pn_per_um * motion_scale_um_per_mm * 1000.0)
@@ -113,8 +117,9 @@ def _ramp(ratio) -> np.ndarray:
     return np.clip((np.asarray(ratio) - 0.5) / 0.5, 0.0, 1.0) ** 2
 
 
-def chip_force_n(handle_force_pn, handle_offset_um, contact_force_pn, valid, config: FeedbackConfig,
-                 bend_distance_um: float) -> np.ndarray:
+def chip_force_n(
+    handle_force_pn, handle_offset_um, contact_force_pn, valid, config: FeedbackConfig, bend_distance_um: float
+) -> np.ndarray:
     """The stylus force (..., 2) in N in the chip frame, before filtering and
     saturation, for arrays of one robot's handles (..., H, 2) (leading axes batch
     devices): minus the scaled trap forces, stiffened toward the bend, plus the contact
@@ -141,8 +146,9 @@ class FeedbackLaw:
         if not math.isfinite(tick_rate_hz) or tick_rate_hz <= 0:
             raise ValueError(f"tick_rate_hz must be positive and finite, got {tick_rate_hz!r}")
         if config.cutoff_hz >= tick_rate_hz / 2:
-            raise ValueError(f"cutoff_hz must be below the Nyquist frequency {tick_rate_hz / 2} Hz, "
-                             f"got {config.cutoff_hz!r}")
+            raise ValueError(
+                f"cutoff_hz must be below the Nyquist frequency {tick_rate_hz / 2} Hz, got {config.cutoff_hz!r}"
+            )
         self.config = config
         self.bend_distance_um = float(trap_law.escape_distance)
         self._sos = signal.butter(FILTER_ORDER, config.cutoff_hz, fs=tick_rate_hz, output="sos")
@@ -162,8 +168,10 @@ class FeedbackLaw:
         offset = np.asarray(handle_offset_um, dtype=float)
         valid = np.asarray(valid, dtype=bool)
         if force.ndim != 2 or force.shape[1] != 2 or offset.shape != force.shape or valid.shape != force.shape[:1]:
-            raise ValueError(f"handle_force_pn and handle_offset_um must be (H, 2) and valid (H,), "
-                             f"got {force.shape}, {offset.shape}, {valid.shape}")
+            raise ValueError(
+                f"handle_force_pn and handle_offset_um must be (H, 2) and valid (H,), "
+                f"got {force.shape}, {offset.shape}, {valid.shape}"
+            )
         chip_n = chip_force_n(force, offset, contact_force_pn, valid, self.config, self.bend_distance_um)
         filtered = sos_step(self._sos, chip_n, self._zi)
         return saturate_force(chip_to_device(filtered, self.config.plane), self.config.force_limit_n)

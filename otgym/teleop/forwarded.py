@@ -11,7 +11,7 @@ raises ``DeviceError``, as a driver whose hardware went away does), and
 from __future__ import annotations
 
 import threading
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -35,8 +35,14 @@ DRAG_GAIN_PER_S = 2.0
 class MouseDragDevice(Device):
     """The mouse dragging robot ``robot`` over ``primary`` (None: the mouse alone)."""
 
-    def __init__(self, robot: int, primary: Device | None = None, motion_scale_um_per_mm: float = 2.0,
-                 gain_per_s: float = DRAG_GAIN_PER_S, plane: str = "xy"):
+    def __init__(
+        self,
+        robot: int,
+        primary: Device | None = None,
+        motion_scale_um_per_mm: float = 2.0,
+        gain_per_s: float = DRAG_GAIN_PER_S,
+        plane: str = "xy",
+    ):
         self.robot = robot
         self.primary = primary
         self.caps = primary.caps if primary is not None else MOUSE_CAPS

@@ -47,25 +47,48 @@ import pygame  # noqa: E402  (after silencing its banner)
 from pygame._sdl2 import controller  # noqa: E402
 
 KEY_DIRECTIONS = {
-    pygame.K_RIGHT: (1.0, 0.0), pygame.K_d: (1.0, 0.0),
-    pygame.K_LEFT: (-1.0, 0.0), pygame.K_a: (-1.0, 0.0),
-    pygame.K_UP: (0.0, 1.0), pygame.K_w: (0.0, 1.0),
-    pygame.K_DOWN: (0.0, -1.0), pygame.K_s: (0.0, -1.0),
+    pygame.K_RIGHT: (1.0, 0.0),
+    pygame.K_d: (1.0, 0.0),
+    pygame.K_LEFT: (-1.0, 0.0),
+    pygame.K_a: (-1.0, 0.0),
+    pygame.K_UP: (0.0, 1.0),
+    pygame.K_w: (0.0, 1.0),
+    pygame.K_DOWN: (0.0, -1.0),
+    pygame.K_s: (0.0, -1.0),
 }
 KEY_BITS = {pygame.K_SPACE: 0, pygame.K_LSHIFT: 3, pygame.K_RSHIFT: 3}
 MOUSE_BITS = {1: 1, 3: 2}  # pygame mouse buttons: 1 left, 3 right
-KEYBOARD_EVENTS = (pygame.KEYDOWN, pygame.KEYUP, pygame.MOUSEBUTTONDOWN, pygame.MOUSEBUTTONUP,
-                   pygame.MOUSEMOTION, pygame.WINDOWFOCUSLOST)
-GAMEPAD_EVENTS = (pygame.CONTROLLERAXISMOTION, pygame.CONTROLLERBUTTONDOWN, pygame.CONTROLLERBUTTONUP,
-                  pygame.CONTROLLERDEVICEADDED, pygame.CONTROLLERDEVICEREMOVED, pygame.JOYAXISMOTION,
-                  pygame.JOYBUTTONDOWN, pygame.JOYBUTTONUP, pygame.JOYHATMOTION, pygame.JOYDEVICEADDED,
-                  pygame.JOYDEVICEREMOVED)
+KEYBOARD_EVENTS = (
+    pygame.KEYDOWN,
+    pygame.KEYUP,
+    pygame.MOUSEBUTTONDOWN,
+    pygame.MOUSEBUTTONUP,
+    pygame.MOUSEMOTION,
+    pygame.WINDOWFOCUSLOST,
+)
+GAMEPAD_EVENTS = (
+    pygame.CONTROLLERAXISMOTION,
+    pygame.CONTROLLERBUTTONDOWN,
+    pygame.CONTROLLERBUTTONUP,
+    pygame.CONTROLLERDEVICEADDED,
+    pygame.CONTROLLERDEVICEREMOVED,
+    pygame.JOYAXISMOTION,
+    pygame.JOYBUTTONDOWN,
+    pygame.JOYBUTTONUP,
+    pygame.JOYHATMOTION,
+    pygame.JOYDEVICEADDED,
+    pygame.JOYDEVICEREMOVED,
+)
 STICKS = {
     "left": (pygame.CONTROLLER_AXIS_LEFTX, pygame.CONTROLLER_AXIS_LEFTY, pygame.CONTROLLER_BUTTON_LEFTSHOULDER),
     "right": (pygame.CONTROLLER_AXIS_RIGHTX, pygame.CONTROLLER_AXIS_RIGHTY, pygame.CONTROLLER_BUTTON_RIGHTSHOULDER),
 }
-FACE_BUTTONS = (pygame.CONTROLLER_BUTTON_A, pygame.CONTROLLER_BUTTON_B, pygame.CONTROLLER_BUTTON_X,
-                pygame.CONTROLLER_BUTTON_Y)
+FACE_BUTTONS = (
+    pygame.CONTROLLER_BUTTON_A,
+    pygame.CONTROLLER_BUTTON_B,
+    pygame.CONTROLLER_BUTTON_X,
+    pygame.CONTROLLER_BUTTON_Y,
+)
 AXIS_FULL_SCALE = 32767.0
 RATE_DEVICE_WORKSPACE_MM = (160.0, 120.0, 70.0)
 """Nominal extent of the virtual stylus (a Touch's), for consumers that normalise by it."""
@@ -83,8 +106,9 @@ def _init_events(what: str) -> None:
         try:
             pygame.display.init()
         except pygame.error as error:
-            raise DeviceError(f"{what} needs a pygame display ({error}); set SDL_VIDEODRIVER=dummy "
-                              "to run without a screen") from None
+            raise DeviceError(
+                f"{what} needs a pygame display ({error}); set SDL_VIDEODRIVER=dummy to run without a screen"
+            ) from None
 
 
 class _RateDevice(Device):
@@ -195,16 +219,23 @@ class GamepadDevice(_RateDevice):
     scale); dead_zone: fraction of full deflection ignored (default 0.15, covering the
     rest drift of worn sticks)."""
 
-    def __init__(self, index: int = 0, stick: str = "left", speed_mm_s: float = 5.0, dead_zone: float = 0.15,
-                 pump_events: bool = True):
+    def __init__(
+        self,
+        index: int = 0,
+        stick: str = "left",
+        speed_mm_s: float = 5.0,
+        dead_zone: float = 0.15,
+        pump_events: bool = True,
+    ):
         if stick not in STICKS:
             raise ValueError(f"stick must be one of {tuple(STICKS)}, got {stick!r}")
         if not isinstance(index, int) or index < 0:
             raise ValueError(f"index must be a non-negative integer, got {index!r}")
         if not isinstance(dead_zone, (int, float)) or not 0 <= dead_zone < 1:
             raise ValueError(f"dead_zone must be within [0, 1), got {dead_zone!r}")
-        super().__init__(DeviceCaps(f"gamepad {index} ({stick} stick)", 2, 0.0, RATE_DEVICE_WORKSPACE_MM, 60.0),
-                         pump_events)
+        super().__init__(
+            DeviceCaps(f"gamepad {index} ({stick} stick)", 2, 0.0, RATE_DEVICE_WORKSPACE_MM, 60.0), pump_events
+        )
         self.index = index
         self.stick = stick
         self.speed_mm_s = _require_pos("speed_mm_s", speed_mm_s)
@@ -223,8 +254,9 @@ class GamepadDevice(_RateDevice):
         if self.index >= len(names):
             raise DeviceError(f"no gamepad at index {self.index}; found: {found}")
         if not controller.is_controller(self.index):
-            raise DeviceError(f"device {self.index} ({names[self.index]}) is not a game controller SDL knows; "
-                              f"found: {found}")
+            raise DeviceError(
+                f"device {self.index} ({names[self.index]}) is not a game controller SDL knows; found: {found}"
+            )
         self._pad = controller.Controller(self.index)
         self._last_s = time.monotonic()
 

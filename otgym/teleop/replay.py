@@ -17,8 +17,8 @@ from __future__ import annotations
 import csv
 import math
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -41,6 +41,7 @@ def load_samples(path) -> list[Sample]:
     """The samples of a CSV file written by ``record_samples``; DeviceError (one line)
     when the file is missing, empty, malformed, or its times are not finite and
     non-decreasing."""
+
     def fail(reason: str):
         return DeviceError(f"replay file {path}: {reason}")
 
@@ -92,8 +93,13 @@ class ReplayDevice(Device):
         positions = np.array([s.position_mm for s in self._samples])
         positions = positions[np.isfinite(positions).all(axis=1)]
         extent = np.ptp(positions, axis=0) if len(positions) else np.zeros(3)
-        self.caps = DeviceCaps(name=f"replay of {self.path.name}", dof=3, force_limit_n=0.0,
-                               workspace_mm=tuple(float(max(e, 1.0)) for e in extent), rate_hz=1.0 / interval_s)
+        self.caps = DeviceCaps(
+            name=f"replay of {self.path.name}",
+            dof=3,
+            force_limit_n=0.0,
+            workspace_mm=tuple(float(max(e, 1.0)) for e in extent),
+            rate_hz=1.0 / interval_s,
+        )
         self._start_s: float | None = None
 
     def start(self) -> None:
@@ -109,6 +115,10 @@ class ReplayDevice(Device):
         cycle, phase = divmod(elapsed, self._duration_s) if self.loop else (0, elapsed)
         index = int(np.searchsorted(self._offsets_s, phase, side="right")) - 1
         recorded = self._samples[index]
-        return Sample(self._start_s + cycle * self._duration_s + self._offsets_s[index],
-                      recorded.sequence + int(cycle) * self._sequence_span,
-                      recorded.position_mm, recorded.velocity_mm_s, recorded.buttons)
+        return Sample(
+            self._start_s + cycle * self._duration_s + self._offsets_s[index],
+            recorded.sequence + int(cycle) * self._sequence_span,
+            recorded.position_mm,
+            recorded.velocity_mm_s,
+            recorded.buttons,
+        )

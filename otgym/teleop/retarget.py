@@ -75,8 +75,9 @@ class RetargetConfig:
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {value!r}")
-        if not isinstance(self.dead_band_mm_s, (int, float)) or not (math.isfinite(self.dead_band_mm_s)
-                                                                   and self.dead_band_mm_s >= 0):
+        if not isinstance(self.dead_band_mm_s, (int, float)) or not (
+            math.isfinite(self.dead_band_mm_s) and self.dead_band_mm_s >= 0
+        ):
             raise ValueError(f"dead_band_mm_s must be finite and >= 0, got {self.dead_band_mm_s!r}")
         if not isinstance(self.filter_order, int) or not 1 <= self.filter_order <= 8:
             raise ValueError(f"filter_order must be an integer within 1..8, got {self.filter_order!r}")
@@ -91,8 +92,10 @@ def tremor_filter_sos(config: RetargetConfig, tick_rate_hz: float) -> np.ndarray
     if not math.isfinite(tick_rate_hz) or tick_rate_hz <= 0:
         raise ValueError(f"tick_rate_hz must be positive and finite, got {tick_rate_hz!r}")
     if config.tremor_cutoff_hz >= tick_rate_hz / 2:
-        raise ValueError(f"tremor_cutoff_hz must be below the Nyquist frequency {tick_rate_hz / 2} Hz, "
-                         f"got {config.tremor_cutoff_hz!r}")
+        raise ValueError(
+            f"tremor_cutoff_hz must be below the Nyquist frequency {tick_rate_hz / 2} Hz, "
+            f"got {config.tremor_cutoff_hz!r}"
+        )
     return signal.butter(config.filter_order, config.tremor_cutoff_hz, fs=tick_rate_hz, output="sos")
 
 

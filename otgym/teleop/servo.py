@@ -37,9 +37,10 @@ import math
 import multiprocessing
 import os
 import time
+from collections.abc import Callable
 from signal import SIGTERM
 from signal import signal as on_signal
-from typing import Callable, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -55,7 +56,7 @@ _SEQLOCK_TRIES = 64
 
 def _write(block, start: int, values) -> None:
     block[start] += 1.0
-    block[start + 1:start + 1 + len(values)] = values
+    block[start + 1 : start + 1 + len(values)] = values
     block[start] += 1.0
 
 
@@ -63,7 +64,7 @@ def _read(block, start: int, size: int) -> list[float] | None:
     for _ in range(_SEQLOCK_TRIES):
         before = block[start]
         if before % 2 == 0:
-            values = block[start + 1:start + 1 + size]
+            values = block[start + 1 : start + 1 + size]
             if block[start] == before:
                 return values
     return None
@@ -121,8 +122,9 @@ class VelocityEstimator:
         else:
             (x1, t1), (x2, t2) = history[-1], history[-2]
             h1, h2 = time_s - t1, t1 - t2
-            raw = ((2 * h1 + h2) / (h1 * (h1 + h2)) * position_mm - (h1 + h2) / (h1 * h2) * x1
-                   + h1 / (h2 * (h1 + h2)) * x2)
+            raw = (
+                (2 * h1 + h2) / (h1 * (h1 + h2)) * position_mm - (h1 + h2) / (h1 * h2) * x1 + h1 / (h2 * (h1 + h2)) * x2
+            )
         self._history = history[-1:] + [(position_mm, time_s)]
         value = raw
         for (b0, b1, b2, _, a1, a2), state in zip(self._sos, self._state):
@@ -163,11 +165,20 @@ class SimulatedHapticBackend:
     cannot blow it up). Velocity is estimated from positions like a real device's
     (``VelocityEstimator``). ``buttons`` are held constant (bit 0: the clutch)."""
 
-    def __init__(self, hand: Callable[[float], np.ndarray] = SteadyHand(), mass_kg: float = 0.045,
-                 hand_stiffness_n_per_m: float = 300.0, hand_damping_n_s_per_m: float = 6.0,
-                 buttons: int = 1, rate_hz: float = 1000.0):
-        for name, value in (("mass_kg", mass_kg), ("hand_stiffness_n_per_m", hand_stiffness_n_per_m),
-                            ("rate_hz", rate_hz)):
+    def __init__(
+        self,
+        hand: Callable[[float], np.ndarray] = SteadyHand(),
+        mass_kg: float = 0.045,
+        hand_stiffness_n_per_m: float = 300.0,
+        hand_damping_n_s_per_m: float = 6.0,
+        buttons: int = 1,
+        rate_hz: float = 1000.0,
+    ):
+        for name, value in (
+            ("mass_kg", mass_kg),
+            ("hand_stiffness_n_per_m", hand_stiffness_n_per_m),
+            ("rate_hz", rate_hz),
+        ):
             if not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {value!r}")
         if not math.isfinite(hand_damping_n_s_per_m) or hand_damping_n_s_per_m < 0:
@@ -236,9 +247,20 @@ def _widen_affinity() -> None:
             pass  # a cpuset that allows none of them: keep the inherited core
 
 
-def _servo_main(factory, block, periods, period_count, stop_flag, conn, parent_pid: int,
-                rate_hz: float, busy_wait_s: float, force_timeout_s: float, realtime_priority: int | None,
-                realtime_flag) -> None:
+def _servo_main(
+    factory,
+    block,
+    periods,
+    period_count,
+    stop_flag,
+    conn,
+    parent_pid: int,
+    rate_hz: float,
+    busy_wait_s: float,
+    force_timeout_s: float,
+    realtime_priority: int | None,
+    realtime_flag,
+) -> None:
     """The child process: build the backend, report readiness (an empty message) or
     the one-line reason it failed, run the loop, and report why it ended if it was
     not asked to. SIGTERM (sent to daemon children when the parent exits normally)
@@ -293,9 +315,17 @@ class ServoDevice(Device):
     (the force block has a single writer). ``realtime_priority``: the SCHED_FIFO
     priority the loop asks for (None: normal scheduling); ``realtime`` whether it got it."""
 
-    def __init__(self, backend_factory: Callable[[], ServoBackend], caps: DeviceCaps, *,
-                 busy_wait_s: float = 2e-4, force_timeout_s: float = 0.25,
-                 period_capacity: int = 4096, start_timeout_s: float = 20.0, realtime_priority: int | None = 50):
+    def __init__(
+        self,
+        backend_factory: Callable[[], ServoBackend],
+        caps: DeviceCaps,
+        *,
+        busy_wait_s: float = 2e-4,
+        force_timeout_s: float = 0.25,
+        period_capacity: int = 4096,
+        start_timeout_s: float = 20.0,
+        realtime_priority: int | None = 50,
+    ):
         for name, value in (("force_timeout_s", force_timeout_s), ("start_timeout_s", start_timeout_s)):
             if not math.isfinite(value) or value <= 0:
                 raise ValueError(f"{name} must be positive and finite, got {value!r}")
@@ -337,10 +367,24 @@ class ServoDevice(Device):
         receiver, sender = self._context.Pipe(duplex=False)
         self._stop_flag.value = 0
         self.process = self._context.Process(
-            target=_servo_main, name=f"otgym-servo ({self.caps.name})", daemon=True,
-            args=(self._factory, self._block, self._periods, self._period_count, self._stop_flag, sender,
-                  os.getpid(), self.caps.rate_hz, self._busy_wait_s, self._force_timeout_s, self._realtime_priority,
-                  self._realtime_flag))
+            target=_servo_main,
+            name=f"otgym-servo ({self.caps.name})",
+            daemon=True,
+            args=(
+                self._factory,
+                self._block,
+                self._periods,
+                self._period_count,
+                self._stop_flag,
+                sender,
+                os.getpid(),
+                self.caps.rate_hz,
+                self._busy_wait_s,
+                self._force_timeout_s,
+                self._realtime_priority,
+                self._realtime_flag,
+            ),
+        )
         self.process.start()
         sender.close()
         message = None
@@ -403,8 +447,9 @@ class ServoDevice(Device):
         return np.roll(periods, -(count % capacity))
 
 
-SIMULATED_HAPTIC_CAPS = DeviceCaps(name="simulated haptic stylus", dof=3, force_limit_n=0.88,
-                                   workspace_mm=(160.0, 120.0, 70.0), rate_hz=1000.0)
+SIMULATED_HAPTIC_CAPS = DeviceCaps(
+    name="simulated haptic stylus", dof=3, force_limit_n=0.88, workspace_mm=(160.0, 120.0, 70.0), rate_hz=1000.0
+)
 """A virtual Touch: its continuous force limit and workspace (3D Systems' figures)."""
 
 

@@ -11,7 +11,7 @@ the primary: the taking-over device has no haptics."""
 from __future__ import annotations
 
 import time
-from typing import Callable
+from collections.abc import Callable
 
 from otgym.teleop.device import Device, Sample
 
@@ -20,8 +20,13 @@ TAKEOVER_FRESH_S = 0.1
 
 
 class TakeoverDevice(Device):
-    def __init__(self, primary: Device | None, over: Device, fresh_s: float = TAKEOVER_FRESH_S,
-                 clock: Callable[[], float] = time.monotonic):
+    def __init__(
+        self,
+        primary: Device | None,
+        over: Device,
+        fresh_s: float = TAKEOVER_FRESH_S,
+        clock: Callable[[], float] = time.monotonic,
+    ):
         self.primary, self.over, self.fresh_s, self.clock = primary, over, fresh_s, clock
         self.caps = primary.caps if primary is not None else over.caps
 

@@ -26,8 +26,9 @@ import numpy as np
 from otgym.teleop.device import DeviceCaps, DeviceError
 from otgym.teleop.servo import ServoDevice, VelocityEstimator
 
-TOUCH_CAPS = DeviceCaps(name="Geomagic Touch", dof=3, force_limit_n=0.88,
-                        workspace_mm=(160.0, 120.0, 70.0), rate_hz=1000.0)
+TOUCH_CAPS = DeviceCaps(
+    name="Geomagic Touch", dof=3, force_limit_n=0.88, workspace_mm=(160.0, 120.0, 70.0), rate_hz=1000.0
+)
 """3D Systems' figures: 3 force-feedback axes (6 sensed), workspace > 160 W x 120 H x
 70 D mm, 0.88 N continuous force, 1 kHz servo rate."""
 STALE_CALLBACK_S = 0.1
@@ -40,8 +41,10 @@ def _openhaptics():
         from pyOpenHaptics import hd, hd_callback
     except (ImportError, OSError) as error:
         reason = " ".join(str(error).split()) or type(error).__name__
-        raise DeviceError("Geomagic Touch needs the 'haptics' extra (pip install \"otgym[haptics]\") and "
-                          f"3D Systems' OpenHaptics runtime (libHD): {reason}") from None
+        raise DeviceError(
+            "Geomagic Touch needs the 'haptics' extra (pip install \"otgym[haptics]\") and "
+            f"3D Systems' OpenHaptics runtime (libHD): {reason}"
+        ) from None
     return hd, hd_callback
 
 
@@ -57,8 +60,11 @@ class TouchBackend:
         self._estimator = VelocityEstimator(TOUCH_CAPS.rate_hz)
         self._handle = hd.init_device(device_name)
         if self._handle is None:
-            raise DeviceError(f"no Geomagic Touch named {device_name!r} could be opened (is it plugged in and "
-                              "set up with Touch Setup?)")
+            raise DeviceError(
+                f"no Geomagic Touch named {device_name!r} could be opened (is it plugged in and "
+                "set up with Touch Setup?)"
+            )
+
         def servo_callback():  # a plain function, the form pyOpenHaptics' decorator wraps
             self._servo_callback()
 

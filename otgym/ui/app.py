@@ -61,11 +61,11 @@ default renders each present with Mesa's software GL, about 3.5 ms of CPU whatev
 the size of the rectangles (measured under Xvfb: 0.01 ms with this setting)."""
 import pygame  # noqa: E402
 
-from otgym.teleop.device import DeviceError
-from otgym.teleop.pygame_devices import KEYBOARD_EVENTS
-from otgym.ui import cues, views
-from otgym.ui.records import append_trial
-from otgym.ui.views import DIM_TEXT_RGB, TEXT_RGB, BACKGROUND_RGB, CuePanel, GlobalView, LocalView, fonts
+from otgym.teleop.device import DeviceError  # noqa: E402
+from otgym.teleop.pygame_devices import KEYBOARD_EVENTS  # noqa: E402
+from otgym.ui import cues, views  # noqa: E402
+from otgym.ui.records import append_trial  # noqa: E402
+from otgym.ui.views import BACKGROUND_RGB, DIM_TEXT_RGB, TEXT_RGB, CuePanel, GlobalView, LocalView, fonts  # noqa: E402
 
 WINDOW_SIZE = (1280, 720)
 FPS = 60
@@ -96,9 +96,18 @@ class PlayApp:
     each frame (tests); ``dirty_rects``: present only what changed (False: the whole
     frame every frame)."""
 
-    def __init__(self, session, out_dir: Path, *, window_devices=(), questionnaire: bool = True,
-                 step: bool = False, fps: int = FPS, screen: pygame.Surface | None = None,
-                 dirty_rects: bool = True):
+    def __init__(
+        self,
+        session,
+        out_dir: Path,
+        *,
+        window_devices=(),
+        questionnaire: bool = True,
+        step: bool = False,
+        fps: int = FPS,
+        screen: pygame.Surface | None = None,
+        dirty_rects: bool = True,
+    ):
         self.session = session
         self.out_dir = Path(out_dir)
         self.window_devices = list(window_devices)
@@ -149,12 +158,19 @@ class PlayApp:
                 self.show_help = not self.show_help
                 self._full_redraw = True
         if event.type in KEYBOARD_EVENTS and event.type not in (
-                pygame.MOUSEBUTTONDOWN, pygame.MOUSEBUTTONUP, pygame.MOUSEMOTION):
+            pygame.MOUSEBUTTONDOWN,
+            pygame.MOUSEBUTTONUP,
+            pygame.MOUSEMOTION,
+        ):
             for keyboard in self.keyboards:
                 keyboard.handle_event(event)
         snapshot = self.session.snapshot
-        if (event.type == pygame.MOUSEBUTTONDOWN and event.button == 1 and snapshot is not None
-                and self.global_view.rect.collidepoint(event.pos)):
+        if (
+            event.type == pygame.MOUSEBUTTONDOWN
+            and event.button == 1
+            and snapshot is not None
+            and self.global_view.rect.collidepoint(event.pos)
+        ):
             robot = self.global_view.robot_at(snapshot, event.pos)
             if robot is not None:
                 self.drag = (robot, self.global_view.to_um(event.pos))
@@ -243,8 +259,9 @@ class PlayApp:
         from otgym.study.questionnaires import append_answers
         from otgym.ui.questionnaire import run_questionnaire
 
-        answers = run_questionnaire(self.screen, self.clock, row["participant"], row["mode"], row["trial"],
-                                    weighted=False, fps=self.fps)
+        answers = run_questionnaire(
+            self.screen, self.clock, row["participant"], row["mode"], row["trial"], weighted=False, fps=self.fps
+        )
         if answers is None:
             return False
         append_answers(self.out_dir / "questionnaires.csv", answers)
@@ -296,13 +313,19 @@ class PlayApp:
         self.screen.fill(BACKGROUND_RGB, STATUS_RECT)
         avoided, encountered = cues.obstacle_tally(snapshot.encountered, snapshot.collided)
         self._text("otgym play", (12, 12), TEXT_RGB, "title")
-        self._text(f"participant {self.session.participant}    trial {snapshot.trial}    "
-                   f"time {cues.format_elapsed(snapshot.time_s)}    obstacles avoided {avoided} / {encountered}",
-                   (150, 16))
+        self._text(
+            f"participant {self.session.participant}    trial {snapshot.trial}    "
+            f"time {cues.format_elapsed(snapshot.time_s)}    obstacles avoided {avoided} / {encountered}",
+            (150, 16),
+        )
         if snapshot.paused:
             self._text("PAUSED (space)", (700, 14), (250, 180, 30), "title")
-        warnings = cues.loss_warnings(self._lost_devices(snapshot), snapshot.autonomy_live, snapshot.mode,
-                                      getattr(self.session, "simulator_live", True))
+        warnings = cues.loss_warnings(
+            self._lost_devices(snapshot),
+            snapshot.autonomy_live,
+            snapshot.mode,
+            getattr(self.session, "simulator_live", True),
+        )
         if warnings:
             self._text("    ".join(warnings), (880, 8), DANGER_RGB, "body")
         self._text("microscope, around the cell", (LOCAL_RECT.left, LOCAL_RECT.top - 20), DIM_TEXT_RGB, "small")
@@ -314,8 +337,7 @@ class PlayApp:
 
     def _draw_legend(self) -> None:
         legend = ("route", "robots", "traps +", "cell", "obstacles (arrow: next 3 s)", "flow")
-        colours = (views.ROUTE_RGB, views.ROBOT_RGB, views.TRAP_RGB, views.CELL_RGB, views.OBSTACLE_RGB,
-                   views.FLOW_RGB)
+        colours = (views.ROUTE_RGB, views.ROBOT_RGB, views.TRAP_RGB, views.CELL_RGB, views.OBSTACLE_RGB, views.FLOW_RGB)
         x = 12
         y = self.global_view.rect.bottom + 10
         for name, rgb in zip(legend, colours):

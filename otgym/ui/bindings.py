@@ -58,8 +58,10 @@ def window_devices(name: str) -> list[Device]:
     if name == "keyboard":
         return [open_device("keyboard", pump_events=False)]
     if name == "gamepad":
-        return [open_device("gamepad", stick="left", pump_events=False),
-                open_device("gamepad", stick="right", pump_events=False)]
+        return [
+            open_device("gamepad", stick="left", pump_events=False),
+            open_device("gamepad", stick="right", pump_events=False),
+        ]
     return []
 
 

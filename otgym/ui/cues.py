@@ -70,8 +70,9 @@ def haptic_gauges(force_n, limit_n) -> list[Gauge | None]:
     return gauges
 
 
-def motion_direction(cell_xy_um, cell_arc_um: float, route_um, route_arc_um,
-                     lookahead_um: float = DIRECTION_LOOKAHEAD_UM) -> np.ndarray:
+def motion_direction(
+    cell_xy_um, cell_arc_um: float, route_um, route_arc_um, lookahead_um: float = DIRECTION_LOOKAHEAD_UM
+) -> np.ndarray:
     """(2,) unit vector (chip frame) from the cell to the route ``lookahead_um`` ahead
     of its progress; zeros at the route's end."""
     target = route_point(np.asarray(route_um), np.asarray(route_arc_um), cell_arc_um + lookahead_um)
@@ -124,7 +125,7 @@ def obstacle_tally(encountered, collided) -> tuple[int, int]:
 
 
 def format_elapsed(time_s: float) -> str:
-    """"m:ss.s" of simulated time."""
+    """ "m:ss.s" of simulated time."""
     minutes, seconds = divmod(max(float(time_s), 0.0), 60.0)
     return f"{int(minutes)}:{seconds:04.1f}"
 

@@ -55,19 +55,26 @@ class BusSession:
     ``feed``); ``kind``: keyboard, gamepad or mouse; ``device_names``: the device
     nodes driving robot 0, 1... (their feedback and liveliness)."""
 
-    def __init__(self, node: Node, layout: TaskLayout, window_caps: list[DeviceCaps], kind: str,
-                 device_names: list[str] = ()):
+    def __init__(
+        self, node: Node, layout: TaskLayout, window_caps: list[DeviceCaps], kind: str, device_names: list[str] = ()
+    ):
         if kind not in WINDOW_KINDS:
             raise ValueError(f"unknown window device {kind!r}; choose one of {', '.join(WINDOW_KINDS)}")
         self.node, self.layout, self.kind = node, layout, kind
         self.device_names = [msg.check_name(name) for name in device_names]
         self.forwarded = [ForwardedDevice(caps) for caps in window_caps]
-        primaries = {"keyboard": lambda f: (f[0], f[0]), "gamepad": lambda f: (f[0], f[1]),
-                     "mouse": lambda f: (None, None)}[kind](self.forwarded)
-        self.drags = [MouseDragDevice(robot, primary, TASK_RETARGET.motion_scale_um_per_mm)
-                      for robot, primary in enumerate(primaries)]
-        self.force_limits_n = [REMOTE_FORCE_LIMIT_N if robot < len(self.device_names) else 0.0
-                               for robot in range(len(layout.robots))]
+        primaries = {
+            "keyboard": lambda f: (f[0], f[0]),
+            "gamepad": lambda f: (f[0], f[1]),
+            "mouse": lambda f: (None, None),
+        }[kind](self.forwarded)
+        self.drags = [
+            MouseDragDevice(robot, primary, TASK_RETARGET.motion_scale_um_per_mm)
+            for robot, primary in enumerate(primaries)
+        ]
+        self.force_limits_n = [
+            REMOTE_FORCE_LIMIT_N if robot < len(self.device_names) else 0.0 for robot in range(len(layout.robots))
+        ]
         self.participant = "?"
         self.snapshot: Snapshot | None = None
         self.over = False
@@ -103,12 +110,14 @@ class BusSession:
         def on_message(topic, message, data) -> None:
             with self._lock:
                 setattr(self, attribute, convert(message))
+
         return on_message
 
     def _feedback_of(self, robot: int):
         def on_message(topic, message, data) -> None:
             with self._lock:
                 self._feedback_n[robot] = msg.force_n(message)
+
         return on_message
 
     def _new_trial(self) -> None:
@@ -139,8 +148,9 @@ class BusSession:
             elif name == "session_end":
                 self.over = True
             if self.snapshot is not None:
-                self.snapshot = dataclasses.replace(self.snapshot, mode=self._mode, paused=self._paused,
-                                                    autonomy_live=self._autonomy_live)
+                self.snapshot = dataclasses.replace(
+                    self.snapshot, mode=self._mode, paused=self._paused, autonomy_live=self._autonomy_live
+                )
 
     def _on_device(self, name: str, alive: bool) -> None:
         with self._lock:
@@ -163,28 +173,55 @@ class BusSession:
                 return  # not this task's simulator, or its first messages still on their way
             self._ticks += 1
             time_s, phase, alpha = self._ticks * layout.tick_s, self._phase or 0, self._alpha or 0.0
-            observation, self._route_index = observation_from_spheres(layout, spheres, self._traps, phase, time_s,
-                                                                      self._route_index)
+            observation, self._route_index = observation_from_spheres(
+                layout, spheres, self._traps, phase, time_s, self._route_index
+            )
             obstacles, gaps = observation.obstacle_xy_um[0], observation.obstacle_gap_um[0]
             self._encountered |= gaps < layout.encounter_gap_um
             self._collided |= gaps <= 0.0
             if self._obstacle_xy is not None:
-                self._obstacle_velocity = smoothed_velocity(self._obstacle_velocity, self._obstacle_xy, obstacles,
-                                                            layout.tick_s)
+                self._obstacle_velocity = smoothed_velocity(
+                    self._obstacle_velocity, self._obstacle_xy, obstacles, layout.tick_s
+                )
             self._obstacle_xy = obstacles
             traps, handles = self._traps, observation.handle_xy_um[0]
             n_robots, n_traps = len(layout.robots), layout.n_traps
             zeros = np.zeros((n_traps, 2))
             record = TickRecord(
-                time_s=time_s, phase=phase, alpha=alpha, human_um=zeros, robot_um=zeros, shared_um=zeros,
-                trap_xy_um=traps, frame_trap_xy_um=traps, sensed_handle_xy_um=handles,
+                time_s=time_s,
+                phase=phase,
+                alpha=alpha,
+                human_um=zeros,
+                robot_um=zeros,
+                shared_um=zeros,
+                trap_xy_um=traps,
+                frame_trap_xy_um=traps,
+                sensed_handle_xy_um=handles,
                 sensed_force_pn=np.full((n_traps, 2), np.nan),
-                sensed_valid=np.ones(n_traps, bool), feedback_n=self._feedback_n.copy(),
-                device_live=np.ones(n_robots, bool), physics_s=0.0, render_s=0.0, sense_s=0.0, rest_s=0.0,
-                mode=self._tick_mode or self._mode, autonomy_live=self._autonomy_live)
-            self.snapshot = Snapshot(self._trial, self._mode, self._paused, observation, record, spheres,
-                                     self._obstacle_velocity.copy(), self._encountered.copy(), self._collided.copy(),
-                                     alpha, tuple(sorted(self._lost_devices)), self._autonomy_live)
+                sensed_valid=np.ones(n_traps, bool),
+                feedback_n=self._feedback_n.copy(),
+                device_live=np.ones(n_robots, bool),
+                physics_s=0.0,
+                render_s=0.0,
+                sense_s=0.0,
+                rest_s=0.0,
+                mode=self._tick_mode or self._mode,
+                autonomy_live=self._autonomy_live,
+            )
+            self.snapshot = Snapshot(
+                self._trial,
+                self._mode,
+                self._paused,
+                observation,
+                record,
+                spheres,
+                self._obstacle_velocity.copy(),
+                self._encountered.copy(),
+                self._collided.copy(),
+                alpha,
+                tuple(sorted(self._lost_devices)),
+                self._autonomy_live,
+            )
 
     @property
     def lost_devices(self) -> tuple[str, ...]:
@@ -210,8 +247,9 @@ class BusSession:
             was = device.dragging
             device.release()
             if was and device.primary is None:  # hand the robot back to its device node at once
-                self._publish(robot, Sample(time.monotonic(), (self._published[robot] or 0) + 1, np.zeros(3),
-                                            np.zeros(3), 0))
+                self._publish(
+                    robot, Sample(time.monotonic(), (self._published[robot] or 0) + 1, np.zeros(3), np.zeros(3), 0)
+                )
 
     def poll(self) -> None:
         """Publish each robot's new input sample (called every frame)."""
@@ -261,8 +299,9 @@ class BusSession:
                 time.sleep(0.01)
         self.over = True
         for robot in range(len(self.drags)):
-            self._publish(robot, Sample(time.monotonic(), (self._published[robot] or 0) + 1, np.zeros(3),
-                                        np.zeros(3), 0))
+            self._publish(
+                robot, Sample(time.monotonic(), (self._published[robot] or 0) + 1, np.zeros(3), np.zeros(3), 0)
+            )
 
     def wait_for_simulator(self, timeout_s: float) -> bool:
         """Whether a simulator's token appeared within ``timeout_s``."""
@@ -272,11 +311,18 @@ class BusSession:
         return self.simulator_live
 
 
-
-
-def run_window(node: Node, layout: TaskLayout, kind: str, device_names: list[str], out_dir, *,
-               questionnaire: bool = True, screenshot=None, stop: threading.Event | None = None,
-               start_timeout_s: float = 600.0):
+def run_window(
+    node: Node,
+    layout: TaskLayout,
+    kind: str,
+    device_names: list[str],
+    out_dir,
+    *,
+    questionnaire: bool = True,
+    screenshot=None,
+    stop: threading.Event | None = None,
+    start_timeout_s: float = 600.0,
+):
     """The window on the bus until Esc, the window closing, the sim's session ending or
     ``stop`` set: trials.csv (and questionnaires.csv) in ``out_dir`` from the sim's
     ``trial_end`` rows, ``screenshot`` saved at the end. The window devices of
@@ -300,7 +346,8 @@ def run_window(node: Node, layout: TaskLayout, kind: str, device_names: list[str
         def watch() -> None:  # a stop from outside (a signal, a failed node) closes the window
             while not done.is_set():
                 if (stop is not None and stop.is_set()) or (
-                        not session.simulator_live and time.monotonic() - started > start_timeout_s):
+                    not session.simulator_live and time.monotonic() - started > start_timeout_s
+                ):
                     app.running = False
                     return
                 done.wait(0.05)

@@ -17,8 +17,17 @@ from __future__ import annotations
 
 import os
 
-from otgym.study.questionnaires import (NASA_TLX, TLX_ITEMS, TLX_PAIRS, TLX_STEP, TLX_SUBSCALES, UEQ_ITEM_NAMES,
-                                        UEQ_ITEMS, UEQ_S, weights_from_choices)
+from otgym.study.questionnaires import (
+    NASA_TLX,
+    TLX_ITEMS,
+    TLX_PAIRS,
+    TLX_STEP,
+    TLX_SUBSCALES,
+    UEQ_ITEM_NAMES,
+    UEQ_ITEMS,
+    UEQ_S,
+    weights_from_choices,
+)
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402  (after silencing its banner)
@@ -29,15 +38,24 @@ UEQ_POINTS = 7
 TLX_START = 50
 """Where Left/Right start on an unanswered slider."""
 
-_BACKGROUND, _INK, _MUTED, _ACCENT, _WARN = (248, 248, 245), (25, 25, 25), (120, 120, 120), (40, 110, 200), \
-    (190, 30, 30)
+_BACKGROUND, _INK, _MUTED, _ACCENT, _WARN = (
+    (248, 248, 245),
+    (25, 25, 25),
+    (120, 120, 120),
+    (40, 110, 200),
+    (190, 30, 30),
+)
 _FOCUS = (228, 236, 250)
-_TITLES = {TLX_PAGE: "NASA-TLX: how was your workload in this trial?",
-           PAIRS_PAGE: "NASA-TLX weights: which of the two contributed more to your workload?",
-           UEQ_PAGE: "UEQ-S: how would you describe the interface you just used?"}
-_HELP = {TLX_PAGE: "Click or drag on a scale, or Up/Down to pick a scale and Left/Right to move it by 5.",
-         PAIRS_PAGE: "Click one of the two, or Up/Down to pick a pair and 1 / 2 to choose.",
-         UEQ_PAGE: "Click a circle, or Up/Down to pick an item and 1-7 to choose (1 = left word, 7 = right word)."}
+_TITLES = {
+    TLX_PAGE: "NASA-TLX: how was your workload in this trial?",
+    PAIRS_PAGE: "NASA-TLX weights: which of the two contributed more to your workload?",
+    UEQ_PAGE: "UEQ-S: how would you describe the interface you just used?",
+}
+_HELP = {
+    TLX_PAGE: "Click or drag on a scale, or Up/Down to pick a scale and Left/Right to move it by 5.",
+    PAIRS_PAGE: "Click one of the two, or Up/Down to pick a pair and 1 / 2 to choose.",
+    UEQ_PAGE: "Click a circle, or Up/Down to pick an item and 1-7 to choose (1 = left word, 7 = right word).",
+}
 
 
 class QuestionnaireForm:
@@ -65,7 +83,8 @@ class QuestionnaireForm:
 
     def _keys(self) -> list:
         return {TLX_PAGE: list(TLX_SUBSCALES), PAIRS_PAGE: list(TLX_PAIRS), UEQ_PAGE: list(UEQ_ITEM_NAMES)}[
-            self.page_name]
+            self.page_name
+        ]
 
     def _values(self) -> dict:
         return {TLX_PAGE: self.ratings, PAIRS_PAGE: self.choices, UEQ_PAGE: self.ueq}[self.page_name]
@@ -96,8 +115,9 @@ class QuestionnaireForm:
         width, _ = self._size
         _, top, row = self._body()
         y = top + TLX_PAIRS.index(pair) * row
-        return pygame.Rect(int((0.2 if side == 0 else 0.55) * width), int(y + 0.1 * row), int(0.25 * width),
-                           max(int(0.8 * row), 8))
+        return pygame.Rect(
+            int((0.2 if side == 0 else 0.55) * width), int(y + 0.1 * row), int(0.25 * width), max(int(0.8 * row), 8)
+        )
 
     def radio_rect(self, item: str, raw: int) -> pygame.Rect:
         """The radio button for raw value ``raw`` (1 = negative pole .. 7) of UEQ-S ``item``."""
@@ -106,8 +126,7 @@ class QuestionnaireForm:
         y = top + (UEQ_ITEM_NAMES.index(item) + 0.5) * row
         pitch = 0.36 * width / UEQ_POINTS
         side = int(min(0.7 * pitch, 0.8 * row))
-        return pygame.Rect(0, 0, side, side).move(int(0.32 * width + (raw - 0.5) * pitch - side / 2),
-                                                  int(y - side / 2))
+        return pygame.Rect(0, 0, side, side).move(int(0.32 * width + (raw - 0.5) * pitch - side / 2), int(y - side / 2))
 
     @property
     def next_rect(self) -> pygame.Rect:
@@ -148,8 +167,9 @@ class QuestionnaireForm:
 
     def _key(self, key: int) -> None:
         keys = self._keys()
-        digit = {getattr(pygame, f"K_{n}"): n for n in range(1, 10)} | \
-            {getattr(pygame, f"K_KP{n}"): n for n in range(1, 10)}
+        digit = {getattr(pygame, f"K_{n}"): n for n in range(1, 10)} | {
+            getattr(pygame, f"K_KP{n}"): n for n in range(1, 10)
+        }
         if key in (pygame.K_RETURN, pygame.K_KP_ENTER):
             self.next_page()
         elif key == pygame.K_BACKSPACE:
@@ -205,8 +225,10 @@ class QuestionnaireForm:
             raise ValueError("the questionnaire is not finished")
         rows = [{"instrument": NASA_TLX, "item": item, "value": value} for item, value in self.ratings.items()]
         if self.weighted:
-            rows += [{"instrument": NASA_TLX, "item": item, "value": value}
-                     for item, value in weights_from_choices(self.choices).items()]
+            rows += [
+                {"instrument": NASA_TLX, "item": item, "value": value}
+                for item, value in weights_from_choices(self.choices).items()
+            ]
         return rows + [{"instrument": UEQ_S, "item": item, "value": value} for item, value in self.ueq.items()]
 
     # --- drawing -----------------------------------------------------------------------
@@ -230,18 +252,32 @@ class QuestionnaireForm:
         big, normal, small = max(int(height / 22), 16), max(int(height / 30), 14), max(int(height / 38), 12)
         surface.fill(_BACKGROUND)
         margin, top, row = self._body()
-        self._text(surface, f"{_TITLES[self.page_name]}   (page {self.page + 1} of {len(self.pages)})", big, _INK,
-                   (margin, int(0.03 * height)))
+        self._text(
+            surface,
+            f"{_TITLES[self.page_name]}   (page {self.page + 1} of {len(self.pages)})",
+            big,
+            _INK,
+            (margin, int(0.03 * height)),
+        )
         self._text(surface, _HELP[self.page_name], small, _MUTED, (margin, int(0.09 * height)))
         focus_rect = pygame.Rect(margin // 2, int(top + self.focus * row), width - margin, int(row))
         pygame.draw.rect(surface, _FOCUS, focus_rect, border_radius=6)
         {TLX_PAGE: self._draw_tlx, PAIRS_PAGE: self._draw_pairs, UEQ_PAGE: self._draw_ueq}[self.page_name](
-            surface, normal, small)
+            surface, normal, small
+        )
         if self.missing:
-            self._text(surface, "Please answer: " + ", ".join(self.missing), small, _WARN,
-                       (width // 2, int(0.875 * height)), "midtop")
-        for rect, label, shown in ((self.back_rect, "Back", self.page > 0),
-                                   (self.next_rect, "Finish" if self.page == len(self.pages) - 1 else "Next", True)):
+            self._text(
+                surface,
+                "Please answer: " + ", ".join(self.missing),
+                small,
+                _WARN,
+                (width // 2, int(0.875 * height)),
+                "midtop",
+            )
+        for rect, label, shown in (
+            (self.back_rect, "Back", self.page > 0),
+            (self.next_rect, "Finish" if self.page == len(self.pages) - 1 else "Next", True),
+        ):
             if shown:
                 pygame.draw.rect(surface, _ACCENT, rect, border_radius=8)
                 self._text(surface, label, normal, (255, 255, 255), rect.center, "center")
@@ -278,8 +314,14 @@ class QuestionnaireForm:
                 chosen = self.choices[pair] == pair[side]
                 pygame.draw.rect(surface, _ACCENT if chosen else (255, 255, 255), rect, border_radius=6)
                 pygame.draw.rect(surface, _ACCENT, rect, 2, border_radius=6)
-                self._text(surface, f"{side + 1}: {TLX_ITEMS[pair[side]][0]}", normal,
-                           (255, 255, 255) if chosen else _INK, rect.center, "center")
+                self._text(
+                    surface,
+                    f"{side + 1}: {TLX_ITEMS[pair[side]][0]}",
+                    normal,
+                    (255, 255, 255) if chosen else _INK,
+                    rect.center,
+                    "center",
+                )
             between = (self.choice_rect(pair, 0).right + self.choice_rect(pair, 1).left) // 2
             self._text(surface, "or", small, _MUTED, (between, self.choice_rect(pair, 0).centery), "center")
 
@@ -294,12 +336,18 @@ class QuestionnaireForm:
                 if self.ueq[item] == raw:
                     pygame.draw.circle(surface, _ACCENT, rect.center, rect.width // 2 - 4)
             if self.ueq[item] is None:
-                self._text(surface, "not answered", small, _WARN, (int(0.85 * self._size[0]), last.centery),
-                           "midleft")
+                self._text(surface, "not answered", small, _WARN, (int(0.85 * self._size[0]), last.centery), "midleft")
 
 
-def run_questionnaire(screen: pygame.Surface, clock: pygame.time.Clock, participant, mode: str, trial: int,
-                      weighted: bool = False, fps: int = 60) -> list[dict] | None:
+def run_questionnaire(
+    screen: pygame.Surface,
+    clock: pygame.time.Clock,
+    participant,
+    mode: str,
+    trial: int,
+    weighted: bool = False,
+    fps: int = 60,
+) -> list[dict] | None:
     """Show a ``QuestionnaireForm`` on ``screen`` until it is finished; return its rows
     with ``participant``, ``mode`` and ``trial`` (the keys of ``QUESTIONNAIRE_COLUMNS``,
     ready for ``append_answers``), or None if the window is closed or Esc is pressed

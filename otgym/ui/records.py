@@ -8,8 +8,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from otgym.runtime.trials import TRIAL_COLUMNS
 from otgym.runtime.session import EXTRA_COLUMNS
+from otgym.runtime.trials import TRIAL_COLUMNS
 
 PLAY_COLUMNS = TRIAL_COLUMNS + EXTRA_COLUMNS
 

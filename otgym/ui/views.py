@@ -61,8 +61,12 @@ MICROSCOPE = MicroscopeParams()
 
 def fonts() -> dict[str, pygame.font.Font]:
     """The window's type sizes (pygame's default font)."""
-    return {"small": pygame.font.Font(None, 20), "body": pygame.font.Font(None, 24),
-            "title": pygame.font.Font(None, 30), "prompt": pygame.font.Font(None, 44)}
+    return {
+        "small": pygame.font.Font(None, 20),
+        "body": pygame.font.Font(None, 24),
+        "title": pygame.font.Font(None, 30),
+        "prompt": pygame.font.Font(None, 44),
+    }
 
 
 def arrow(surface, rgb, start, end, width: int = 2, head_px: float = 7.0) -> pygame.Rect | None:
@@ -77,14 +81,18 @@ def arrow(surface, rgb, start, end, width: int = 2, head_px: float = 7.0) -> pyg
     unit = delta / length
     normal = np.array([-unit[1], unit[0]])
     head = min(head_px, 0.6 * length)
-    return line.union(pygame.draw.polygon(surface, rgb, [end, end - head * unit + 0.5 * head * normal,
-                                                         end - head * unit - 0.5 * head * normal]))
+    return line.union(
+        pygame.draw.polygon(
+            surface, rgb, [end, end - head * unit + 0.5 * head * normal, end - head * unit - 0.5 * head * normal]
+        )
+    )
 
 
 def cross(surface, rgb, centre, size_px: float = 5.0, width: int = 2) -> pygame.Rect:
     x, y = centre
     return pygame.draw.line(surface, rgb, (x - size_px, y), (x + size_px, y), width).union(
-        pygame.draw.line(surface, rgb, (x, y - size_px), (x, y + size_px), width))
+        pygame.draw.line(surface, rgb, (x, y - size_px), (x, y + size_px), width)
+    )
 
 
 def union(rects) -> pygame.Rect | None:
@@ -100,8 +108,9 @@ class GlobalView:
         chip = layout.chip
         width_um, height_um = chip.size_um
         self.scale_px_per_um = min(rect.width / width_um, rect.height / height_um)
-        self.rect = pygame.Rect(rect.x, rect.y, round(width_um * self.scale_px_per_um),
-                                round(height_um * self.scale_px_per_um))
+        self.rect = pygame.Rect(
+            rect.x, rect.y, round(width_um * self.scale_px_per_um), round(height_um * self.scale_px_per_um)
+        )
         self.layout = layout
         bodies = layout.sphere_body
         self.robot_spheres = np.flatnonzero(np.isin(bodies, layout.robots))
@@ -124,15 +133,17 @@ class GlobalView:
     def _background(self) -> pygame.Surface:
         chip = self.layout.chip
         height, width = chip.shape
-        ys, xs = np.meshgrid((np.arange(height) + 0.5) * chip.pixel_size_um,
-                             (np.arange(width) + 0.5) * chip.pixel_size_um, indexing="ij")
+        ys, xs = np.meshgrid(
+            (np.arange(height) + 0.5) * chip.pixel_size_um, (np.arange(width) + 0.5) * chip.pixel_size_um, indexing="ij"
+        )
         points = np.stack([xs, ys], axis=-1).reshape(-1, 2)
         velocity = self.layout.flow_velocity_um_s
         speed = np.linalg.norm(velocity, axis=-1)
         fluid = chip.fluid
         tint = np.clip(speed / max(float(speed[fluid].max(initial=0.0)), 1e-9), 0, 1)[..., None] * 0.35
-        rgb = np.where(fluid[..., None], (1 - tint) * np.array(CHANNEL_RGB) + tint * np.array(FLOW_RGB),
-                       np.array(WALL_RGB))
+        rgb = np.where(
+            fluid[..., None], (1 - tint) * np.array(CHANNEL_RGB) + tint * np.array(FLOW_RGB), np.array(WALL_RGB)
+        )
         chip_surface = pygame.surfarray.make_surface(np.ascontiguousarray(rgb.transpose(1, 0, 2)).astype(np.uint8))
         surface = pygame.transform.smoothscale(chip_surface, self.rect.size)
         offset = -np.array(self.rect.topleft, float)
@@ -155,18 +166,19 @@ class GlobalView:
 
     def robot_at(self, snapshot: Snapshot, xy_px, reach_px: float = 18.0) -> int | None:
         """The robot whose spheres or traps are nearest the pixel, within ``reach_px``."""
-        points = [(self.to_px(snapshot.sphere_xy_um[s]), int(r))
-                  for s, r in zip(self.robot_spheres, self.sphere_robot_index)]
-        points += [(self.to_px(xy), int(r)) for xy, r in zip(snapshot.observation.trap_xy_um[0],
-                                                               self.trap_robot_index)]
+        points = [
+            (self.to_px(snapshot.sphere_xy_um[s]), int(r)) for s, r in zip(self.robot_spheres, self.sphere_robot_index)
+        ]
+        points += [(self.to_px(xy), int(r)) for xy, r in zip(snapshot.observation.trap_xy_um[0], self.trap_robot_index)]
         best = min(points, key=lambda item: float(np.linalg.norm(item[0] - np.asarray(xy_px, float))))
         return best[1] if float(np.linalg.norm(best[0] - np.asarray(xy_px, float))) <= reach_px else None
 
     def trap_centre_um(self, snapshot: Snapshot, robot: int) -> np.ndarray:
         return snapshot.observation.trap_xy_um[0][self.trap_robot_index == robot].mean(axis=0)
 
-    def draw(self, surface: pygame.Surface, snapshot: Snapshot,
-             drag: tuple[int, np.ndarray] | None) -> list[pygame.Rect]:
+    def draw(
+        self, surface: pygame.Surface, snapshot: Snapshot, drag: tuple[int, np.ndarray] | None
+    ) -> list[pygame.Rect]:
         """Draw the view; returns the rectangles that may differ from the previous
         draw (where moving things are now and where they were)."""
         surface.blit(self.background, self.rect.topleft)
@@ -178,8 +190,9 @@ class GlobalView:
         spheres = self.to_px(snapshot.sphere_xy_um)
         circle = lambda s, rgb: pygame.draw.circle(surface, rgb, spheres[s], max(radii[s] * scale, 1.5))  # noqa: E731
         rects = []
-        for spheres_of, centre, velocity in zip(self.obstacle_sphere_of, self.to_px(obs.obstacle_xy_um[0]),
-                                                snapshot.obstacle_velocity_um_s):
+        for spheres_of, centre, velocity in zip(
+            self.obstacle_sphere_of, self.to_px(obs.obstacle_xy_um[0]), snapshot.obstacle_velocity_um_s
+        ):
             drawn = [circle(s, OBSTACLE_RGB) for s in spheres_of]
             drawn.append(arrow(surface, OBSTACLE_RGB, centre, centre + velocity * VELOCITY_ARROW_S * scale, 2, 6.0))
             rects.append(union(drawn))
@@ -188,16 +201,23 @@ class GlobalView:
         assembly += [circle(s, HANDLE_RGB) for s in self.handle_spheres]
         assembly += [cross(surface, TRAP_RGB, trap, 4.0, 2) for trap in self.to_px(obs.trap_xy_um[0])]
         cell = self.to_px(obs.cell_xy_um[0])
-        direction = cues.motion_direction(obs.cell_xy_um[0], float(obs.cell_arc_um[0]), self.layout.route_um,
-                                          self.layout.route_arc_um)
+        direction = cues.motion_direction(
+            obs.cell_xy_um[0], float(obs.cell_arc_um[0]), self.layout.route_um, self.layout.route_arc_um
+        )
         assembly.append(arrow(surface, ROUTE_RGB, cell, cell + direction * 14.0 * scale, 3, 9.0))
         half = 0.5 * LOCAL_FIELD_UM * scale
-        assembly.append(pygame.draw.rect(surface, (255, 255, 255),
-                                         pygame.Rect(cell[0] - half, cell[1] - half, 2 * half, 2 * half), 1))
+        assembly.append(
+            pygame.draw.rect(
+                surface, (255, 255, 255), pygame.Rect(cell[0] - half, cell[1] - half, 2 * half, 2 * half), 1
+            )
+        )
         if drag is not None:
             robot, pointer_um = drag
-            assembly.append(pygame.draw.line(surface, TRAP_RGB, self.to_px(self.trap_centre_um(snapshot, robot)),
-                                             self.to_px(pointer_um), 1))
+            assembly.append(
+                pygame.draw.line(
+                    surface, TRAP_RGB, self.to_px(self.trap_centre_um(snapshot, robot)), self.to_px(pointer_um), 1
+                )
+            )
             assembly.append(pygame.draw.circle(surface, TRAP_RGB, self.to_px(pointer_um), 6, 1))
         rects.append(union(assembly))
         surface.set_clip(clip)
@@ -234,8 +254,15 @@ class LocalView:
         spheres = snapshot.sphere_xy_um
         gap = np.max(np.abs(spheres - (origin + 0.5 * LOCAL_FIELD_UM)), axis=1) - self.radius_um
         near = gap < 0.5 * LOCAL_FIELD_UM + 1.0
-        image = microscope_images(spheres[near][None], self.radius_um[near], origin[None],
-                                  (self.size_px, self.size_px), self.params, self.rng, self.layout.chip)[0]
+        image = microscope_images(
+            spheres[near][None],
+            self.radius_um[near],
+            origin[None],
+            (self.size_px, self.size_px),
+            self.params,
+            self.rng,
+            self.layout.chip,
+        )[0]
         gray = np.round(image * 255).astype(np.uint8)
         rgb = np.repeat(gray.T[..., None], 3, axis=2)
         self.image = pygame.transform.scale(pygame.surfarray.make_surface(rgb), self.rect.size)
@@ -261,8 +288,14 @@ class LocalView:
             for handle, offset, valid in zip(snapshot.observation.handle_xy_um[0], offsets, record.sensed_valid):
                 if valid:
                     start = self.to_px(handle)
-                    arrow(surface, (0, 200, 230), start, start + offset * OFFSET_MAGNIFICATION
-                          * self.scale_px_per_um, 2, 6.0)
+                    arrow(
+                        surface,
+                        (0, 200, 230),
+                        start,
+                        start + offset * OFFSET_MAGNIFICATION * self.scale_px_per_um,
+                        2,
+                        6.0,
+                    )
         bar_px = 2.0 * self.scale_px_per_um
         x, y = self.rect.left + 10, self.rect.bottom - 14
         pygame.draw.line(surface, (255, 255, 255), (x, y), (x + bar_px, y), 3)
@@ -326,8 +359,11 @@ class CuePanel:
         gap = float(obs.nearest_obstacle_gap_um[0])
         level = cues.proximity_level(gap)
         pygame.draw.circle(surface, cues.ramp_rgb(level), (x + 8, y + 9), 8)
-        label = "no obstacle" if not math.isfinite(gap) else (
-            "obstacle touching" if gap <= 0.05 else f"nearest obstacle {gap:5.1f} um")
+        label = (
+            "no obstacle"
+            if not math.isfinite(gap)
+            else ("obstacle touching" if gap <= 0.05 else f"nearest obstacle {gap:5.1f} um")
+        )
         text(label, (x + 24, y), cues.ramp_rgb(level))
         y += 26
         # contact force
@@ -335,8 +371,13 @@ class CuePanel:
         text("contact force", (x, y), DIM_TEXT_RGB, "small")
         if math.isfinite(contact):
             gauge = cues.contact_gauge(contact, self.contact_limit_pn)
-            bar(surface, bar_rect(y - 2), gauge.fraction / self.CONTACT_FULL_SCALE,
-                cues.DANGER_RGB if gauge.over else CELL_RGB, marks=(1.0 / self.CONTACT_FULL_SCALE,))
+            bar(
+                surface,
+                bar_rect(y - 2),
+                gauge.fraction / self.CONTACT_FULL_SCALE,
+                cues.DANGER_RGB if gauge.over else CELL_RGB,
+                marks=(1.0 / self.CONTACT_FULL_SCALE,),
+            )
             text(f"{contact:4.1f} pN", (x + width - 64, y - 2), TEXT_RGB, "small")
         else:  # a window on the bus: the simulator does not publish it
             text("not on the bus", (x + label_w, y), DIM_TEXT_RGB, "small")
@@ -350,28 +391,35 @@ class CuePanel:
                 text("no haptics", (x + label_w, y), DIM_TEXT_RGB, "small")
             else:
                 bar(surface, bar_rect(y - 2), gauge.fraction, cues.DANGER_RGB if gauge.over else ROBOT_RGB)
-                text(f"{gauge.fraction * self.force_limits_n[robot]:4.2f} N", (x + width - 64, y - 2), TEXT_RGB,
-                     "small")
+                text(
+                    f"{gauge.fraction * self.force_limits_n[robot]:4.2f} N", (x + width - 64, y - 2), TEXT_RGB, "small"
+                )
             y += 22
         # trap loss
         if record is not None:
-            offsets = np.where(record.sensed_valid[:, None], record.frame_trap_xy_um - record.sensed_handle_xy_um,
-                               np.nan)
+            offsets = np.where(
+                record.sensed_valid[:, None], record.frame_trap_xy_um - record.sensed_handle_xy_um, np.nan
+            )
         else:
             offsets = np.zeros((1, 2))
         lag = float(np.nan_to_num(np.linalg.norm(offsets, axis=-1), nan=0.0).max())
         warn = cues.trap_loss_warning(offsets, self.escape_distance_um)
         text("handle lag", (x, y), DIM_TEXT_RGB, "small")
-        bar(surface, bar_rect(y - 2), lag / self.escape_distance_um,
+        bar(
+            surface,
+            bar_rect(y - 2),
+            lag / self.escape_distance_um,
             cues.ramp_rgb(cues.trap_loss_level(offsets, self.escape_distance_um)),
-            marks=(cues.TRAP_WARNING_FRACTION,))
+            marks=(cues.TRAP_WARNING_FRACTION,),
+        )
         text(f"{lag:4.2f} um", (x + width - 64, y - 2), TEXT_RGB, "small")
         y += 30
         # motion direction compass (bottom right) beside the prompts
         centre = np.array([x + width - 36.0, self.rect.bottom - 44.0])
         pygame.draw.circle(surface, DIM_TEXT_RGB, centre, 30, 1)
-        direction = cues.motion_direction(obs.cell_xy_um[0], float(obs.cell_arc_um[0]), self.layout.route_um,
-                                          self.layout.route_arc_um)
+        direction = cues.motion_direction(
+            obs.cell_xy_um[0], float(obs.cell_arc_um[0]), self.layout.route_um, self.layout.route_arc_um
+        )
         arrow(surface, ROUTE_RGB, centre - direction * 20, centre + direction * 22, 4, 11.0)
         text("route", (centre[0] - 18, centre[1] - 52), DIM_TEXT_RGB, "small")
         if warn:

@@ -30,10 +30,15 @@ def test_pose_array_decodes_with_rosbags_in_um_and_round_trips():
     xy = np.array([[1.5, -2.25], [300.0, 40.125]])
     data = m.pose_array(xy, STAMP_S)
     theirs = rosbags(data, m.POSE_ARRAY)
-    assert [(p.position.x, p.position.y, p.position.z, p.orientation.w) for p in theirs.poses] == \
-        [(1.5, -2.25, 0.0, 1.0), (300.0, 40.125, 0.0, 1.0)]
-    assert (theirs.header.stamp.sec, theirs.header.stamp.nanosec, theirs.header.frame_id) == \
-        (1_700_000_000, 250_000_000, "chip")
+    assert [(p.position.x, p.position.y, p.position.z, p.orientation.w) for p in theirs.poses] == [
+        (1.5, -2.25, 0.0, 1.0),
+        (300.0, 40.125, 0.0, 1.0),
+    ]
+    assert (theirs.header.stamp.sec, theirs.header.stamp.nanosec, theirs.header.frame_id) == (
+        1_700_000_000,
+        250_000_000,
+        "chip",
+    )
     ours = m.decode(m.TRAPS, data)
     np.testing.assert_array_equal(m.xy_um(ours), xy)
     assert m.stamp_s(ours) == STAMP_S
@@ -100,9 +105,13 @@ def stand_in_task():
     from otgym.sim.chip import load_chip
 
     model = types.SimpleNamespace(sphere_body=[0, 0, 1], body_kinds=[BodyKind.ROBOT, BodyKind.CELL])
-    return types.SimpleNamespace(chip=load_chip("default"), scene=types.SimpleNamespace(model=model),
-                                 trap_sphere=np.array([0]), route_um=np.array([[15.0, 40.0], [60.0, 40.5]]),
-                                 config=types.SimpleNamespace(goal_tolerance_um=3.0, tick_s=0.02))
+    return types.SimpleNamespace(
+        chip=load_chip("default"),
+        scene=types.SimpleNamespace(model=model),
+        trap_sphere=np.array([0]),
+        route_um=np.array([[15.0, 40.0], [60.0, 40.5]]),
+        config=types.SimpleNamespace(goal_tolerance_um=3.0, tick_s=0.02),
+    )
 
 
 def test_the_session_description_chip_and_route_decode_with_rosbags():
@@ -110,7 +119,13 @@ def test_the_session_description_chip_and_route_decode_with_rosbags():
 
     task = stand_in_task()
     messages = dict(m.session_messages(task, ["device0"], STAMP_S))
-    assert list(messages) == [m.SESSION, m.CHIP, m.ROUTE] and set(m.LATCHED) == {m.SESSION, m.CHIP, m.ROUTE, m.MODE, m.TRIAL}
+    assert list(messages) == [m.SESSION, m.CHIP, m.ROUTE] and set(m.LATCHED) == {
+        m.SESSION,
+        m.CHIP,
+        m.ROUTE,
+        m.MODE,
+        m.TRIAL,
+    }
     description = json.loads(rosbags(messages[m.SESSION], m.STRING).data)
     assert description["chip"]["content_hash"] == load_chip("default").content_hash
     assert description["sphere_kind"] == ["robot", "robot", "cell"] and description["handle_spheres"] == [0]
@@ -145,46 +160,55 @@ def _session(**changes) -> bytes:
 
 
 def _image(format_: str, data: bytes) -> bytes:
-    return m.encode(m.COMPRESSED_IMAGE, {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "chip"},
-                                         "format": format_, "data": data})
+    return m.encode(
+        m.COMPRESSED_IMAGE,
+        {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "chip"}, "format": format_, "data": data},
+    )
 
 
-@pytest.mark.parametrize("topic, data, reason", [
-    (m.SESSION, m.string("{"), "not JSON"),
-    (m.SESSION, _session(chip=None), "\"chip\" object"),
-    (m.SESSION, _session(chip_content_hash="abc"), "content_hash"),
-    (m.SESSION, _session(chip_pixel_size_um=-1), "pixel_size_um must be a positive number"),
-    (m.SESSION, _session(tick_s="fast"), "tick_s must be a positive number"),
-    (m.SESSION, _session(sphere_kind=["robot", "dragon"]), "sphere_kind"),
-    (m.SESSION, _session(handle_spheres=[7]), "handle_spheres"),
-    (m.CHIP, _image("jpeg", m.PNG_SIGNATURE + b"x"), "must be a PNG"),
-    (m.CHIP, _image("png", b"GIF89a.."), "must be a PNG"),
-    (m.ROUTE, m.path([[np.nan, 1.0]], STAMP_S), "not finite"),
-
-    (m.TRAPS, m.pose_array([[1.0, 2.0]], STAMP_S)[:20], "does not decode"),
-    (m.TRAPS, b"\x01\x00\x00\x00" + m.pose_array([[1.0, 2.0]], STAMP_S)[4:], "not little-endian CDR"),
-    (m.TRAPS, b"", "not little-endian CDR"),
-    (m.TRAPS, m.pose_array([[np.nan, 2.0]], STAMP_S), "not finite"),
-    (m.TRAPS, m.pose_array([[2e6, 2.0]], STAMP_S), "exceeds"),
-    (m.twist_topic("left"), m.twist(Sample(0, 0, np.zeros(3), (np.inf, 0, 0), 0), STAMP_S, "l"), "not finite"),
-    (m.twist_topic("left"), m.twist(Sample(0, 0, np.zeros(3), (2e4, 0, 0), 0), STAMP_S, "l"), "exceeds"),
-    (m.feedback_topic("left"), m.wrench((1e3, 0, 0), STAMP_S, "l"), "force (N) exceeds"),
-    (m.buttons_topic("left"), m.encode(m.JOY, {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""},
-                                                "axes": [], "buttons": [2]}), "0 or 1"),
-    (m.ALPHA, m.float64(1.5), "alpha must lie in [0, 1]"),
-    (m.ALPHA, m.float64(np.nan), "alpha must lie in [0, 1]"),
-    (m.MODE, m.string("telepathic"), "unknown mode"),
-    (m.EVENTS, m.string("not json"), "not JSON"),
-    (m.EVENTS, m.string("[1, 2]"), "JSON object"),
-    (m.COMMAND, m.string("pause"), "not JSON"),
-    (m.COMMAND, m.string(json.dumps({"command": "selfdestruct"})), "one of mode, pause"),
-    (m.COMMAND, m.string(json.dumps({"command": "mode", "mode": "telepathic"})), "unknown mode"),
-    (m.COMMAND, m.string(json.dumps({"command": "mode"})), "takes the fields"),
-    (m.COMMAND, m.string(json.dumps({"command": "reset", "trial": 3})), "takes the fields"),
-    (m.twist_topic("left"), m.float64(0.5), "does not decode"),
-    ("/otgym/elsewhere", m.float64(0.5), "unknown topic"),
-    ("/otgym/device/../twist", m.float64(0.5), "unknown topic"),
-])
+@pytest.mark.parametrize(
+    "topic, data, reason",
+    [
+        (m.SESSION, m.string("{"), "not JSON"),
+        (m.SESSION, _session(chip=None), '"chip" object'),
+        (m.SESSION, _session(chip_content_hash="abc"), "content_hash"),
+        (m.SESSION, _session(chip_pixel_size_um=-1), "pixel_size_um must be a positive number"),
+        (m.SESSION, _session(tick_s="fast"), "tick_s must be a positive number"),
+        (m.SESSION, _session(sphere_kind=["robot", "dragon"]), "sphere_kind"),
+        (m.SESSION, _session(handle_spheres=[7]), "handle_spheres"),
+        (m.CHIP, _image("jpeg", m.PNG_SIGNATURE + b"x"), "must be a PNG"),
+        (m.CHIP, _image("png", b"GIF89a.."), "must be a PNG"),
+        (m.ROUTE, m.path([[np.nan, 1.0]], STAMP_S), "not finite"),
+        (m.TRAPS, m.pose_array([[1.0, 2.0]], STAMP_S)[:20], "does not decode"),
+        (m.TRAPS, b"\x01\x00\x00\x00" + m.pose_array([[1.0, 2.0]], STAMP_S)[4:], "not little-endian CDR"),
+        (m.TRAPS, b"", "not little-endian CDR"),
+        (m.TRAPS, m.pose_array([[np.nan, 2.0]], STAMP_S), "not finite"),
+        (m.TRAPS, m.pose_array([[2e6, 2.0]], STAMP_S), "exceeds"),
+        (m.twist_topic("left"), m.twist(Sample(0, 0, np.zeros(3), (np.inf, 0, 0), 0), STAMP_S, "l"), "not finite"),
+        (m.twist_topic("left"), m.twist(Sample(0, 0, np.zeros(3), (2e4, 0, 0), 0), STAMP_S, "l"), "exceeds"),
+        (m.feedback_topic("left"), m.wrench((1e3, 0, 0), STAMP_S, "l"), "force (N) exceeds"),
+        (
+            m.buttons_topic("left"),
+            m.encode(
+                m.JOY, {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""}, "axes": [], "buttons": [2]}
+            ),
+            "0 or 1",
+        ),
+        (m.ALPHA, m.float64(1.5), "alpha must lie in [0, 1]"),
+        (m.ALPHA, m.float64(np.nan), "alpha must lie in [0, 1]"),
+        (m.MODE, m.string("telepathic"), "unknown mode"),
+        (m.EVENTS, m.string("not json"), "not JSON"),
+        (m.EVENTS, m.string("[1, 2]"), "JSON object"),
+        (m.COMMAND, m.string("pause"), "not JSON"),
+        (m.COMMAND, m.string(json.dumps({"command": "selfdestruct"})), "one of mode, pause"),
+        (m.COMMAND, m.string(json.dumps({"command": "mode", "mode": "telepathic"})), "unknown mode"),
+        (m.COMMAND, m.string(json.dumps({"command": "mode"})), "takes the fields"),
+        (m.COMMAND, m.string(json.dumps({"command": "reset", "trial": 3})), "takes the fields"),
+        (m.twist_topic("left"), m.float64(0.5), "does not decode"),
+        ("/otgym/elsewhere", m.float64(0.5), "unknown topic"),
+        ("/otgym/device/../twist", m.float64(0.5), "unknown topic"),
+    ],
+)
 def test_malformed_messages_are_refused_with_the_reason(topic, data, reason):
     with pytest.raises(m.MessageError, match=reason.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[")):
         m.decode(topic, data)

@@ -43,8 +43,13 @@ def free_endpoint() -> str:
 
 def spawn(*arguments: str) -> subprocess.Popen:
     """A child python process with this checkout on its path; stdout piped."""
-    return subprocess.Popen([sys.executable, *arguments], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    return subprocess.Popen(
+        [sys.executable, *arguments],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
 
 
 def wait_for_line(child: subprocess.Popen, prefix: str, timeout_s: float = STARTUP_S) -> str:
@@ -89,8 +94,20 @@ def children():
 def device_node(endpoint: str, csv: Path) -> subprocess.Popen:
     """``otgym node device`` replaying a stylus moving at 10 mm/s along x, clutch held."""
     record_samples([Sample(0.01 * i, i, (0.1 * i, 0.0, 0.0), (10.0, 0.0, 0.0), 1) for i in range(100)], csv)
-    return spawn("-m", "otgym", "node", "device", "--device", "replay", "--replay", str(csv), "--name", "device0",
-                 "--connect", endpoint)
+    return spawn(
+        "-m",
+        "otgym",
+        "node",
+        "device",
+        "--device",
+        "replay",
+        "--replay",
+        str(csv),
+        "--name",
+        "device0",
+        "--connect",
+        endpoint,
+    )
 
 
 def test_device_node_killed_its_input_is_zero_at_once_and_the_traps_hold(tmp_path, children):
@@ -222,8 +239,11 @@ def test_recorder_node_says_when_the_session_end_is_in_its_file(tmp_path, childr
     rest, _ = children[0].communicate(timeout=30)
     lines += rest.splitlines()
     assert [line.strip() for line in lines if line.startswith("recorded:")] == [SESSION_END_RECORDED]
-    events = [msg.event_fields(msg.decode(msg.EVENTS, m.data))["event"]
-              for m in read_recording(tmp_path / "session.mcap").messages if m.topic == msg.EVENTS]
+    events = [
+        msg.event_fields(msg.decode(msg.EVENTS, m.data))["event"]
+        for m in read_recording(tmp_path / "session.mcap").messages
+        if m.topic == msg.EVENTS
+    ]
     assert events == ["trial_end", "session_end"]
 
 
@@ -234,8 +254,11 @@ def test_malformed_messages_are_dropped_and_counted_never_applied():
         remote.start()
         wait_until(lambda: remote.alive, 10.0)
         good = msg.twist(Sample(0, 0, np.zeros(3), (1.0, 0.0, 0.0), 1), time.time(), "device0")
-        bad = [msg.twist(Sample(0, 0, np.zeros(3), (np.nan, 0.0, 0.0), 1), time.time(), "device0"),
-               b"\x00\x01\x00\x00garbage", msg.float64(0.5)]
+        bad = [
+            msg.twist(Sample(0, 0, np.zeros(3), (np.nan, 0.0, 0.0), 1), time.time(), "device0"),
+            b"\x00\x01\x00\x00garbage",
+            msg.float64(0.5),
+        ]
 
         def count(table):
             return table.get(msg.twist_topic("device0"), 0)
@@ -294,8 +317,12 @@ def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_
         listener.subscribe("/otgym/**", remember)
         children.append(spawn("-m", "otgym", "node", "autonomy", "--connect", endpoint))
         wait_for_line(children[0], "ready")
-        worker = threading.Thread(target=run_sim_node, args=(sim, shared_task(), ["device0"], "shared", 3, stop),
-                                  kwargs={"remote_autonomy": True}, daemon=True)
+        worker = threading.Thread(
+            target=run_sim_node,
+            args=(sim, shared_task(), ["device0"], "shared", 3, stop),
+            kwargs={"remote_autonomy": True},
+            daemon=True,
+        )
         worker.start()
         try:
             wait_until(lambda: len(seen.get(msg.BODIES, [])) >= 100, 30.0)
@@ -372,8 +399,13 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
             wait_until(lambda: (remote.set_force([0.25, 0.0, 0.0]), answers)[1], 10.0)  # the subscription is up
             stamp = 1_700_000_123.5
             twist = msg.twist(Sample(0, 0, np.zeros(3), (1.0, 0, 0), 1), stamp, "device0")
-            wait_until(lambda: (device.publish(msg.twist_topic("device0"), twist),
-                                [a for a in answers if msg.stamp_s(a) == stamp])[1], 5.0)
+            wait_until(
+                lambda: (
+                    device.publish(msg.twist_topic("device0"), twist),
+                    [a for a in answers if msg.stamp_s(a) == stamp],
+                )[1],
+                5.0,
+            )
             answer = next(a for a in answers if msg.stamp_s(a) == stamp)
         # the device node closed while the sim still listens: its rest sample arrives
         wait_until(lambda: not samples[-1].velocity_mm_s.any(), DETECTION_BOUND_S)
@@ -381,11 +413,14 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
     assert samples[0].velocity_mm_s[0] == pytest.approx(1.0)
 
 
-@pytest.mark.parametrize("args, message", [
-    (["autonomy", "--navigator", "astar"], "--navigator must be one of route, mpc"),
-    (["pilot"], "unknown or unbuilt node 'pilot'"),
-    (["sim", "--autonomy", "cloud"], "--autonomy must be local or remote"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["autonomy", "--navigator", "astar"], "--navigator must be one of route, mpc"),
+        (["pilot"], "unknown or unbuilt node 'pilot'"),
+        (["sim", "--autonomy", "cloud"], "--autonomy must be local or remote"),
+    ],
+)
 def test_bad_node_arguments_end_in_one_line_and_exit_2(args, message):
     run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr

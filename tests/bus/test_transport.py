@@ -84,8 +84,9 @@ def test_a_config_file_without_endpoints_keeps_the_loopback_defaults(tmp_path):
     assert json.loads(config.get_json("connect/endpoints")) == ["tcp/127.0.0.1:7447"]
     assert json.loads(config.get_json("scouting/multicast/enabled")) is False
     own = tmp_path / "own.json5"
-    own.write_text(json.dumps({"listen": {"endpoints": ["tls/127.0.0.1:9000"]},
-                               "connect": {"endpoints": ["tls/127.0.0.1:9001"]}}))
+    own.write_text(
+        json.dumps({"listen": {"endpoints": ["tls/127.0.0.1:9000"]}, "connect": {"endpoints": ["tls/127.0.0.1:9001"]}})
+    )
     config = zenoh_config("device", config_file=str(own))
     assert json.loads(config.get_json("listen/endpoints")) == ["tls/127.0.0.1:9000"]
     assert json.loads(config.get_json("connect/endpoints")) == ["tls/127.0.0.1:9001"]
@@ -95,24 +96,33 @@ def test_a_config_file_without_endpoints_keeps_the_loopback_defaults(tmp_path):
 
 # --- TLS ----------------------------------------------------------------------------------
 def _certificate(subject: str, public_key, issuer: x509.Certificate | None, signing_key, ca: bool):
-    now = datetime.datetime.now(datetime.timezone.utc)
+    now = datetime.datetime.now(datetime.UTC)
     name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, subject)])
-    builder = (x509.CertificateBuilder().subject_name(name).issuer_name(issuer.subject if issuer else name)
-               .public_key(public_key).serial_number(x509.random_serial_number())
-               .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(hours=1))
-               .add_extension(x509.BasicConstraints(ca=ca, path_length=None), critical=True))
+    builder = (
+        x509.CertificateBuilder()
+        .subject_name(name)
+        .issuer_name(issuer.subject if issuer else name)
+        .public_key(public_key)
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now - datetime.timedelta(minutes=5))
+        .not_valid_after(now + datetime.timedelta(hours=1))
+        .add_extension(x509.BasicConstraints(ca=ca, path_length=None), critical=True)
+    )
     if not ca:  # a node: a server and a client of the mutual TLS handshake, named for loopback
-        builder = (builder.add_extension(x509.SubjectAlternativeName(
-            [x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]), critical=False)
-            .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH]),
-                           critical=False))
+        builder = builder.add_extension(
+            x509.SubjectAlternativeName([x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+            critical=False,
+        ).add_extension(
+            x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH]), critical=False
+        )
     return builder.sign(signing_key, hashes.SHA256())
 
 
 def _pem(folder, name: str, key, certificate) -> tuple[str, str]:
     key_path, certificate_path = folder / f"{name}-key.pem", folder / f"{name}.pem"
-    key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                                           serialization.NoEncryption()))
+    key_path.write_bytes(
+        key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8, serialization.NoEncryption())
+    )
     certificate_path.write_bytes(certificate.public_bytes(serialization.Encoding.PEM))
     return str(key_path), str(certificate_path)
 
@@ -127,9 +137,15 @@ def make_lab(folder, ca_name: str, nodes: list[str]) -> dict[str, str]:
     for node in nodes:
         key = ec.generate_private_key(ec.SECP256R1())
         key_path, certificate_path = _pem(folder, node, key, _certificate(node, key.public_key(), ca, ca_key, False))
-        tls = {"root_ca_certificate": ca_path, "enable_mtls": True, "verify_name_on_connect": True,
-               "listen_private_key": key_path, "listen_certificate": certificate_path,
-               "connect_private_key": key_path, "connect_certificate": certificate_path}
+        tls = {
+            "root_ca_certificate": ca_path,
+            "enable_mtls": True,
+            "verify_name_on_connect": True,
+            "listen_private_key": key_path,
+            "listen_certificate": certificate_path,
+            "connect_private_key": key_path,
+            "connect_certificate": certificate_path,
+        }
         files[node] = str(folder / f"{node}.json5")
         (folder / f"{node}.json5").write_text(json.dumps({"transport": {"link": {"tls": tls}}}))
     return files
@@ -139,18 +155,20 @@ def test_tls_carries_messages_and_refuses_an_untrusted_certificate_or_plain_tcp(
     lab = make_lab(tmp_path, "lab-ca", ["sim", "device0"])
     outsider = make_lab(tmp_path, "other-ca", ["outsider"])["outsider"]
     endpoint = free_endpoint().replace("tcp/", "tls/")
-    with Node("sim", "sim", listen=[endpoint], config_file=lab["sim"]) as sim, \
-            Node("device", "device0", listen=["tls/127.0.0.1:0"], connect=[endpoint], config_file=lab["device0"]) \
-            as device, \
-            Node("recorder", "outsider", listen=["tls/127.0.0.1:0"], connect=[endpoint], config_file=outsider) \
-            as untrusted, \
-            Node("recorder", "plain", connect=[endpoint.replace("tls/", "tcp/")]) as plain:
+    with (
+        Node("sim", "sim", listen=[endpoint], config_file=lab["sim"]) as sim,
+        Node("device", "device0", listen=["tls/127.0.0.1:0"], connect=[endpoint], config_file=lab["device0"]) as device,
+        Node("recorder", "outsider", listen=["tls/127.0.0.1:0"], connect=[endpoint], config_file=outsider) as untrusted,
+        Node("recorder", "plain", connect=[endpoint.replace("tls/", "tcp/")]) as plain,
+    ):
         received = Inbox(sim, msg.twist_topic("device0"))
         stolen = [Inbox(untrusted, "/otgym/**"), Inbox(plain, "/otgym/**")]
         time.sleep(LINK_UP_S)
         twist = msg.twist(Sample(0.0, 1, (0.0, 0.0, 0.0), (1.0, 2.0, 3.0), 1), time.time(), "device0")
-        wait_until(lambda: (device.publish(msg.twist_topic("device0"), twist),
-                            received.get(msg.twist_topic("device0")))[1], 10.0)
+        wait_until(
+            lambda: (device.publish(msg.twist_topic("device0"), twist), received.get(msg.twist_topic("device0")))[1],
+            10.0,
+        )
         assert msg.velocity_mm_s(received.get(msg.twist_topic("device0"))[0]).tolist() == [1.0, 2.0, 3.0]
         for _ in range(int(QUIET_S / 0.05)):  # both sides publish for a while; none of it may leak
             device.publish(msg.twist_topic("device0"), twist)
@@ -171,10 +189,13 @@ def test_a_peer_with_the_wrong_password_gets_nothing(tmp_path):
         return str(path)
 
     endpoint = free_endpoint()
-    with Node("sim", "sim", listen=[endpoint], config_file=config("sim", "sim", "sim-secret")) as sim, \
-            Node("device", "device0", connect=[endpoint], config_file=config("device0", "device0", "device-secret")) \
-            as device, \
-            Node("device", "guess", connect=[endpoint], config_file=config("guess", "device0", "wrong")) as guess:
+    with (
+        Node("sim", "sim", listen=[endpoint], config_file=config("sim", "sim", "sim-secret")) as sim,
+        Node(
+            "device", "device0", connect=[endpoint], config_file=config("device0", "device0", "device-secret")
+        ) as device,
+        Node("device", "guess", connect=[endpoint], config_file=config("guess", "device0", "wrong")) as guess,
+    ):
         good, bad = Inbox(device, "/otgym/**"), Inbox(guess, "/otgym/**")
         time.sleep(LINK_UP_S)
         for _ in range(int(QUIET_S / 0.05)):
@@ -184,13 +205,15 @@ def test_a_peer_with_the_wrong_password_gets_nothing(tmp_path):
         assert not bad.seen
 
 
-
 def test_streams_wait_a_tick_before_dropping_and_a_file_may_say_otherwise(tmp_path):
     drop_key = "transport/link/tx/queue/congestion_control/drop/wait_before_drop"
     assert json.loads(zenoh_config("sim").get_json(drop_key)) == WAIT_BEFORE_DROP_US
     own = tmp_path / "own.json5"
-    own.write_text(json.dumps({"transport": {"link": {"tx": {"queue": {"congestion_control": {
-        "drop": {"wait_before_drop": 3000}}}}}}}))
+    own.write_text(
+        json.dumps(
+            {"transport": {"link": {"tx": {"queue": {"congestion_control": {"drop": {"wait_before_drop": 3000}}}}}}}
+        )
+    )
     assert json.loads(zenoh_config("sim", config_file=str(own)).get_json(drop_key)) == 3000
 
 

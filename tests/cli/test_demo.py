@@ -15,8 +15,8 @@ from otgym.cli.app import main
 from otgym.envs import transport as tr
 from otgym.experiments import demo as demo_module
 from otgym.experiments.transport import TransportDemo, run
-from otgym.study import wilson_interval
 from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
+from otgym.study import wilson_interval
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
 
@@ -50,8 +50,9 @@ def test_transport_figure_shows_the_shown_run_where_it_stopped(tmp_path, monkeyp
     from otgym.experiments.demo import demo_config
 
     drawn = {}
-    monkeypatch.setattr(transport_module, "_figure",
-                        lambda chip, scene, frame, traps, *rest: drawn.update(scene=scene, frame=frame))
+    monkeypatch.setattr(
+        transport_module, "_figure", lambda chip, scene, frame, traps, *rest: drawn.update(scene=scene, frame=frame)
+    )
     summary = run(demo_config("pretrained", 16, 4, 2, 1, 3, 1, 90.0).transport, tmp_path)
     rows = list(csv.DictReader(open(tmp_path / "trajectory.csv")))
     stopped = summary["outcomes"][summary["shown_run"]] != "reached the goal"
@@ -63,20 +64,23 @@ def test_transport_figure_shows_the_shown_run_where_it_stopped(tmp_path, monkeyp
     assert np.linalg.norm(drawn["frame"][cell_sphere] - end) < 0.01
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["--speed-um-s", "-1"], "--speed-um-s must lie in (0, 20] um/s"),
-    (["--speed-um-s", "nan"], "--speed-um-s must lie in (0, 20] um/s"),
-    (["--runs", "0"], "--runs must be an integer in [1, 64]"),
-    (["--runs", "1000"], "--runs must be an integer in [1, 64]"),
-    (["--policy", "missing.npz"], "does not exist"),
-    (["--episodes", "0"], "--episodes must be an integer in [1, 4096]"),
-    (["--episodes", "1000000"], "--episodes must be an integer in [1, 4096]"),
-    (["--seed", "-1"], "--seed must be an integer in [0, 4294967295]"),
-    (["--seed", str(2**32)], "--seed must be an integer in [0, 4294967295]"),
-    (["--study-participants", "1"], "--study-participants must be an integer in [2, 16]"),
-    (["--study-trials", "100"], "--study-trials must be an integer in [1, 8]"),
-    (["--study-time-limit-s", "0"], "--study-time-limit-s must lie in (0, 300] s"),
-])
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--speed-um-s", "-1"], "--speed-um-s must lie in (0, 20] um/s"),
+        (["--speed-um-s", "nan"], "--speed-um-s must lie in (0, 20] um/s"),
+        (["--runs", "0"], "--runs must be an integer in [1, 64]"),
+        (["--runs", "1000"], "--runs must be an integer in [1, 64]"),
+        (["--policy", "missing.npz"], "does not exist"),
+        (["--episodes", "0"], "--episodes must be an integer in [1, 4096]"),
+        (["--episodes", "1000000"], "--episodes must be an integer in [1, 4096]"),
+        (["--seed", "-1"], "--seed must be an integer in [0, 4294967295]"),
+        (["--seed", str(2**32)], "--seed must be an integer in [0, 4294967295]"),
+        (["--study-participants", "1"], "--study-participants must be an integer in [2, 16]"),
+        (["--study-trials", "100"], "--study-trials must be an integer in [1, 8]"),
+        (["--study-time-limit-s", "0"], "--study-time-limit-s must lie in (0, 300] s"),
+    ],
+)
 def test_cli_rejects_bad_input_with_one_line_before_any_work(tmp_path, capsys, arguments, message):
     out = tmp_path / "never"
     with pytest.raises(SystemExit) as exit_info:
@@ -114,14 +118,15 @@ def _recomputed_rows(trials: pd.DataFrame) -> dict:
         time_s = "-" if means.empty else f"{means.mean():.1f}" + ("" if len(means) < 2 else f" ± {means.std():.1f}")
         reached = int(group["reached_goal"].sum())
         low, high = wilson_interval(reached, len(group))
-        rows[mode] = (f"| {mode} | {len(group)} | {avoided} / {encountered} | {success} |",
-                      f"| {reached} of {len(group)} ({100 * reached / len(group):.0f} % [{100 * low:.0f}, "
-                      f"{100 * high:.0f}]) | {time_s} |")
+        rows[mode] = (
+            f"| {mode} | {len(group)} | {avoided} / {encountered} | {success} |",
+            f"| {reached} of {len(group)} ({100 * reached / len(group):.0f} % [{100 * low:.0f}, "
+            f"{100 * high:.0f}]) | {time_s} |",
+        )
     return rows
 
 
-def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, capsys, monkeypatch,
-                                                                  fixed_action_q_params):
+def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, capsys, monkeypatch, fixed_action_q_params):
     """The whole main job from the command line, small: a short leg of the transport, 4
     episodes with a policy that always drives at the slowest level (its Table II row
     equals G1's exactly in time), and a study of 2 participants x 1 trial x 3 modes cut
@@ -131,13 +136,32 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     recomputed from trials.csv). The study runs in a thread beside the other stages, as
     by default."""
     policy = save_policy(tmp_path / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(HIDDEN)})
-    monkeypatch.setattr(demo_module, "_transport",
-                        lambda **options: TransportDemo(start_um=SHORT_LEG.start_um, goal_um=SHORT_LEG.goal_um,
-                                                        **options))
+    monkeypatch.setattr(
+        demo_module,
+        "_transport",
+        lambda **options: TransportDemo(start_um=SHORT_LEG.start_um, goal_um=SHORT_LEG.goal_um, **options),
+    )
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as exit_info:
-        main(["demo", "--out", str(out), "--policy", str(policy), "--episodes", str(EPISODES), "--runs", "2",
-              "--study-participants", "2", "--study-trials", "1", "--study-time-limit-s", "30"])
+        main(
+            [
+                "demo",
+                "--out",
+                str(out),
+                "--policy",
+                str(policy),
+                "--episodes",
+                str(EPISODES),
+                "--runs",
+                "2",
+                "--study-participants",
+                "2",
+                "--study-trials",
+                "1",
+                "--study-time-limit-s",
+                "30",
+            ]
+        )
     assert exit_info.value.code == 0
     printed = capsys.readouterr().out
     stages = [line for line in printed.splitlines() if line.startswith("[")]
@@ -145,10 +169,22 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     assert "planning" in stages[0] and "2 simulated participants" in stages[1] and "in the background" in stages[1]
     assert "3 modes in one batch, trials cut at 30 s" in stages[1]
     assert f"{EPISODES} episodes each" in stages[2] and "2 runs" in stages[3]
-    for name in ("report.md", "summary.json", "plan/metrics.md", "plan/paths.png", "speed_control/table.csv",
-                 "speed_control/safety.png", "speed_control/safety.json", "transport/transport.png",
-                 "shared_control/trials.csv", "shared_control/summary.csv", "shared_control/summary.md",
-                 "shared_control/stats.json", "shared_control/fig8.png", "shared_control/acceptance.json"):
+    for name in (
+        "report.md",
+        "summary.json",
+        "plan/metrics.md",
+        "plan/paths.png",
+        "speed_control/table.csv",
+        "speed_control/safety.png",
+        "speed_control/safety.json",
+        "transport/transport.png",
+        "shared_control/trials.csv",
+        "shared_control/summary.csv",
+        "shared_control/summary.md",
+        "shared_control/stats.json",
+        "shared_control/fig8.png",
+        "shared_control/acceptance.json",
+    ):
         assert (out / name).is_file(), name
     summary = json.loads((out / "summary.json").read_text())
     rows = {row["policy"]: row for row in summary["table_ii"]}
@@ -171,7 +207,7 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     # the route follower reaches the crossings about 20 s in: both autonomous trials meet obstacles by 30 s, and
     # so does shared control, which follows the route at the same pace until an obstacle comes near
     assert (trials.loc[trials["mode"] != "manual", "obstacles_encountered"] > 0).all(), trials
-    section = report[report.index("## Shared control"):]
+    section = report[report.index("## Shared control") :]
     assert "2 simulated participants x 1 trial = 2 trials per mode" in section and "cut at 30 s" in section
     assert "scenarios 10000-10001" in section and "one batch" in section
     assert "Success ordering here:" in section
@@ -221,8 +257,9 @@ def test_pretrained_policy_ships_and_fits_the_paper_preset():
 
 
 def test_demo_rejects_a_policy_of_the_wrong_shape(tmp_path, capsys, fixed_action_q_params):
-    policy = save_policy(tmp_path / "wide.npz", fixed_action_q_params(0, n_actions=10),
-                         {"preset": "paper", "hidden": list(HIDDEN)})
+    policy = save_policy(
+        tmp_path / "wide.npz", fixed_action_q_params(0, n_actions=10), {"preset": "paper", "hidden": list(HIDDEN)}
+    )
     with pytest.raises(SystemExit):
         main(["demo", "--out", str(tmp_path / "out"), "--policy", str(policy)])
     assert "does not fit" in capsys.readouterr().err and not (tmp_path / "out").exists()

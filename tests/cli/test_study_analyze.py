@@ -23,8 +23,12 @@ def test_analyze_end_to_end(tmp_path):
     answers[answers["participant"].isin(PARTICIPANTS[:2])].to_csv(tmp_path / "s1" / "questionnaires.csv", index=False)
     answers[answers["participant"].isin(PARTICIPANTS[2:])].to_csv(tmp_path / "s2" / "questionnaires.csv", index=False)
     out = tmp_path / "out"
-    run = subprocess.run(COMMAND + [str(tmp_path / "s1"), str(tmp_path / "s2"), "--out", str(out)],
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        COMMAND + [str(tmp_path / "s1"), str(tmp_path / "s2"), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert run.returncode == 0, run.stderr
     for name in ("fig8.png", "questionnaire_scores.csv", "summary.md", "summary.csv", "stats.json", "analysis.json"):
         assert (out / name).stat().st_size > 0, name
@@ -66,14 +70,17 @@ def record_trials(path, frame: pd.DataFrame) -> None:
     from otgym.record.mcap_file import McapRecorder
 
     with McapRecorder(path) as recorder:
+
         def write(topic, data):
             recorder.write(topic, m.topic_type(topic), m.SCHEMAS[m.topic_type(topic)], data)
 
         for row in frame.to_dict("records"):
             write(m.EVENTS, m.event("trial_start", trial=row["trial"], mode=row["mode"]))
             write(m.ALPHA, m.float64(0.5))
-            row = {key: None if isinstance(value, float) and not math.isfinite(value) else value
-                   for key, value in row.items()}
+            row = {
+                key: None if isinstance(value, float) and not math.isfinite(value) else value
+                for key, value in row.items()
+            }
             write(m.EVENTS, m.event("trial_end", **{k: v.item() if hasattr(v, "item") else v for k, v in row.items()}))
 
 
@@ -92,16 +99,24 @@ def test_recordings_give_the_same_analysis_as_trials_csv(tmp_path, capsys):
     (tmp_path / "csv" / "questionnaires.csv").rename(recorded / "questionnaires.csv")
     write_answers(tmp_path / "csv")
     for source, out in (([tmp_path / "csv"], tmp_path / "from_csv"), ([recorded], tmp_path / "from_mcap")):
-        run = subprocess.run(COMMAND + [*map(str, source), "--out", str(out)], capture_output=True, text=True,
-                             timeout=300)
+        run = subprocess.run(
+            COMMAND + [*map(str, source), "--out", str(out)], capture_output=True, text=True, timeout=300
+        )
         assert run.returncode == 0, run.stderr
     assert "trials from session.mcap, session-2.mcap" in run.stdout
     for name in ("summary.csv", "stats.json", "questionnaire_scores.csv"):
         assert (tmp_path / "from_csv" / name).read_text() == (tmp_path / "from_mcap" / name).read_text(), name
     # one file: the same trials of its participants
     single = tmp_path / "single"
-    assert subprocess.run(COMMAND + [str(recorded / "session.mcap"), "--out", str(single)], capture_output=True,
-                          text=True, timeout=300).returncode == 0
+    assert (
+        subprocess.run(
+            COMMAND + [str(recorded / "session.mcap"), "--out", str(single)],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        ).returncode
+        == 0
+    )
     assert json.loads((single / "analysis.json").read_text())["participants"] == 2
 
 
@@ -110,8 +125,12 @@ def test_a_simulator_nodes_recording_is_refused_with_one_line(tmp_path, capsys):
     from otgym.record.mcap_file import McapRecorder
 
     with McapRecorder(tmp_path / "session.mcap") as recorder:
-        recorder.write(m.EVENTS, m.STRING, m.SCHEMAS[m.STRING],
-                       m.event("trial_end", trial=1, ended_by="duration", completion_time_s=3.0))
+        recorder.write(
+            m.EVENTS,
+            m.STRING,
+            m.SCHEMAS[m.STRING],
+            m.event("trial_end", trial=1, ended_by="duration", completion_time_s=3.0),
+        )
     assert "carry no trial rows" in _fails([str(tmp_path / "session.mcap"), "--out", str(tmp_path / "o")], capsys)
     (tmp_path / "notes.mcap").write_text("not mcap")
     assert "is not an MCAP file" in _fails([str(tmp_path / "notes.mcap"), "--out", str(tmp_path / "o")], capsys)
@@ -121,8 +140,9 @@ def test_a_simulator_nodes_recording_is_refused_with_one_line(tmp_path, capsys):
 def test_one_participant_draws_the_figure_and_says_no_test_is_possible(tmp_path):
     write_trials(tmp_path / "s", PARTICIPANTS[:1])
     out = tmp_path / "out"
-    run = subprocess.run(COMMAND + [str(tmp_path / "s"), "--out", str(out)], capture_output=True, text=True,
-                         timeout=300)
+    run = subprocess.run(
+        COMMAND + [str(tmp_path / "s"), "--out", str(out)], capture_output=True, text=True, timeout=300
+    )
     assert run.returncode == 0, run.stderr
     summary = (out / "summary.md").read_text()
     assert summary.count("No test: no test is possible with n < 2 (n = 1 participant(s)") == 2  # success, time
@@ -133,7 +153,8 @@ def test_one_participant_draws_the_figure_and_says_no_test_is_possible(tmp_path)
     one_mode.mkdir()
     frame = pd.read_csv(tmp_path / "s" / "trials.csv")
     frame[frame["mode"] == "shared"].to_csv(one_mode / "trials.csv", index=False)
-    run = subprocess.run(COMMAND + [str(one_mode), "--out", str(tmp_path / "out1")], capture_output=True, text=True,
-                         timeout=300)
+    run = subprocess.run(
+        COMMAND + [str(one_mode), "--out", str(tmp_path / "out1")], capture_output=True, text=True, timeout=300
+    )
     assert run.returncode == 0, run.stderr
     assert "No test: only one mode (shared): nothing to compare" in (tmp_path / "out1" / "summary.md").read_text()

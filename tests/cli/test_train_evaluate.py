@@ -33,10 +33,13 @@ def test_train_writes_a_loadable_policy_curve_and_summary(tmp_path, capsys):
 
 
 def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params):
-    policy = save_policy(tmp_path / "slow.npz", fixed_action_q_params(0),
-                         {"preset": "paper", "hidden": list(FIXED_POLICY_HIDDEN)})
-    assert run_cli(["evaluate", "--policy", str(policy), "--episodes", str(EPISODES),
-                    "--out", str(tmp_path / "eval")]) == 0
+    policy = save_policy(
+        tmp_path / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(FIXED_POLICY_HIDDEN)}
+    )
+    assert (
+        run_cli(["evaluate", "--policy", str(policy), "--episodes", str(EPISODES), "--out", str(tmp_path / "eval")])
+        == 0
+    )
     lines = (tmp_path / "eval" / "table.csv").read_text().splitlines()
     assert len(lines) == 8
     rl, g1 = lines[1].split(","), lines[2].split(",")
@@ -51,14 +54,17 @@ def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params):
     assert not checks["beats_reference"] and not checks["passes"]
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["evaluate", "--policy", "nowhere.npz"], "does not exist"),
-    (["evaluate", "--policy", "."], ". is a folder; give a policy file"),
-    (["evaluate", "--policy", "pretrained", "--episodes", "0"], "--episodes"),
-    (["evaluate", "--policy", "pretrained", "--repeats", "0"], "--repeats"),
-    (["train", "--preset", "fast"], "unknown preset"),
-    (["train", "--steps", "0"], "total_env_steps"),
-])
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["evaluate", "--policy", "nowhere.npz"], "does not exist"),
+        (["evaluate", "--policy", "."], ". is a folder; give a policy file"),
+        (["evaluate", "--policy", "pretrained", "--episodes", "0"], "--episodes"),
+        (["evaluate", "--policy", "pretrained", "--repeats", "0"], "--repeats"),
+        (["train", "--preset", "fast"], "unknown preset"),
+        (["train", "--steps", "0"], "total_env_steps"),
+    ],
+)
 def test_bad_input_is_one_line(tmp_path, capsys, arguments, message):
     assert run_cli([*arguments, "--out", str(tmp_path)]) == 2
     error = capsys.readouterr().err.strip()

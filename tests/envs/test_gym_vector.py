@@ -33,8 +33,10 @@ def cell_env():
     env.close()
 
 
-@pytest.mark.parametrize("env_id, vector_class, single_class", [(SPEED_ID, SpeedControlVectorEnv, SpeedControlEnv),
-                                                                 (CELL_ID, CellTransportVectorEnv, CellTransportEnv)])
+@pytest.mark.parametrize(
+    "env_id, vector_class, single_class",
+    [(SPEED_ID, SpeedControlVectorEnv, SpeedControlEnv), (CELL_ID, CellTransportVectorEnv, CellTransportEnv)],
+)
 def test_make_vec_returns_the_native_vector_env_and_make_the_single_one(env_id, vector_class, single_class):
     env = gym.make_vec(env_id, num_envs=N, vectorization_mode="vector_entry_point")
     assert type(env) is vector_class and env.num_envs == N
@@ -78,8 +80,9 @@ def test_one_step_advances_progress_by_the_chosen_speed(speed_env):
         expected = np.asarray(config.speed_levels_um_s)[actions] * period / config.segment_um
         np.testing.assert_allclose(info["progress"], expected, rtol=0, atol=2e-5)  # float32 arcs of ~500 um
         np.testing.assert_allclose(obs[:, 0], expected, rtol=0, atol=2e-5)
-        np.testing.assert_allclose(obs[:, 1], np.asarray(config.speed_levels_um_s)[actions] / max(config.speed_levels_um_s),
-                                   rtol=1e-5)
+        np.testing.assert_allclose(
+            obs[:, 1], np.asarray(config.speed_levels_um_s)[actions] / max(config.speed_levels_um_s), rtol=1e-5
+        )
         assert reward.dtype == np.float32 and reward.shape == (N,) and np.all(np.isfinite(reward))
         assert terminated.dtype == truncated.dtype == np.bool_ and terminated.shape == truncated.shape == (N,)
         assert not terminated.any() and not truncated.any() and "final_obs" not in info
@@ -157,10 +160,16 @@ def test_render_gives_one_frame_per_environment(speed_env):
 
 def test_speed_control_rejects_bad_actions(speed_env):
     speed_env.reset(seed=1)
-    for bad, match in ((np.zeros(3, int), r"shape \(4,\)"), (2, r"shape \(4,\)"), (np.zeros((4, 1), int), "shape"),
-                       (np.array([6, 0, 0, 0]), r"integers in 0..5"), (np.array([0, -1, 0, 0]), r"integers in 0..5"),
-                       (np.array([0.0, 1.0, 2.0, 3.0]), "integers"), (np.array([True] * 4), "integers"),
-                       (["fast"] * 4, "integers")):
+    for bad, match in (
+        (np.zeros(3, int), r"shape \(4,\)"),
+        (2, r"shape \(4,\)"),
+        (np.zeros((4, 1), int), "shape"),
+        (np.array([6, 0, 0, 0]), r"integers in 0..5"),
+        (np.array([0, -1, 0, 0]), r"integers in 0..5"),
+        (np.array([0.0, 1.0, 2.0, 3.0]), "integers"),
+        (np.array([True] * 4), "integers"),
+        (["fast"] * 4, "integers"),
+    ):
         with pytest.raises(ValueError, match=match):
             speed_env.step(bad)
     obs, *_ = speed_env.step([0, 1, 2, 3])  # a list of ints is fine, and the rejected calls left no trace

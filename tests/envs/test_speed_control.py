@@ -25,12 +25,22 @@ def test_reset_and_step_shapes_and_determinism(paper_params):
     assert obs2.shape == obs.shape and reward.shape == (N_ENVS,) and terminated.dtype == jnp.bool_
     assert np.all(np.isfinite(np.asarray(obs2)))
     # the formation advanced by exactly the slowest level x 0.2 s
-    np.testing.assert_allclose(np.asarray(state2.arc_um - state.arc_um), 0.27 * 0.2, atol=1e-4)  # float32 arcs of ~300 um
+    np.testing.assert_allclose(
+        np.asarray(state2.arc_um - state.arc_um), 0.27 * 0.2, atol=1e-4
+    )  # float32 arcs of ~300 um
     # the reward is the sum of its named terms (reward_terms, used by experiments.reward_terms)
     speed = jnp.full(N_ENVS, paper_params.config.speed_levels_um_s[0])
     terms = tr.reward_terms(paper_params.config, info["events"], speed, info["failed"], info["success"])
-    assert set(terms) == {"time", "speed", "force_in_band", "force_out_of_band", "handle_deviation", "trap_margin",
-                          "failure", "goal"}
+    assert set(terms) == {
+        "time",
+        "speed",
+        "force_in_band",
+        "force_out_of_band",
+        "handle_deviation",
+        "trap_margin",
+        "failure",
+        "goal",
+    }
     np.testing.assert_allclose(np.asarray(sum(terms.values())), np.asarray(reward), rtol=1e-6, atol=1e-6)
     weights = paper_params.config.reward
     np.testing.assert_allclose(np.asarray(terms["speed"]), weights.speed * 0.27 / 0.51, rtol=1e-6)

@@ -7,8 +7,10 @@ from otgym.experiments.reward_terms import main, markdown, summarize
 
 
 def test_summary_counts_binding_steps_and_shares():
-    samples = {"RL": {"time": np.full(4, -0.05), "failure": np.array([0.0, 0.0, 0.0, -100.0])},
-               "random": {"time": np.full(2, -0.05), "failure": np.zeros(2)}}
+    samples = {
+        "RL": {"time": np.full(4, -0.05), "failure": np.array([0.0, 0.0, 0.0, -100.0])},
+        "random": {"time": np.full(2, -0.05), "failure": np.zeros(2)},
+    }
     rows = {(row["policy"], row["term"]): row for row in summarize(samples)}
     assert rows["RL", "failure"]["binds"] == 0.25 and rows["RL", "time"]["binds"] == 1.0
     assert rows["random", "failure"]["binds"] == 0.0 and rows["random", "failure"]["max"] == 0.0
@@ -17,11 +19,14 @@ def test_summary_counts_binding_steps_and_shares():
     assert "| RL | failure | 4 | 0.2500 |" in "\n".join(markdown(list(rows.values())))
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["--episodes", "0"], "--episodes must be an integer in [1, 4096], got 0"),
-    (["--seed", "-1"], "--seed must be an integer in [0, 4294967295]"),
-    (["--policy", "nowhere.npz"], "nowhere.npz does not exist"),
-])
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--episodes", "0"], "--episodes must be an integer in [1, 4096], got 0"),
+        (["--seed", "-1"], "--seed must be an integer in [0, 4294967295]"),
+        (["--policy", "nowhere.npz"], "nowhere.npz does not exist"),
+    ],
+)
 def test_bad_input_is_one_line_before_any_work(tmp_path, capsys, arguments, message):
     with pytest.raises(SystemExit) as exit_info:
         main([*arguments, "--out", str(tmp_path / "out")])

@@ -19,16 +19,28 @@ def test_small_experiment_writes_every_file(tmp_path):
     (it grips in under 0.1 s and carries at 5 um/s: a cell near the start at 6 s means
     the navigator or the task's stepping is broken)."""
     out = tmp_path / "fig8"
-    run = subprocess.run(COMMAND + ["--participants", "2", "--trials", "1", "--time-limit-s", "6", "--out", str(out)],
-                         capture_output=True, text=True, timeout=900)
+    run = subprocess.run(
+        COMMAND + ["--participants", "2", "--trials", "1", "--time-limit-s", "6", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert run.returncode == 0, run.stderr
-    for name in ("trials.csv", "summary.csv", "summary.md", "stats.json", "fig8.png", "acceptance.json",
-                 "route_bound.csv", "route_bound.md"):
+    for name in (
+        "trials.csv",
+        "summary.csv",
+        "summary.md",
+        "stats.json",
+        "fig8.png",
+        "acceptance.json",
+        "route_bound.csv",
+        "route_bound.md",
+    ):
         assert (out / name).stat().st_size > 0, name
     trials = pd.read_csv(out / "trials.csv")
     bound = pd.read_csv(out / "route_bound.csv")  # the route-keeping bound on the trials' own scenarios
     assert list(bound.scenario) == sorted(set(trials.scenario)) and (bound.earliest_s >= bound.free_s - 1e-6).all()
-    assert list(trials.columns[:len(TRIAL_COLUMNS)]) == TRIAL_COLUMNS
+    assert list(trials.columns[: len(TRIAL_COLUMNS)]) == TRIAL_COLUMNS
     assert len(trials) == 6 and set(trials["mode"]) == {"manual", "autonomous", "shared"}
     assert trials.groupby("mode")["scenario"].apply(tuple).nunique() == 1
     assert (abs(trials["completion_time_s"] - 6.0) < 0.02).all() and not trials["reached_goal"].any()
@@ -43,9 +55,28 @@ def test_mpc_mode_alone_with_one_participant(tmp_path):
     MPC's dP_r, if mpc.json or acceptance.json's MPC figures (with 95 % intervals) are
     missing, or if the MPC does not grip in the route navigator's 0.5 s."""
     out = tmp_path / "mpc"
-    run = subprocess.run(COMMAND + ["--participants", "1", "--trials", "1", "--modes", "mpc", "--time-limit-s", "4",
-                                    "--mpc-rollouts", "12", "--mpc-plan-steps", "5", "--out", str(out)],
-                         capture_output=True, text=True, timeout=900)
+    run = subprocess.run(
+        COMMAND
+        + [
+            "--participants",
+            "1",
+            "--trials",
+            "1",
+            "--modes",
+            "mpc",
+            "--time-limit-s",
+            "4",
+            "--mpc-rollouts",
+            "12",
+            "--mpc-plan-steps",
+            "5",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert run.returncode == 0, run.stderr
     trials = pd.read_csv(out / "trials.csv")
     assert list(trials["mode"]) == ["mpc"] and list(trials["autonomy"]) == ["mpc"]
@@ -60,15 +91,18 @@ def test_mpc_mode_alone_with_one_participant(tmp_path):
     assert "no test" in (out / "summary.md").read_text().lower()
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--participants", "0"], "at least 1"),
-    (["--modes", "manual,bogus"], "bogus"),
-    (["--trials", "0"], "at least 1"),
-    (["--seed", "-1"], "seed"),
-    (["--time-limit-s", "0"], "time-limit"),
-    (["--shared-autonomy", "human"], "shared-autonomy"),
-    (["--mpc-rollouts", "3"], "mpc-rollouts"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--participants", "0"], "at least 1"),
+        (["--modes", "manual,bogus"], "bogus"),
+        (["--trials", "0"], "at least 1"),
+        (["--seed", "-1"], "seed"),
+        (["--time-limit-s", "0"], "time-limit"),
+        (["--shared-autonomy", "human"], "shared-autonomy"),
+        (["--mpc-rollouts", "3"], "mpc-rollouts"),
+    ],
+)
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):
     out = tmp_path / "never"
     run = subprocess.run(COMMAND + args + ["--out", str(out)], capture_output=True, text=True, timeout=120)
@@ -89,10 +123,13 @@ def test_parse_modes():
         parse_modes("manual,manual")
 
 
-@pytest.mark.parametrize("one_batch, per_participant, batches", [
-    (False, False, [(["manual"] * 4, [10000, 10001] * 2, 1), (["shared"] * 4, [10000, 10001] * 2, 2)]),
-    (True, True, [(["manual"] * 4 + ["shared"] * 4, [10000, 10001, 10002, 10003] * 2, 1)]),
-])
+@pytest.mark.parametrize(
+    "one_batch, per_participant, batches",
+    [
+        (False, False, [(["manual"] * 4, [10000, 10001] * 2, 1), (["shared"] * 4, [10000, 10001] * 2, 2)]),
+        (True, True, [(["manual"] * 4 + ["shared"] * 4, [10000, 10001, 10002, 10003] * 2, 1)]),
+    ],
+)
 def test_batches_and_scenarios_of_run_experiment(monkeypatch, one_batch, per_participant, batches):
     """Per mode (the full experiment: mode i's batch with seed + i, trial t of every
     participant on scenario seed * 10000 + t) or, for the demo, one batch of every mode
@@ -104,14 +141,29 @@ def test_batches_and_scenarios_of_run_experiment(monkeypatch, one_batch, per_par
 
     def trials(task, specs, people, seed, **options):
         calls.append(([s.mode for s in specs], [s.scenario for s in specs], seed))
-        return [{**{column: 0 for column in TRIAL_COLUMNS}, "participant": s.participant, "mode": s.mode,
-                 "trial": s.trial, "scenario": s.scenario} for s in specs]
+        return [
+            {
+                **{column: 0 for column in TRIAL_COLUMNS},
+                "participant": s.participant,
+                "mode": s.mode,
+                "trial": s.trial,
+                "scenario": s.scenario,
+            }
+            for s in specs
+        ]
 
     monkeypatch.setattr(experiment, "InteractiveTask", lambda config: None)
     monkeypatch.setattr(experiment, "run_trials", trials)
     lines = []
-    frame = experiment.run_experiment(2, 2, ["manual", "shared"], 1, report=lines.append, one_batch=one_batch,
-                                      scenario_per_participant=per_participant)
+    frame = experiment.run_experiment(
+        2,
+        2,
+        ["manual", "shared"],
+        1,
+        report=lines.append,
+        one_batch=one_batch,
+        scenario_per_participant=per_participant,
+    )
     assert calls == batches
-    assert len(frame) == 8 and list(frame.columns[:len(TRIAL_COLUMNS)]) == TRIAL_COLUMNS
+    assert len(frame) == 8 and list(frame.columns[: len(TRIAL_COLUMNS)]) == TRIAL_COLUMNS
     assert lines[0] == ("[1/1] manual, shared: 8 trials" if one_batch else "[1/2] manual: 4 trials")

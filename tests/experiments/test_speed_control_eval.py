@@ -7,8 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from otgym.experiments.speed_control_eval import (SAFE_FRACTION, Evaluation, acceptance, evaluate, passes,
-                                                write_safety_figure, write_table)
+from otgym.experiments.speed_control_eval import (
+    SAFE_FRACTION,
+    Evaluation,
+    acceptance,
+    evaluate,
+    passes,
+    write_safety_figure,
+    write_table,
+)
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 
 EPISODES = 4  # shared with the demo test, so both run one compiled rollout
@@ -53,8 +60,10 @@ def test_repeats_pool_batches_of_consecutive_seeds(paper_params, fixed_action_q_
     assert pooled.success.shape[1] == 2 * EPISODES
     assert pooled.force_pn[1].size == 2 * single.force_pn[1].size  # G1 always runs to the goal
     row = next(r for r in pooled.rows() if r["policy"] == "G1")
-    assert row["episodes"] == 2 * EPISODES and row["success_ci95_low"] > next(
-        r for r in single.rows() if r["policy"] == "G1")["success_ci95_low"]
+    assert (
+        row["episodes"] == 2 * EPISODES
+        and row["success_ci95_low"] > next(r for r in single.rows() if r["policy"] == "G1")["success_ci95_low"]
+    )
     with pytest.raises(ValueError, match="repeats"):
         evaluate(paper_params, fixed_action_q_params(5), HIDDEN, EPISODES, seed=3, repeats=0)
 
@@ -82,8 +91,15 @@ def _paired_evaluation(rl_time_s: float, g3_success: int) -> Evaluation:
     time_s = np.stack([np.full(n, rl_time_s), np.full(n, 15.0), np.full(n, 11.0), np.full(n, 9.0), np.full(n, 20.0)])
     time_s[0, -4:] = 11.0
     empty = [np.zeros(0)] * 5
-    return Evaluation(["RL", "G1", "G2", "G3", "untrained"], [None, 1.0, 2.0, 3.0, None], success.astype(float),
-                      success, time_s, empty, empty)
+    return Evaluation(
+        ["RL", "G1", "G2", "G3", "untrained"],
+        [None, 1.0, 2.0, 3.0, None],
+        success.astype(float),
+        success,
+        time_s,
+        empty,
+        empty,
+    )
 
 
 SAFE = {"force_below_limit": 1.0, "distance_within_limit": 1.0}
@@ -97,7 +113,7 @@ def test_acceptance_tests_rl_against_the_fastest_constant_speed_as_safe():
     assert checks["reference"] == "G2"  # G3 (30/40) is less safe than RL (39/40), G2 (39/40) as safe
     # both completed 38 episodes; 4 of them tied at 11 s, RL first in the other 34
     assert (checks["faster_episodes"], checks["slower_episodes"]) == (34, 0)
-    assert checks["speed_p"] == pytest.approx(0.5 ** 34) and checks["beats_reference"] and passes(checks)
+    assert checks["speed_p"] == pytest.approx(0.5**34) and checks["beats_reference"] and passes(checks)
     assert (checks["rl_only_lost"], checks["reference_only_lost"], checks["safety_p"]) == (1, 1, 0.75)
     slower = acceptance(_paired_evaluation(12.0, g3_success=30), SAFE)
     assert slower["faster_episodes"] == 0 and slower["speed_p"] == 1.0 and not passes(slower)
@@ -138,10 +154,28 @@ def test_paper_values_stand_beside_only_the_papers_speeds():
 
     def rows(speeds):
         interval = {"success_ci95_low": 0.51, "success_ci95_high": 1.0}
-        return [{"policy": "RL", "speed_um_s": None, "ASR": 1.0, "ATCT_s": 10.0, "success_rate": 1.0, **interval,
-                 "episodes": 4}] + [
-            {"policy": f"G{i + 1}", "speed_um_s": v, "ASR": 1.0, "ATCT_s": 20.0, "success_rate": 1.0, **interval,
-             "episodes": 4} for i, v in enumerate(speeds)]
+        return [
+            {
+                "policy": "RL",
+                "speed_um_s": None,
+                "ASR": 1.0,
+                "ATCT_s": 10.0,
+                "success_rate": 1.0,
+                **interval,
+                "episodes": 4,
+            }
+        ] + [
+            {
+                "policy": f"G{i + 1}",
+                "speed_um_s": v,
+                "ASR": 1.0,
+                "ATCT_s": 20.0,
+                "success_rate": 1.0,
+                **interval,
+                "episodes": 4,
+            }
+            for i, v in enumerate(speeds)
+        ]
 
     paper_lines = table_ii_markdown(rows(PAPER_SPEEDS_UM_S))
     assert "paper ASR" in paper_lines[0] and paper_lines[2].endswith("| 1.000 | 38.92 |")

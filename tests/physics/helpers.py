@@ -14,6 +14,7 @@ step = jax.jit(ph.control_step)
 def run_batch(model, state, controls, key, n_steps: int):
     """Scan ``n_steps`` control steps of a batch; returns (final state, (states stacked
     (n, E, ...), reports stacked))."""
+
     def body(carry, step_key):
         new_state, report = ph.control_step_batch(model, carry, controls, step_key)
         return new_state, (new_state, report)

@@ -19,8 +19,10 @@ from otgym.physics.adhesion import vdw_force_pn
 from otgym.physics.interactions import sphere_pair_forces
 from tests.physics.helpers import batch_state, run_batch
 
-STICKY = ph.Adhesion(hamaker_across_water_j=(("polymer", 9.5e-21), ("cell", 9.5e-21), ("glass", 9.5e-21)),
-                     retardation_wavelength_um=math.inf)
+STICKY = ph.Adhesion(
+    hamaker_across_water_j=(("polymer", 9.5e-21), ("cell", 9.5e-21), ("glass", 9.5e-21)),
+    retardation_wavelength_um=math.inf,
+)
 """The constants before issue 10: polystyrene for every pair, no retardation."""
 N_ENV = 8
 
@@ -66,15 +68,15 @@ def test_retarded_force_is_minus_gradient_of_gregorys_energy_and_weaker_than_ham
     # the pair force uses it with the reduced radius a b / (a + b)
     a, b = 1.0, 4.0
     on_a_x = sphere_pair_forces(jnp.array(a + b + 0.1), jnp.array(0.0), a, b, 1.0, hamaker, 0.05, wavelength)[0]
-    assert float(on_a_x) == pytest.approx(float(vdw_force_pn(hamaker, a * b / (a + b), 0.1, 0.05, wavelength)),
-                                          rel=1e-5)
+    assert float(on_a_x) == pytest.approx(
+        float(vdw_force_pn(hamaker, a * b / (a + b), 0.1, 0.05, wavelength)), rel=1e-5
+    )
 
 
 def _gripped_cell_model(adhesion):
     """Robot A below a cell, robot B (turned by pi) above it, grippers 0.05 um from it."""
     bodies = [ph.two_handle_robot("a"), ph.cell("cell"), ph.two_handle_robot("b")]
-    config = ph.PhysicsConfig(dt_s=1e-4, substeps=1000, trap_law=ph.TrapLaw("gaussian", 50.0, 0.6),
-                              adhesion=adhesion)
+    config = ph.PhysicsConfig(dt_s=1e-4, substeps=1000, trap_law=ph.TrapLaw("gaussian", 50.0, 0.6), adhesion=adhesion)
     model = ph.build_model(bodies, config)
     offsets = np.asarray(model.sphere_offset_um)
     gripper = offsets[ph.TWO_HANDLE_GRIPPER_SPHERES[0]]
@@ -99,7 +101,7 @@ def _cell_gap_after_release(adhesion, seed):
     radius = np.asarray(model.sphere_radius_um)
     body = np.asarray(model.sphere_body)
     cell = np.flatnonzero(body == 1)[0]
-    gaps = np.linalg.norm(xy - xy[:, cell:cell + 1], axis=-1) - radius - radius[cell]
+    gaps = np.linalg.norm(xy - xy[:, cell : cell + 1], axis=-1) - radius - radius[cell]
     return np.stack([gaps[:, body == robot].min(axis=1) for robot in (0, 2)], axis=1)
 
 
@@ -130,8 +132,9 @@ def _handle_gap_after_pull(adhesion, seed):
     """A 1.25 um polymer sphere held by the paper's trap law touches a glass wall (gap
     0.05 um); its trap jumps 0.5 um away from the wall (a pull of 0.24 pN, below the law's
     0.30 pN maximum). Returns the sphere's wall gaps (E,) after 2 s."""
-    config = ph.PhysicsConfig(dt_s=1e-3, substeps=100, viscosity_pa_s=1.0e-3, trap_law=ph.TrapLaw.paper(),
-                              adhesion=adhesion)
+    config = ph.PhysicsConfig(
+        dt_s=1e-3, substeps=100, viscosity_pa_s=1.0e-3, trap_law=ph.TrapLaw.paper(), adhesion=adhesion
+    )
     model = ph.build_model([ph.bead("handle", radius_um=1.25)], config, walls=FloorWall())
     start_y = 1.25 + 0.05
     state = batch_state(model, [[0.0, start_y, 0.0]], N_ENV, trap_xy=[[0.0, start_y + 0.5]])

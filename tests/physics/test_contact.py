@@ -14,9 +14,15 @@ from otgym.physics.adhesion import vdw_force_pn
 from otgym.physics.interactions import CONTACT_STEP_FRACTION, sphere_pair_forces
 from tests.physics.helpers import batch_state, run_batch, step
 
-DENSE_BODIES = [ph.two_handle_robot("r1"), ph.two_handle_robot("r2"), ph.four_arm_robot("r3"),
-                ph.cell("cell"), ph.cell("cell2", radius_um=3.0), ph.bead("bead"),
-                ph.obstacle("obstacle")]
+DENSE_BODIES = [
+    ph.two_handle_robot("r1"),
+    ph.two_handle_robot("r2"),
+    ph.four_arm_robot("r3"),
+    ph.cell("cell"),
+    ph.cell("cell2", radius_um=3.0),
+    ph.bead("bead"),
+    ph.obstacle("obstacle"),
+]
 DENSE_CONFIG = ph.PhysicsConfig(dt_s=5e-5, substeps=100)
 DENSE_MODEL = ph.build_model(DENSE_BODIES, DENSE_CONFIG)
 N_ENV = 4
@@ -36,11 +42,25 @@ def settled_overlap_bound_um(model):
     radius = np.asarray(model.sphere_radius_um, float)
     a, b = np.array(model.pair_a), np.array(model.pair_b)
     reduced = radius[a] * radius[b] / (radius[a] + radius[b])
-    vdw_max = float(np.max(vdw_force_pn(np.asarray(model.pair_hamaker_pn_um), reduced, 0.0,
-                                        float(model.min_gap_um), float(model.retardation_wavelength_um))))
+    vdw_max = float(
+        np.max(
+            vdw_force_pn(
+                np.asarray(model.pair_hamaker_pn_um),
+                reduced,
+                0.0,
+                float(model.min_gap_um),
+                float(model.retardation_wavelength_um),
+            )
+        )
+    )
     stiffness = float(model.pair_stiffness_pn_per_um.min())
-    point_mobility = sorted(ph.mobility.body_hydrodynamics(b.offsets_um, b.radii_um, DENSE_CONFIG.viscosity_pa_s)
-                            .max_point_mobility_um_per_pn_s for b in DENSE_BODIES if not b.kinematic)[-2:]
+    point_mobility = sorted(
+        ph.mobility.body_hydrodynamics(
+            b.offsets_um, b.radii_um, DENSE_CONFIG.viscosity_pa_s
+        ).max_point_mobility_um_per_pn_s
+        for b in DENSE_BODIES
+        if not b.kinematic
+    )[-2:]
     step_sigma_um = np.sqrt(2 * DENSE_CONFIG.kt_pn_um * DENSE_CONFIG.dt_s * sum(point_mobility))
     stationary_sigma_um = step_sigma_um / np.sqrt(1 - (1 - CONTACT_STEP_FRACTION) ** 2)
     return 2 * vdw_max / stiffness + 5.5 * stationary_sigma_um
@@ -81,8 +101,9 @@ def run_dense(seed, box_um, trap_speed_um_s, obstacle_speed_um_s, n_steps=20, mo
     also the poses at the control steps' ends (n_steps, N_ENV, B, 3)."""
     rng = np.random.default_rng(seed)
     state = batch_state(model, random_dense_pose(rng, box_um), N_ENV)
-    initial_overlap = run_batch(model, state, ph.Controls.zeros(model, N_ENV),
-                                jax.random.PRNGKey(0), 1)[1][1].max_overlap_um
+    initial_overlap = run_batch(model, state, ph.Controls.zeros(model, N_ENV), jax.random.PRNGKey(0), 1)[1][
+        1
+    ].max_overlap_um
     assert float(np.max(np.asarray(initial_overlap))) < SETTLED_OVERLAP_UM  # placement is clean
     direction = rng.normal(size=(N_ENV, model.n_traps, 2))
     velocity = trap_speed_um_s * direction / np.linalg.norm(direction, axis=-1, keepdims=True)
@@ -90,8 +111,8 @@ def run_dense(seed, box_um, trap_speed_um_s, obstacle_speed_um_s, n_steps=20, mo
     heading = rng.uniform(-np.pi, np.pi)
     body_velocity[:, -1, :2] = obstacle_speed_um_s * np.array([np.cos(heading), np.sin(heading)])
     controls = ph.Controls.zeros(model, N_ENV).replace(
-        trap_velocity_um_s=jnp.asarray(velocity, jnp.float32),
-        body_velocity=jnp.asarray(body_velocity, jnp.float32))
+        trap_velocity_um_s=jnp.asarray(velocity, jnp.float32), body_velocity=jnp.asarray(body_velocity, jnp.float32)
+    )
     final, (states, reports) = run_batch(model, state, controls, jax.random.PRNGKey(seed), n_steps)
     assert np.all(np.isfinite(np.asarray(states.pose)))
     assert np.all(np.isfinite(np.asarray(reports.contact_force_pn)))
@@ -132,8 +153,10 @@ def test_traps_driving_bodies_into_each_other_stay_within_the_contact_compliance
 
 PROJECTION_CAP = 0.02
 PROJECTED_MODEL = ph.build_model(DENSE_BODIES, dataclasses.replace(DENSE_CONFIG, contact_overlap_cap=PROJECTION_CAP))
-PAIR_MIN_RADIUS_UM = np.minimum(np.asarray(DENSE_MODEL.sphere_radius_um)[list(DENSE_MODEL.pair_a)],
-                                np.asarray(DENSE_MODEL.sphere_radius_um)[list(DENSE_MODEL.pair_b)])
+PAIR_MIN_RADIUS_UM = np.minimum(
+    np.asarray(DENSE_MODEL.sphere_radius_um)[list(DENSE_MODEL.pair_a)],
+    np.asarray(DENSE_MODEL.sphere_radius_um)[list(DENSE_MODEL.pair_b)],
+)
 PROJECTION_SLACK = 1.5
 """The projection's residual after at most 64 Jacobi iterations and its linearisation
 (a sphere's rotation to first order, normals held over a step): the deepest pair
@@ -170,8 +193,14 @@ def test_pushed_beads_in_steady_contact_report_the_push(cap):
     the rest.
     Either way the reported contact force is the push (overdamped force balance).
     Catches a projection whose force is not reported, or reported twice."""
-    config = ph.PhysicsConfig(dt_s=1e-5, substeps=200, temperature_k=0.0, adhesion=ph.Adhesion.none(),
-                              trap_law=ph.TrapLaw("harmonic", 100.0), contact_overlap_cap=cap)
+    config = ph.PhysicsConfig(
+        dt_s=1e-5,
+        substeps=200,
+        temperature_k=0.0,
+        adhesion=ph.Adhesion.none(),
+        trap_law=ph.TrapLaw("harmonic", 100.0),
+        contact_overlap_cap=cap,
+    )
     model = ph.build_model([ph.bead("held"), ph.bead("pushed", radius_um=0.5)], config, traps=[(0, 0)])
     state = ph.initial_state(model, [[0, 0, 0], [1.6, 0, 0]])
     controls = ph.Controls.zeros(model).replace(external_force=jnp.array([[0, 0, 0], [-30.0, 0, 0]]))
@@ -204,8 +233,7 @@ def test_van_der_waals_force_is_minus_gradient_of_derjaguin_energy():
         return -hamaker * reduced / (6 * gap)
 
     for gap in (0.1, 0.3, 1.0):
-        on_a_x, _, _, _, _ = sphere_pair_forces(jnp.array(a + b + gap), jnp.array(0.0), a, b,
-                                                1.0, hamaker, 0.05)
+        on_a_x, _, _, _, _ = sphere_pair_forces(jnp.array(a + b + gap), jnp.array(0.0), a, b, 1.0, hamaker, 0.05)
         derivative = (energy(gap + 1e-4) - energy(gap - 1e-4)) / 2e-4
         assert float(on_a_x) == pytest.approx(derivative, rel=1e-4)  # attraction towards b
 

@@ -57,16 +57,18 @@ def measured_variances(body, config, theta=0.0):
     return np.array([along.var(), across.var(), steps[..., 2].var()]), config.control_period_s
 
 
-@pytest.mark.parametrize("body, height, theta", [
-    (ph.bead(radius_um=0.5), None, 0.0),
-    (ph.two_handle_robot(), None, 0.0),
-    (ph.two_handle_robot(), None, 1.1),  # turned: the anisotropy must turn with the body
-    (ph.four_arm_robot(), 4.0, 0.0),  # near the chip floor: free-draining and Faxen-corrected
-])
+@pytest.mark.parametrize(
+    "body, height, theta",
+    [
+        (ph.bead(radius_um=0.5), None, 0.0),
+        (ph.two_handle_robot(), None, 0.0),
+        (ph.two_handle_robot(), None, 1.1),  # turned: the anisotropy must turn with the body
+        (ph.four_arm_robot(), 4.0, 0.0),  # near the chip floor: free-draining and Faxen-corrected
+    ],
+)
 def test_translational_and_rotational_diffusion_match_mobility(body, height, theta):
     interaction = height is None
-    config = ph.PhysicsConfig(dt_s=2e-4, substeps=5, height_above_floor_um=height,
-                              hydrodynamic_interaction=interaction)
+    config = ph.PhysicsConfig(dt_s=2e-4, substeps=5, height_above_floor_um=height, hydrodynamic_interaction=interaction)
     variances, duration = measured_variances(body, config, theta)
     gamma_t, gamma_r = interacting_drag(body) if interaction else independent_drag(body, height)
     kt = 1.380649e-5 * 298.15

@@ -41,8 +41,13 @@ class RigidRotation:
 CONFIG = ph.PhysicsConfig(dt_s=1e-3, substeps=100, temperature_k=0.0, adhesion=ph.Adhesion.none())
 
 
-@pytest.mark.parametrize("body", [ph.two_handle_robot(), ph.custom_body(
-    "lopsided", [[0.0, 0.0], [2.2, 0.4], [3.5, 2.0], [1.0, -1.6]], [1.0, 0.7, 1.2, 0.5])])
+@pytest.mark.parametrize(
+    "body",
+    [
+        ph.two_handle_robot(),
+        ph.custom_body("lopsided", [[0.0, 0.0], [2.2, 0.4], [3.5, 2.0], [1.0, -1.6]], [1.0, 0.7, 1.2, 0.5]),
+    ],
+)
 def test_a_free_body_rides_a_rigidly_rotating_flow(body):
     omega = 0.2  # rad/s: 0.02 rad over the 0.1 s step
     centre = np.array([3.0, -4.0])

@@ -38,13 +38,46 @@ def icosphere(level: int) -> np.ndarray:
     """Vertices of a recursively refined icosahedron on the unit sphere (12, 42, 162,
     642 for levels 0-3), the blob layout of Usabiaga et al.'s shell models."""
     t = (1 + 5**0.5) / 2
-    verts = [np.array(v, float) for v in [
-        (-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t),
-        (0, -1, -t), (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]]
+    verts = [
+        np.array(v, float)
+        for v in [
+            (-1, t, 0),
+            (1, t, 0),
+            (-1, -t, 0),
+            (1, -t, 0),
+            (0, -1, t),
+            (0, 1, t),
+            (0, -1, -t),
+            (0, 1, -t),
+            (t, 0, -1),
+            (t, 0, 1),
+            (-t, 0, -1),
+            (-t, 0, 1),
+        ]
+    ]
     verts = [v / np.linalg.norm(v) for v in verts]
-    faces = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
-             (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8),
-             (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    faces = [
+        (0, 11, 5),
+        (0, 5, 1),
+        (0, 1, 7),
+        (0, 7, 10),
+        (0, 10, 11),
+        (1, 5, 9),
+        (5, 11, 4),
+        (11, 10, 2),
+        (10, 7, 6),
+        (7, 1, 8),
+        (3, 9, 4),
+        (3, 4, 2),
+        (3, 2, 6),
+        (3, 6, 8),
+        (3, 8, 9),
+        (4, 9, 5),
+        (2, 4, 11),
+        (6, 2, 10),
+        (8, 6, 7),
+        (9, 8, 1),
+    ]
     for _ in range(level):
         midpoints = {}
 
@@ -97,6 +130,7 @@ def calibrated_union_shell(centres, radii, level: int):
 
 # ---------------------------------------------------------------- 1. one sphere
 
+
 @pytest.mark.parametrize("radius", [0.5, 1.25, 4.0])
 def test_single_sphere_is_exactly_stokes(radius):
     """With sphere rotation (the default) one sphere is Stokes' law exactly, to rounding."""
@@ -132,9 +166,11 @@ def test_two_touching_spheres_against_exact_stokes():
     with_rotation = hy.resistance_matrix(offsets, [a, a], ETA) / (2 * stokes(a))
     blobs_only = hy.resistance_matrix(offsets, [a, a], ETA, sphere_rotation=False) / (2 * stokes(a))
     axial, broadside = with_rotation[0, 0], with_rotation[1, 1]
-    print(f"touching pair, drag per sphere / 6 pi eta a: axial RPY {axial:.4f} exact "
-          f"{STIMSON_JEFFERY_AXIAL}; broadside RPY {broadside:.4f} (blobs only "
-          f"{blobs_only[1, 1]:.4f}) exact {BROADSIDE_EXACT}")
+    print(
+        f"touching pair, drag per sphere / 6 pi eta a: axial RPY {axial:.4f} exact "
+        f"{STIMSON_JEFFERY_AXIAL}; broadside RPY {broadside:.4f} (blobs only "
+        f"{blobs_only[1, 1]:.4f}) exact {BROADSIDE_EXACT}"
+    )
     assert axial == pytest.approx(8 / 13, rel=1e-12)
     assert blobs_only[0, 0] == pytest.approx(8 / 13, rel=1e-12)
     assert blobs_only[1, 1] == pytest.approx(1 / 1.4375, rel=1e-12)
@@ -158,6 +194,7 @@ def test_refined_shell_doublet_reproduces_the_exact_values():
 
 # ---------------------------------------------------------------- 3. bead chains
 
+
 def chain_equivalent_radii(a):
     """Slender-body equivalent radii of an infinite straight chain of touching beads of
     radius a (Kirkwood-Riseman lattice sum with the RPY tensor, i.e. Yamakawa's modified
@@ -169,8 +206,7 @@ def chain_equivalent_radii(a):
     gives R_par = 4a exp(-(1/2 + gamma + 2/3 - zeta(3)/12)) = 0.773 a and
     R_perp = 4a exp(1/2 - 4/3 - gamma - zeta(3)/6) = 0.799 a."""
     gamma, z3 = np.euler_gamma, zeta(3)
-    return (4 * a * np.exp(-(0.5 + gamma + 2 / 3 - z3 / 12)),
-            4 * a * np.exp(0.5 - 4 / 3 - gamma - z3 / 6))
+    return (4 * a * np.exp(-(0.5 + gamma + 2 / 3 - z3 / 12)), 4 * a * np.exp(0.5 - 4 / 3 - gamma - z3 / 6))
 
 
 def chain_drag_ratio_to_slender_body(n_beads, a=1.0):
@@ -196,8 +232,7 @@ def test_bead_chain_follows_slender_body_theory(n_beads):
     +1.1/+1.8 %, +5.1/+2.3 %, +5.6/+2.0 % (along/across)."""
     dev_par, dev_perp = chain_drag_ratio_to_slender_body(n_beads)
     eps2 = 1 / np.log(2 * n_beads) ** 2
-    print(f"N={n_beads}: RPY / slender body - 1: along {dev_par:+.3f}, across {dev_perp:+.3f}, "
-          f"eps^2 {eps2:.3f}")
+    print(f"N={n_beads}: RPY / slender body - 1: along {dev_par:+.3f}, across {dev_perp:+.3f}, eps^2 {eps2:.3f}")
     assert abs(dev_par) < eps2
     assert abs(dev_perp) < eps2
 
@@ -241,6 +276,7 @@ def test_blob_shell_converges_to_stokes_monotonically():
 
 # ---------------------------------------------------------------- 5. symmetry, invariance
 
+
 def random_cluster(seed, n=6):
     """Planar clusters whose spheres touch, overlap or sit inside one another."""
     rng = np.random.default_rng(seed)
@@ -259,8 +295,9 @@ def test_symmetric_positive_definite(seed, sphere_rotation):
     resistance = hy.resistance_matrix(offsets, radii, ETA, sphere_rotation=sphere_rotation)
     np.testing.assert_allclose(resistance, resistance.T, rtol=0, atol=1e-14 * np.abs(resistance).max())
     assert np.linalg.eigvalsh(resistance).min() > 0
-    mobility_matrix = hy.grand_mobility(np.column_stack([offsets, np.zeros(len(radii))]), radii, ETA,
-                                        sphere_rotation=sphere_rotation)
+    mobility_matrix = hy.grand_mobility(
+        np.column_stack([offsets, np.zeros(len(radii))]), radii, ETA, sphere_rotation=sphere_rotation
+    )
     np.testing.assert_allclose(mobility_matrix, mobility_matrix.T, rtol=0, atol=1e-12 * np.abs(mobility_matrix).max())
     assert np.linalg.eigvalsh(mobility_matrix).min() > 0
 
@@ -276,8 +313,7 @@ def test_translating_the_offsets_is_the_parallel_axis_shift(seed):
     about_p = hy.resistance_matrix(offsets - p, radii, ETA)
     shift = np.eye(3)
     shift[:2, 2] = -np.array([-p[1], p[0]])
-    np.testing.assert_allclose(about_p, shift.T @ about_origin @ shift, rtol=1e-10,
-                               atol=1e-10 * np.abs(about_p).max())
+    np.testing.assert_allclose(about_p, shift.T @ about_origin @ shift, rtol=1e-10, atol=1e-10 * np.abs(about_p).max())
     assert np.abs(about_p[:2, 2] - about_origin[:2, 2]).max() > 1e-3 * np.abs(about_p).max()  # a real shift
 
 
@@ -287,15 +323,17 @@ def test_rotating_the_body_rotates_the_resistance(seed):
     offsets, radii = random_cluster(seed)
     q = rotation3(0.83)
     rotated = hy.resistance_matrix(offsets @ q[:2, :2].T, radii, ETA)
-    np.testing.assert_allclose(rotated, q @ hy.resistance_matrix(offsets, radii, ETA) @ q.T,
-                               rtol=1e-10, atol=1e-10 * np.abs(rotated).max())
+    np.testing.assert_allclose(
+        rotated, q @ hy.resistance_matrix(offsets, radii, ETA) @ q.T, rtol=1e-10, atol=1e-10 * np.abs(rotated).max()
+    )
 
 
 def test_planar_offsets_equal_3d_offsets_in_the_focal_plane():
     offsets, radii = random_cluster(11)
     np.testing.assert_array_equal(
         hy.resistance_matrix(offsets, radii, ETA),
-        hy.resistance_matrix(np.column_stack([offsets, np.zeros(len(radii))]), radii, ETA))
+        hy.resistance_matrix(np.column_stack([offsets, np.zeros(len(radii))]), radii, ETA),
+    )
 
 
 def free_draining(offsets, radii):
@@ -321,6 +359,7 @@ def test_far_apart_spheres_are_free_draining():
 
 # ---------------------------------------------------------------- closed forms
 
+
 def fibonacci_sphere(n, angle):
     k = np.arange(n) + 0.5
     z = 1 - 2 * k / n
@@ -332,8 +371,9 @@ def fibonacci_sphere(n, angle):
 def oseen_velocity(targets, sources, forces, eta):
     d = targets[:, None, :] - sources[None, :, :]
     r = np.linalg.norm(d, axis=-1)
-    return ((forces[None] / r[..., None]).sum(1)
-            + (d * ((d * forces[None]).sum(-1) / r**3)[..., None]).sum(1)) / (8 * np.pi * eta)
+    return ((forces[None] / r[..., None]).sum(1) + (d * ((d * forces[None]).sum(-1) / r**3)[..., None]).sum(1)) / (
+        8 * np.pi * eta
+    )
 
 
 def surface_average_mobility(ci, ai, cj, aj, eta=1.0, n=1000):
@@ -346,8 +386,7 @@ def surface_average_mobility(ci, ai, cj, aj, eta=1.0, n=1000):
     block = np.zeros((6, 6))
     for k in range(3):
         unit = np.eye(3)[k]
-        for column, load in ((k, np.tile(unit / n, (n, 1))),
-                             (3 + k, 1.5 / aj**2 * np.cross(unit, y - cj) / n)):
+        for column, load in ((k, np.tile(unit / n, (n, 1))), (3 + k, 1.5 / aj**2 * np.cross(unit, y - cj) / n)):
             v = oseen_velocity(x, y, load, eta)
             block[:3, column] = v.mean(0)
             block[3:, column] = 1.5 / ai**2 * np.cross(x - ci, v).mean(0)
@@ -365,11 +404,11 @@ def test_closed_forms_match_the_surface_integral_definition(ai, aj, r):
     ci, cj = np.zeros(3), -r * direction
     full = hy.grand_mobility(np.array([ci, cj]), np.array([ai, aj]), 1.0)
     closed = full[np.ix_([0, 1, 2, 6, 7, 8], [3, 4, 5, 9, 10, 11])]
-    np.testing.assert_allclose(closed, surface_average_mobility(ci, ai, cj, aj), rtol=0,
-                               atol=2e-3 / (8 * np.pi))
+    np.testing.assert_allclose(closed, surface_average_mobility(ci, ai, cj, aj), rtol=0, atol=2e-3 / (8 * np.pi))
 
 
 # ---------------------------------------------------------------- 6. otgym bodies
+
 
 def ratios_to_free_draining(offsets, radii):
     centre, gamma_t, gamma_r = free_draining(offsets, radii)
@@ -400,8 +439,10 @@ def test_two_handle_robot_and_cell_ratios():
     resistance, robot_ratios = ratios_to_free_draining(robot.offsets_um, robot.radii_um)
     _, cell_ratios = ratios_to_free_draining(cell().offsets_um, cell().radii_um)
     _, assembly_ratios = ratios_to_free_draining(*transport_assembly())
-    print(f"RPY / free-draining (x, y, rotation): robot {np.round(robot_ratios, 3)}, "
-          f"cell {np.round(cell_ratios, 3)}, assembly {np.round(assembly_ratios, 3)}")
+    print(
+        f"RPY / free-draining (x, y, rotation): robot {np.round(robot_ratios, 3)}, "
+        f"cell {np.round(cell_ratios, 3)}, assembly {np.round(assembly_ratios, 3)}"
+    )
     np.testing.assert_allclose(robot_ratios, [0.310, 0.353, 0.715], atol=5e-3)
     np.testing.assert_allclose(cell_ratios, 1.0, rtol=1e-12)
     np.testing.assert_allclose(assembly_ratios, [0.276, 0.254, 0.393], atol=5e-3)
@@ -421,16 +462,20 @@ def test_two_handle_robot_and_cell_ratios():
 
 # ---------------------------------------------------------------- input checks
 
-@pytest.mark.parametrize("offsets, radii, eta, name", [
-    ([[0, 0], [1, 0]], [1.0, -1.0], ETA, "radii_um"),
-    ([[0, 0], [1, 0]], [1.0, np.nan], ETA, "radii_um"),
-    ([[0, 0], [1, 0]], [], ETA, "radii_um"),
-    ([[0, 0], [np.inf, 0]], [1.0, 1.0], ETA, "offsets_um"),
-    ([[0, 0]], [1.0, 1.0], ETA, "offsets_um"),
-    ([[0, 0, 0, 0], [1, 0, 0, 0]], [1.0, 1.0], ETA, "offsets_um"),
-    ([[0, 0], [1, 0]], [1.0, 1.0], 0.0, "viscosity_pa_s"),
-    ([[0, 0], [1, 0]], [1.0, 1.0], float("nan"), "viscosity_pa_s"),
-])
+
+@pytest.mark.parametrize(
+    "offsets, radii, eta, name",
+    [
+        ([[0, 0], [1, 0]], [1.0, -1.0], ETA, "radii_um"),
+        ([[0, 0], [1, 0]], [1.0, np.nan], ETA, "radii_um"),
+        ([[0, 0], [1, 0]], [], ETA, "radii_um"),
+        ([[0, 0], [np.inf, 0]], [1.0, 1.0], ETA, "offsets_um"),
+        ([[0, 0]], [1.0, 1.0], ETA, "offsets_um"),
+        ([[0, 0, 0, 0], [1, 0, 0, 0]], [1.0, 1.0], ETA, "offsets_um"),
+        ([[0, 0], [1, 0]], [1.0, 1.0], 0.0, "viscosity_pa_s"),
+        ([[0, 0], [1, 0]], [1.0, 1.0], float("nan"), "viscosity_pa_s"),
+    ],
+)
 def test_bad_input_names_the_parameter(offsets, radii, eta, name):
     with pytest.raises(ValueError, match=name):
         hy.resistance_matrix(offsets, radii, eta)

@@ -45,10 +45,14 @@ def test_asymmetric_cluster_free_draining_centre_is_drag_weighted():
 ASYMMETRIC = (np.array([[0.0, 0.0], [2.2, 0.4], [3.5, 2.0], [1.0, -1.6]]), np.array([1.0, 0.7, 1.2, 0.5]))
 
 
-@pytest.mark.parametrize("offsets, radii, asymmetric", [
-    (two_handle_robot().offsets_um, two_handle_robot().radii_um, True),
-    (four_arm_robot().offsets_um, four_arm_robot().radii_um, False),  # centres coincide by symmetry
-    (*ASYMMETRIC, True)])
+@pytest.mark.parametrize(
+    "offsets, radii, asymmetric",
+    [
+        (two_handle_robot().offsets_um, two_handle_robot().radii_um, True),
+        (four_arm_robot().offsets_um, four_arm_robot().radii_um, False),  # centres coincide by symmetry
+        (*ASYMMETRIC, True),
+    ],
+)
 def test_hydrodynamic_centre_decouples_the_interacting_resistance(offsets, radii, asymmetric):
     """About the returned centre the RPY resistance (``resistance_matrix``, validated in
     test_hydrodynamics) has no translation-rotation coupling, while about the

@@ -10,26 +10,29 @@ from otgym import physics as ph
 from tests.physics.helpers import step
 
 
-@pytest.mark.parametrize("make, name", [
-    (lambda: ph.custom_body("b", [[0, 0]], [-1.0]), "radii_um"),
-    (lambda: ph.custom_body("b", [[0, 0]], [float("nan")]), "radii_um"),
-    (lambda: ph.custom_body("b", [[0, 0], [1, 0]], [1.0]), "offsets_um"),
-    (lambda: ph.custom_body("b", [[0, 0]], [1.0], handle_indices=(3,)), "handle_indices"),
-    (lambda: ph.PhysicsConfig(viscosity_pa_s=-1.0), "viscosity_pa_s"),
-    (lambda: ph.PhysicsConfig(viscosity_pa_s=float("nan")), "viscosity_pa_s"),
-    (lambda: ph.PhysicsConfig(temperature_k=-5.0), "temperature_k"),
-    (lambda: ph.PhysicsConfig(temperature_k=float("nan")), "temperature_k"),
-    (lambda: ph.PhysicsConfig(dt_s=0.0), "dt_s"),
-    (lambda: ph.PhysicsConfig(substeps=0), "substeps"),
-    (lambda: ph.TrapLaw("gaussian", stiffness_pn_per_um=-2.0), "stiffness_pn_per_um"),
-    (lambda: ph.build_model([ph.two_handle_robot()], ph.PhysicsConfig(dt_s=1e-2)), "dt_s"),
-    (lambda: ph.build_model([ph.bead("a"), ph.bead("a")]), "unique"),
-    (lambda: ph.build_model([ph.bead()], traps=[(0, 1)]), "traps"),
-    (lambda: ph.build_model([ph.bead()], traps=[(2, 0)]), "traps"),
-    (lambda: ph.initial_state(ph.build_model([ph.bead()]), np.zeros((2, 3))), "pose"),
-    (lambda: ph.initial_state(ph.build_model([ph.bead()]), [[0, 0, float("nan")]]), "pose"),
-    (lambda: ph.initial_state(ph.build_model([ph.bead()]), [[0, 0, 0]], np.zeros((3, 2))), "trap_xy_um"),
-])
+@pytest.mark.parametrize(
+    "make, name",
+    [
+        (lambda: ph.custom_body("b", [[0, 0]], [-1.0]), "radii_um"),
+        (lambda: ph.custom_body("b", [[0, 0]], [float("nan")]), "radii_um"),
+        (lambda: ph.custom_body("b", [[0, 0], [1, 0]], [1.0]), "offsets_um"),
+        (lambda: ph.custom_body("b", [[0, 0]], [1.0], handle_indices=(3,)), "handle_indices"),
+        (lambda: ph.PhysicsConfig(viscosity_pa_s=-1.0), "viscosity_pa_s"),
+        (lambda: ph.PhysicsConfig(viscosity_pa_s=float("nan")), "viscosity_pa_s"),
+        (lambda: ph.PhysicsConfig(temperature_k=-5.0), "temperature_k"),
+        (lambda: ph.PhysicsConfig(temperature_k=float("nan")), "temperature_k"),
+        (lambda: ph.PhysicsConfig(dt_s=0.0), "dt_s"),
+        (lambda: ph.PhysicsConfig(substeps=0), "substeps"),
+        (lambda: ph.TrapLaw("gaussian", stiffness_pn_per_um=-2.0), "stiffness_pn_per_um"),
+        (lambda: ph.build_model([ph.two_handle_robot()], ph.PhysicsConfig(dt_s=1e-2)), "dt_s"),
+        (lambda: ph.build_model([ph.bead("a"), ph.bead("a")]), "unique"),
+        (lambda: ph.build_model([ph.bead()], traps=[(0, 1)]), "traps"),
+        (lambda: ph.build_model([ph.bead()], traps=[(2, 0)]), "traps"),
+        (lambda: ph.initial_state(ph.build_model([ph.bead()]), np.zeros((2, 3))), "pose"),
+        (lambda: ph.initial_state(ph.build_model([ph.bead()]), [[0, 0, float("nan")]]), "pose"),
+        (lambda: ph.initial_state(ph.build_model([ph.bead()]), [[0, 0, 0]], np.zeros((3, 2))), "trap_xy_um"),
+    ],
+)
 def test_bad_input_raises_value_error_naming_the_parameter(make, name):
     with pytest.raises(ValueError, match=name):
         make()
@@ -56,8 +59,7 @@ def test_uniform_flow_advects_a_free_bead_and_kinematic_bodies_follow_their_velo
     moves at its prescribed velocity."""
     flow = ph.UniformFlow(jnp.array([3.0, -1.0]))
     config = ph.PhysicsConfig(dt_s=1e-3, substeps=100, temperature_k=0.0)
-    model = ph.build_model([ph.bead(radius_um=1.0), ph.obstacle(radius_um=1.0)], config,
-                           traps=[], flow=flow)
+    model = ph.build_model([ph.bead(radius_um=1.0), ph.obstacle(radius_um=1.0)], config, traps=[], flow=flow)
     state = ph.initial_state(model, [[0, 0, 0], [50, 0, 0]])
     controls = ph.Controls.zeros(model).replace(body_velocity=jnp.array([[9, 9, 9], [0, 2.0, 0.5]]))
     state, _ = step(model, state, controls, jax.random.PRNGKey(0))

@@ -24,14 +24,14 @@ def drag_bead(law, speed, dt, substeps, n_steps, seed=0):
     model = ph.build_model([ph.bead(radius_um=0.5)], config)
     state = batch_state(model, np.zeros((1, 3)), N_ENV)
     controls = ph.Controls.zeros(model, N_ENV).replace(
-        trap_velocity_um_s=jnp.tile(jnp.array([[[speed, 0.0]]], jnp.float32), (N_ENV, 1, 1)))
+        trap_velocity_um_s=jnp.tile(jnp.array([[[speed, 0.0]]], jnp.float32), (N_ENV, 1, 1))
+    )
     final, (states, reports) = run_batch(model, state, controls, jax.random.PRNGKey(seed), n_steps)
     lag = np.asarray(states.trap_xy_um[:, :, 0, 0], float) - np.asarray(states.pose[:, :, 0, 0], float)
     return lag, np.asarray(reports.trap_lost)
 
 
-@pytest.mark.parametrize("law", [ph.TrapLaw("harmonic", 10.0),
-                                 ph.TrapLaw("gaussian", 10.0, waist_um=2.0)])
+@pytest.mark.parametrize("law", [ph.TrapLaw("harmonic", 10.0), ph.TrapLaw("gaussian", 10.0, waist_um=2.0)])
 def test_mean_lag_is_gamma_v_over_k(law):
     speed = 50.0
     lag, lost = drag_bead(law, speed, dt=8e-6, substeps=125, n_steps=2100)

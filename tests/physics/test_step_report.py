@@ -25,8 +25,9 @@ def test_reported_trap_distances_are_those_of_the_returned_pose(cap):
     model = ph.build_model(bodies, config)
     state = ph.initial_state(model, np.array([[0.0, -3.0, 0.0], [0.0, 3.0, 0.0]]))
     torque = jnp.zeros((2, 3)).at[:, 2].set(SPIN_TORQUE_PN_UM)
-    new_state, report = step(model, state, ph.Controls.zeros(model).replace(external_force=torque),
-                             jax.random.PRNGKey(0))
+    new_state, report = step(
+        model, state, ph.Controls.zeros(model).replace(external_force=torque), jax.random.PRNGKey(0)
+    )
     turned = np.abs(np.asarray(new_state.pose)[:, 2] - np.asarray(state.pose)[:, 2])
     assert np.all(turned > 0.02)
     handles = np.asarray(ph.sphere_positions_um(model, new_state.pose))[np.asarray(model.trap_sphere)]

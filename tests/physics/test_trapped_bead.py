@@ -31,7 +31,7 @@ def test_trace_shape_and_units(trace):
 
 
 def test_position_variance_obeys_equipartition(trace):
-    settled = trace[int(0.01 * RATE):]  # drop 10 ms = 12 relaxation times
+    settled = trace[int(0.01 * RATE) :]  # drop 10 ms = 12 relaxation times
     assert settled.var(axis=0).mean() == pytest.approx(KT / STIFFNESS, rel=0.03)
 
 
@@ -49,8 +49,8 @@ def test_power_spectrum_corner_frequency(trace):
     expected = STIFFNESS / (2 * np.pi * GAMMA)
     for axis in range(2):
         (variance, corner), _ = optimize.curve_fit(
-            aliased_lorentzian, frequency[keep], psd[keep, axis], p0=(KT / STIFFNESS, 100.0),
-            sigma=psd[keep, axis])
+            aliased_lorentzian, frequency[keep], psd[keep, axis], p0=(KT / STIFFNESS, 100.0), sigma=psd[keep, axis]
+        )
         assert corner == pytest.approx(expected, rel=0.05)
 
 
@@ -61,15 +61,18 @@ def test_free_bead_diffuses_with_stokes_einstein():
     assert d == pytest.approx(KT / GAMMA, rel=0.03)  # sqrt(2/40000) = 0.7 %: 4 sigma
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    ({"diameter_um": -1.0}, "diameter_um"),
-    ({"diameter_um": float("nan")}, "diameter_um"),
-    ({"stiffness_pn_per_um": -3.0}, "stiffness_pn_per_um"),
-    ({"temperature_k": -1.0}, "temperature_k"),
-    ({"viscosity_pa_s": 0.0}, "viscosity_pa_s"),
-    ({"sample_rate_hz": float("inf")}, "sample_rate_hz"),
-    ({"duration_s": 0.0}, "duration_s"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"diameter_um": -1.0}, "diameter_um"),
+        ({"diameter_um": float("nan")}, "diameter_um"),
+        ({"stiffness_pn_per_um": -3.0}, "stiffness_pn_per_um"),
+        ({"temperature_k": -1.0}, "temperature_k"),
+        ({"viscosity_pa_s": 0.0}, "viscosity_pa_s"),
+        ({"sample_rate_hz": float("inf")}, "sample_rate_hz"),
+        ({"duration_s": 0.0}, "duration_s"),
+    ],
+)
 def test_bad_input_names_the_parameter(kwargs, name):
     arguments = {"diameter_um": 1.0, "stiffness_pn_per_um": 10.0, "duration_s": 0.01}
     arguments.update(kwargs)

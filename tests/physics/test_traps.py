@@ -34,14 +34,16 @@ def test_capture_radius_is_validated():
         TrapLaw("gaussian", 10.0, 0.5, capture_radius_um=1.0)
 
 
-@pytest.mark.parametrize("law", [TrapLaw.paper(), TrapLaw("gaussian", 40.0, 0.7),
-                                 TrapLaw("harmonic", 10.0, escape_distance_um=1.0)])
+@pytest.mark.parametrize(
+    "law", [TrapLaw.paper(), TrapLaw("gaussian", 40.0, 0.7), TrapLaw("harmonic", 10.0, escape_distance_um=1.0)]
+)
 def test_force_points_to_trap_and_max_force_is_the_true_maximum(law):
     vectors = np.array([[0.3, -0.2], [-0.05, 0.01], [0.0, 0.0]])
     force = np.asarray(law.force_pn(vectors))
     assert np.allclose(force[2], 0.0)
     cosine = np.sum(force[:2] * vectors[:2], axis=1) / (
-        np.linalg.norm(force[:2], axis=1) * np.linalg.norm(vectors[:2], axis=1))
+        np.linalg.norm(force[:2], axis=1) * np.linalg.norm(vectors[:2], axis=1)
+    )
     assert np.allclose(cosine, 1.0, atol=1e-6)
     r = np.linspace(1e-4, law.escape_distance, 20001)
     assert float(jnp.max(law.magnitude_pn(r))) == pytest.approx(law.max_force_pn, rel=1e-3)
@@ -59,13 +61,16 @@ def test_escape_distance_defaults():
     assert math.isinf(TrapLaw("harmonic", 1.0).escape_distance)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    ({"name": "laser"}, "trap law name"),
-    ({"stiffness_pn_per_um": -1.0}, "stiffness_pn_per_um"),
-    ({"stiffness_pn_per_um": float("nan")}, "stiffness_pn_per_um"),
-    ({"waist_um": 0.0}, "waist_um"),
-    ({"escape_distance_um": -2.0}, "escape_distance_um"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"name": "laser"}, "trap law name"),
+        ({"stiffness_pn_per_um": -1.0}, "stiffness_pn_per_um"),
+        ({"stiffness_pn_per_um": float("nan")}, "stiffness_pn_per_um"),
+        ({"waist_um": 0.0}, "waist_um"),
+        ({"escape_distance_um": -2.0}, "escape_distance_um"),
+    ],
+)
 def test_bad_trap_parameters_are_named(kwargs, name):
     with pytest.raises(ValueError, match=name):
         TrapLaw(**kwargs)

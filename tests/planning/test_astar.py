@@ -25,8 +25,9 @@ def _check_path(free, path, start, goal, cost):
 
 
 @settings(max_examples=60, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), height=st.integers(1, 40), width=st.integers(1, 40),
-       fraction=st.floats(0.0, 0.45))
+@given(
+    seed=st.integers(0, 2**32 - 1), height=st.integers(1, 40), width=st.integers(1, 40), fraction=st.floats(0.0, 0.45)
+)
 def test_cost_equals_mcp_geometric_on_random_maps(seed, height, width, fraction):
     rng = np.random.default_rng(seed)
     free = rng.random((height, width)) >= fraction

@@ -35,8 +35,9 @@ def _corridor_png(tmp_path):
 
 
 def test_plan_on_the_default_chip_writes_table_and_figures(tmp_path, capsys):
-    code, output = _run(["plan", "--chip", "default", "--start", "5,40", "--goal", "295,160",
-                         "--out", str(tmp_path)], capsys)
+    code, output = _run(
+        ["plan", "--chip", "default", "--start", "5,40", "--goal", "295,160", "--out", str(tmp_path)], capsys
+    )
     assert code in (0, None)
     with open(tmp_path / "metrics.csv") as handle:
         rows = list(csv.DictReader(handle))
@@ -53,9 +54,28 @@ def test_plan_on_a_png_uses_the_recorded_manual_path(tmp_path, capsys):
     manual = np.array([[8.0, 10.0], [40.0, 12.0], [70.0, 20.0], [70.0, 34.0]])
     save_path_csv(tmp_path / "manual_in.csv", manual)
     out = tmp_path / "out"
-    code, _ = _run(["plan", "--chip", str(png), "--pixel-size-um", "1", "--start", "8,10", "--goal", "70,34",
-                    "--robot-radius-um", "2", "--margin-um", "0.5", "--manual", str(tmp_path / "manual_in.csv"),
-                    "--out", str(out)], capsys)
+    code, _ = _run(
+        [
+            "plan",
+            "--chip",
+            str(png),
+            "--pixel-size-um",
+            "1",
+            "--start",
+            "8,10",
+            "--goal",
+            "70,34",
+            "--robot-radius-um",
+            "2",
+            "--margin-um",
+            "0.5",
+            "--manual",
+            str(tmp_path / "manual_in.csv"),
+            "--out",
+            str(out),
+        ],
+        capsys,
+    )
     assert code in (0, None)
     assert np.allclose(load_path_csv(out / "manual.csv"), manual)
     with open(out / "metrics.csv") as handle:
@@ -65,26 +85,59 @@ def test_plan_on_a_png_uses_the_recorded_manual_path(tmp_path, capsys):
 
 def test_png_without_sidecar_needs_the_pixel_size(tmp_path, capsys):
     png = _corridor_png(tmp_path)
-    _expect_error(["plan", "--chip", str(png), "--start", "8,10", "--goal", "70,34", "--out", str(tmp_path)],
-                  capsys, "pixel")
+    _expect_error(
+        ["plan", "--chip", str(png), "--start", "8,10", "--goal", "70,34", "--out", str(tmp_path)], capsys, "pixel"
+    )
 
 
 def test_empty_and_non_image_files(tmp_path, capsys):
     (tmp_path / "empty.png").write_bytes(b"")
     (tmp_path / "text.png").write_text("not an image")
     for name in ("empty.png", "text.png"):
-        _expect_error(["plan", "--chip", str(tmp_path / name), "--pixel-size-um", "1", "--start", "1,1",
-                       "--goal", "2,2", "--out", str(tmp_path)], capsys, "image")
-    _expect_error(["plan", "--chip", str(tmp_path / "missing.png"), "--pixel-size-um", "1", "--start", "1,1",
-                   "--goal", "2,2", "--out", str(tmp_path)], capsys, "missing.png")
+        _expect_error(
+            [
+                "plan",
+                "--chip",
+                str(tmp_path / name),
+                "--pixel-size-um",
+                "1",
+                "--start",
+                "1,1",
+                "--goal",
+                "2,2",
+                "--out",
+                str(tmp_path),
+            ],
+            capsys,
+            "image",
+        )
+    _expect_error(
+        [
+            "plan",
+            "--chip",
+            str(tmp_path / "missing.png"),
+            "--pixel-size-um",
+            "1",
+            "--start",
+            "1,1",
+            "--goal",
+            "2,2",
+            "--out",
+            str(tmp_path),
+        ],
+        capsys,
+        "missing.png",
+    )
 
 
 @pytest.mark.parametrize(
     "extra, words",
-    [(["--start", "150,10", "--goal", "295,160"], ("start", "inside an obstacle")),
-     (["--start", "5,40", "--goal", "999,160"], ("goal", "outside the image")),
-     (["--start", "5;40", "--goal", "295,160"], ("--start", "X,Y")),
-     (["--start", "5,40", "--goal", "295,160", "--robot-radius-um", "30"], ("larger than every channel",))],
+    [
+        (["--start", "150,10", "--goal", "295,160"], ("start", "inside an obstacle")),
+        (["--start", "5,40", "--goal", "999,160"], ("goal", "outside the image")),
+        (["--start", "5;40", "--goal", "295,160"], ("--start", "X,Y")),
+        (["--start", "5,40", "--goal", "295,160", "--robot-radius-um", "30"], ("larger than every channel",)),
+    ],
 )
 def test_bad_input_on_the_default_chip(tmp_path, capsys, extra, words):
     _expect_error(["plan", "--chip", "default", "--out", str(tmp_path), *extra], capsys, *words)

@@ -22,8 +22,14 @@ from otgym.planning.human import (
 )
 
 # A hand without randomness: no tremor, motor noise, movement errors, jitter or lapses.
-STILL = HumanParams(signal_dependent_noise=0.0, tremor_rms_mm=0.0, extent_error_fraction=0.0,
-                    direction_error_deg=0.0, correction_jitter_fraction=0.0, lapse_rate_per_h=0.0)
+STILL = HumanParams(
+    signal_dependent_noise=0.0,
+    tremor_rms_mm=0.0,
+    extent_error_fraction=0.0,
+    direction_error_deg=0.0,
+    correction_jitter_fraction=0.0,
+    lapse_rate_per_h=0.0,
+)
 
 
 def _run_until_due(motor):
@@ -65,14 +71,16 @@ def test_population_spread_is_the_stated_log_normal():
 
 @pytest.mark.parametrize(
     "make, message",
-    [(lambda: HumanParams(reaction_time_s=-0.1), "reaction_time_s must be non-negative"),
-     (lambda: HumanParams(neuromuscular_lag_s=0.0), "neuromuscular_lag_s must be positive"),
-     (lambda: HumanParams(tremor_band_hz=(12.0, 8.0)), "tremor_band_hz"),
-     (lambda: sample_population(3, 0, cv={"tremor_band_hz": 0.1}), "not a scalar"),
-     (lambda: HumanMotor(HumanParams(), 20.0, 0), "tick_rate_hz 20 is too low"),
-     (lambda: HumanMotor([HumanParams()] * 2, 50.0, 0, batch=3), "batch 3 differs"),
-     (lambda: HumanMotor(HumanParams(), 50.0, 0).plan(np.zeros((2, 2)), 1.0), "shape"),
-     (lambda: HumanMotor(HumanParams(), 50.0, 0).submovement_duration_s(1.0, 0.0), "tolerance_mm")],
+    [
+        (lambda: HumanParams(reaction_time_s=-0.1), "reaction_time_s must be non-negative"),
+        (lambda: HumanParams(neuromuscular_lag_s=0.0), "neuromuscular_lag_s must be positive"),
+        (lambda: HumanParams(tremor_band_hz=(12.0, 8.0)), "tremor_band_hz"),
+        (lambda: sample_population(3, 0, cv={"tremor_band_hz": 0.1}), "not a scalar"),
+        (lambda: HumanMotor(HumanParams(), 20.0, 0), "tick_rate_hz 20 is too low"),
+        (lambda: HumanMotor([HumanParams()] * 2, 50.0, 0, batch=3), "batch 3 differs"),
+        (lambda: HumanMotor(HumanParams(), 50.0, 0).plan(np.zeros((2, 2)), 1.0), "shape"),
+        (lambda: HumanMotor(HumanParams(), 50.0, 0).submovement_duration_s(1.0, 0.0), "tolerance_mm"),
+    ],
 )
 def test_bad_parameters_are_rejected(make, message):
     with pytest.raises(ValueError, match=message):
@@ -276,8 +284,13 @@ def test_two_hands_of_one_person_err_together_on_the_common_part():
     intervals. Uncoupled hands (one per person)
     given the same plans separate with the common part's errors, about 10 times more."""
     n = 1000
-    params = dataclasses.replace(HumanParams(), correction_jitter_fraction=0.0, lapse_rate_per_h=0.0,
-                                 signal_dependent_noise=0.0, tremor_rms_mm=0.0)
+    params = dataclasses.replace(
+        HumanParams(),
+        correction_jitter_fraction=0.0,
+        lapse_rate_per_h=0.0,
+        signal_dependent_noise=0.0,
+        tremor_rms_mm=0.0,
+    )
     plan = np.tile([[10.0, -0.5], [10.0, 0.5]], (n, 1))
     low, high = np.sqrt(stats.chi2.ppf([0.0005, 0.9995], n - 1) / (n - 1))
     separations = {}

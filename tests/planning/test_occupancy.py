@@ -19,8 +19,12 @@ def test_binarise_fixed_and_otsu_separate_two_noisy_levels():
 
 @pytest.mark.parametrize(
     "image, threshold, message",
-    [(np.full((5, 5), 0.3), "otsu", "uniform"), (np.array([[np.nan, 1.0]]), 0.5, "NaN"),
-     (np.zeros((0, 3)), 0.5, "non-empty"), (np.ones((4, 4)), "mean", "otsu")],
+    [
+        (np.full((5, 5), 0.3), "otsu", "uniform"),
+        (np.array([[np.nan, 1.0]]), 0.5, "NaN"),
+        (np.zeros((0, 3)), 0.5, "non-empty"),
+        (np.ones((4, 4)), "mean", "otsu"),
+    ],
 )
 def test_binarise_rejects_bad_input(image, threshold, message):
     with pytest.raises(ValueError, match=message):

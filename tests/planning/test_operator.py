@@ -57,8 +57,9 @@ def test_stylus_tremor_reaches_the_trap_through_the_motion_scale(corridor_map):
 
 
 def test_detours_and_errors_make_the_path_longer_than_without_them(corridor_map):
-    calm_human = HumanParams(tremor_rms_mm=0.0, signal_dependent_noise=0.0, extent_error_fraction=0.0,
-                             direction_error_deg=0.0)
+    calm_human = HumanParams(
+        tremor_rms_mm=0.0, signal_dependent_noise=0.0, extent_error_fraction=0.0, direction_error_deg=0.0
+    )
     calm = OperatorParams(human=calm_human, thermal_energy_pn_um=0.0, detour_probability=0.0)
     lengths = {}
     for name, params in (("calm", calm), ("human", OperatorParams(detour_probability=0.5))):
@@ -69,10 +70,15 @@ def test_detours_and_errors_make_the_path_longer_than_without_them(corridor_map)
 
 @pytest.mark.parametrize(
     "field, value, message",
-    [("speed_um_per_s", 0.0, "positive"), ("detour_probability", 1.5, r"\[0, 1\]"),
-     ("detour_fraction", 1.2, r"\[0, 1\]"), ("motion_scale_um_per_mm", -4.0, "positive"),
-     ("human", HumanParams(tremor_band_hz=(8.0, 60.0)), "sample_rate_hz"),
-     ("human", {"reaction_time_s": 0.2}, "HumanParams"), ("thermal_energy_pn_um", -1.0, "non-negative")],
+    [
+        ("speed_um_per_s", 0.0, "positive"),
+        ("detour_probability", 1.5, r"\[0, 1\]"),
+        ("detour_fraction", 1.2, r"\[0, 1\]"),
+        ("motion_scale_um_per_mm", -4.0, "positive"),
+        ("human", HumanParams(tremor_band_hz=(8.0, 60.0)), "sample_rate_hz"),
+        ("human", {"reaction_time_s": 0.2}, "HumanParams"),
+        ("thermal_energy_pn_um", -1.0, "non-negative"),
+    ],
 )
 def test_bad_parameters_are_rejected(field, value, message):
     with pytest.raises(ValueError, match=message):

@@ -49,10 +49,12 @@ def test_table_has_the_paper_ordering_with_the_simulated_operator(default_chip, 
 
 @pytest.mark.parametrize(
     "start, goal, message",
-    [((-5.0, 40.0), GOAL, "start .* outside the image"),
-     (START, (150.0, 10.0), "goal .* inside an obstacle"),
-     (START, (150.0, 72.0), "goal .* inside an obstacle"),  # a pillar
-     ((5.0, 30.0), GOAL, "start .* closer to a wall")],
+    [
+        ((-5.0, 40.0), GOAL, "start .* outside the image"),
+        (START, (150.0, 10.0), "goal .* inside an obstacle"),
+        (START, (150.0, 72.0), "goal .* inside an obstacle"),  # a pillar
+        ((5.0, 30.0), GOAL, "start .* closer to a wall"),
+    ],
 )
 def test_bad_start_or_goal(default_chip, start, goal, message):
     with pytest.raises(ValueError, match=message):

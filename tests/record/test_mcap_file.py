@@ -5,16 +5,12 @@ time, so a writer killed with SIGKILL leaves a file readable up to its last seco
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
-import numpy as np
-import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
@@ -37,8 +33,11 @@ def session(recorder: McapRecorder, ticks: int) -> dict[str, list[bytes]]:
         write(recorder, topic, data, log_time_ns=t_ns)
         sent.setdefault(topic, []).append(data)
 
-    send(m.EVENTS, m.event("trial_start", trial=1, scenario=10001, mode="shared", sphere_radius_um=[2.0, 2.0, 5.0]),
-         10**9)
+    send(
+        m.EVENTS,
+        m.event("trial_start", trial=1, scenario=10001, mode="shared", sphere_radius_um=[2.0, 2.0, 5.0]),
+        10**9,
+    )
     for i in range(ticks):
         t_ns = 10**9 + (i + 1) * 20_000_000
         send(m.TRAPS, m.pose_array([[10.0 + i, 20.0], [30.0, 40.0]], t_ns * 1e-9), t_ns)
@@ -56,8 +55,9 @@ def test_recording_reads_back_with_the_mcap_reader_per_topic_and_byte_for_byte(t
     with open(path, "rb") as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         statistics = reader.get_summary().statistics
-        assert {reader.get_summary().channels[c].topic: n for c, n in statistics.channel_message_counts.items()} == \
-            {topic: len(data) for topic, data in sent.items()}
+        assert {reader.get_summary().channels[c].topic: n for c, n in statistics.channel_message_counts.items()} == {
+            topic: len(data) for topic, data in sent.items()
+        }
         got: dict[str, list[bytes]] = {}
         alphas = []
         for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False):
@@ -103,8 +103,12 @@ for i in range(10**6):
 
 def test_a_writer_killed_with_sigkill_loses_at_most_about_the_last_second(tmp_path):
     path = tmp_path / "killed.mcap"
-    child = subprocess.Popen([sys.executable, "-c", WRITER, str(path)], stdout=subprocess.PIPE, text=True,
-                             env={**os.environ, "PYTHONPATH": str(ROOT)})
+    child = subprocess.Popen(
+        [sys.executable, "-c", WRITER, str(path)],
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     try:
         lines = []
         while not lines or int(lines[-1].split()[0]) < 150:  # 3 s at 50 Hz
@@ -116,7 +120,8 @@ def test_a_writer_killed_with_sigkill_loses_at_most_about_the_last_second(tmp_pa
     last_sent_ns = int(lines[-1].split()[1])
     recording = read_recording(path)
     assert not recording.complete and len(recording.messages) >= 50
-    assert [msg.log_time_ns for msg in recording.messages] == [int(line.split()[1]) for line in
-                                                              lines[:len(recording.messages)]]
+    assert [msg.log_time_ns for msg in recording.messages] == [
+        int(line.split()[1]) for line in lines[: len(recording.messages)]
+    ]
     lost_s = (last_sent_ns - recording.messages[-1].log_time_ns) * 1e-9
     assert lost_s <= 1.5  # the flush period (1 s) and a message interval, with room for a loaded machine

@@ -35,11 +35,16 @@ TRAP_UM = [40.0, 165.0]
 
 def stand_in_task(chip):
     """What ``messages.session_messages`` reads of a task, for four spheres on ``chip``."""
-    model = types.SimpleNamespace(sphere_body=[0, 0, 1, 2],
-                                  body_kinds=[BodyKind.ROBOT, BodyKind.CELL, BodyKind.OBSTACLE])
-    return types.SimpleNamespace(chip=chip, scene=types.SimpleNamespace(model=model), trap_sphere=np.array([0]),
-                                 config=types.SimpleNamespace(goal_tolerance_um=3.0, tick_s=TICK_S),
-                                 route_um=ROUTE_UM)
+    model = types.SimpleNamespace(
+        sphere_body=[0, 0, 1, 2], body_kinds=[BodyKind.ROBOT, BodyKind.CELL, BodyKind.OBSTACLE]
+    )
+    return types.SimpleNamespace(
+        chip=chip,
+        scene=types.SimpleNamespace(model=model),
+        trap_sphere=np.array([0]),
+        config=types.SimpleNamespace(goal_tolerance_um=3.0, tick_s=TICK_S),
+        route_um=ROUTE_UM,
+    )
 
 
 def write(recorder: McapRecorder, topic: str, data: bytes, t_ns: int) -> None:
@@ -57,8 +62,12 @@ def record(path, n_ticks: int, described=("session", "chip", "route"), chip=None
         for topic, data in m.session_messages(stand_in_task(chip or load_chip("default")), ["device0"], 1.0):
             if topic in wanted:
                 write(recorder, topic, data, 10**9)
-        write(recorder, m.EVENTS, m.event("trial_start", trial=1, scenario=10001, mode="manual",
-                                          sphere_radius_um=RADII_UM), 10**9)
+        write(
+            recorder,
+            m.EVENTS,
+            m.event("trial_start", trial=1, scenario=10001, mode="manual", sphere_radius_um=RADII_UM),
+            10**9,
+        )
         for i in range(n_ticks):
             t_ns = 10**9 + (i + 1) * int(TICK_S * 1e9)
             write(recorder, m.TRAPS, m.pose_array([TRAP_UM], t_ns * 1e-9), t_ns)
@@ -72,7 +81,7 @@ def record(path, n_ticks: int, described=("session", "chip", "route"), chip=None
 def colour_near(frame, renderer: FrameRenderer, xy_um, rgb, atol: float = 10) -> bool:
     """Whether a pixel within one of ``xy_um``'s pixel has colour ``rgb``."""
     x, y = renderer.view.to_px(xy_um)
-    patch = frame[int(y) + STRIP_PX - 1:int(y) + STRIP_PX + 2, int(x) - 1:int(x) + 2].reshape(-1, 3).astype(float)
+    patch = frame[int(y) + STRIP_PX - 1 : int(y) + STRIP_PX + 2, int(x) - 1 : int(x) + 2].reshape(-1, 3).astype(float)
     return bool(np.min(np.abs(patch - np.asarray(rgb, float)).max(axis=1)) <= atol)
 
 
@@ -170,8 +179,13 @@ def test_the_video_decodes_with_the_expected_frames_and_size(tmp_path):
     n_ticks = 51
     record(path, n_ticks)
     calls = []
-    made = write_video(read_recording(path), tmp_path / "s.mp4", fps=25.0, width_px=480,
-                       progress=lambda done, total: calls.append((done, total)))
+    made = write_video(
+        read_recording(path),
+        tmp_path / "s.mp4",
+        fps=25.0,
+        width_px=480,
+        progress=lambda done, total: calls.append((done, total)),
+    )
     expected = math.ceil(n_ticks * TICK_S * 25.0)
     assert made["frames"] == expected and calls[-1] == (expected, expected) and len(calls) == expected
     assert not list(tmp_path.glob(".*part"))

@@ -12,8 +12,12 @@ from otgym.record.trials import folder_recordings, trial_rows
 def test_rows_come_from_trial_end_events_only(tmp_path):
     path = tmp_path / "session.mcap"
     with McapRecorder(path) as recorder:
-        for event in (m.event("trial_start", trial=1), m.event("trial_end", trial=1, participant="P1", success=None),
-                      m.event("mode", trial=2, mode="manual"), m.event("trial_start", trial=2)):
+        for event in (
+            m.event("trial_start", trial=1),
+            m.event("trial_end", trial=1, participant="P1", success=None),
+            m.event("mode", trial=2, mode="manual"),
+            m.event("trial_start", trial=2),
+        ):
             recorder.write(m.EVENTS, m.STRING, m.SCHEMAS[m.STRING], event)
     rows = trial_rows(path)
     assert len(rows) == 1 and rows[0]["participant"] == "P1" and math.isnan(rows[0]["success"])

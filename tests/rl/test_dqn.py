@@ -13,8 +13,9 @@ from otgym.experiments.speed_control import make_env
 from otgym.rl.dqn import DQNConfig, epsilon, make_train
 from otgym.rl.policy import load_policy, save_policy
 
-TINY = DQNConfig(n_envs=8, total_env_steps=160, chunk_iters=10, buffer_size=64, batch_size=16, learning_starts=32,
-                 target_every=5)
+TINY = DQNConfig(
+    n_envs=8, total_env_steps=160, chunk_iters=10, buffer_size=64, batch_size=16, learning_starts=32, target_every=5
+)
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +50,9 @@ def test_policy_file_round_trip_and_errors(trained, tmp_path):
     path = save_policy(tmp_path / "policy.npz", q_params, {"preset": "paper", "hidden": [128, 128]})
     loaded, meta = load_policy(path, tr.OBS_SIZE, 6)
     assert meta["preset"] == "paper"
-    np.testing.assert_array_equal(np.asarray(loaded["params"]["Dense_2"]["bias"]),
-                                  np.asarray(q_params["params"]["Dense_2"]["bias"]))
+    np.testing.assert_array_equal(
+        np.asarray(loaded["params"]["Dense_2"]["bias"]), np.asarray(q_params["params"]["Dense_2"]["bias"])
+    )
     with pytest.raises(ValueError, match="does not fit"):
         load_policy(path, tr.OBS_SIZE, 10)
     with pytest.raises(FileNotFoundError, match="does not exist"):

@@ -24,9 +24,20 @@ GAMMA = 0.99
 CLEAR_GAP = 0.1
 """States whose best and second-best optimal Q differ by less than this are excluded."""
 
-CONFIG = DQNConfig(n_envs=32, total_env_steps=38_400, chunk_iters=100, buffer_size=4096, batch_size=64,
-                   learning_rate=1e-3, gamma=GAMMA, eps_fraction=0.5, target_every=25, learning_starts=512,
-                   updates_per_iter=1, hidden=(32, 32))
+CONFIG = DQNConfig(
+    n_envs=32,
+    total_env_steps=38_400,
+    chunk_iters=100,
+    buffer_size=4096,
+    batch_size=64,
+    learning_rate=1e-3,
+    gamma=GAMMA,
+    eps_fraction=0.5,
+    target_every=25,
+    learning_starts=512,
+    updates_per_iter=1,
+    hidden=(32, 32),
+)
 SEEDS = 5
 
 
@@ -35,8 +46,10 @@ def _outcomes(cell: int, action: int):
     reached = min(cell + ADVANCE[action], GOAL)
     reward = -1.0 - (FAST_COST if action == 1 else 0.0) + (GOAL_REWARD if reached == GOAL else 0.0)
     if action == 1 and cell in HAZARD:
-        return [(FAIL_PROBABILITY, -1.0 - FAST_COST + FAIL_REWARD, cell, True),
-                (1 - FAIL_PROBABILITY, reward, reached, reached == GOAL)]
+        return [
+            (FAIL_PROBABILITY, -1.0 - FAST_COST + FAIL_REWARD, cell, True),
+            (1 - FAIL_PROBABILITY, reward, reached, reached == GOAL),
+        ]
     return [(1.0, reward, reached, reached == GOAL)]
 
 
@@ -44,8 +57,15 @@ def optimal_q() -> np.ndarray:
     """Q* (cells 0..6, 3 actions) by value iteration (Bellman 1957), discounted as the DQN."""
     value = np.zeros(CELLS)
     for _ in range(3000):
-        q = np.array([[sum(p * (r + (0.0 if done else GAMMA * value[n])) for p, r, n, done in _outcomes(s, a))
-                       for a in range(3)] for s in range(GOAL)])
+        q = np.array(
+            [
+                [
+                    sum(p * (r + (0.0 if done else GAMMA * value[n])) for p, r, n, done in _outcomes(s, a))
+                    for a in range(3)
+                ]
+                for s in range(GOAL)
+            ]
+        )
         value[:GOAL] = q.max(axis=1)
     return q
 
@@ -67,7 +87,7 @@ def corridor_env() -> Env:
         failed = (action == 1) & hazard[cell] & (jax.random.uniform(key, cell.shape) < FAIL_PROBABILITY)
         reached = jnp.minimum(cell + advance[action], GOAL)
         at_goal = (reached == GOAL) & ~failed
-        reward = (-1.0 - FAST_COST * (action == 1) + GOAL_REWARD * at_goal + FAIL_REWARD * failed)
+        reward = -1.0 - FAST_COST * (action == 1) + GOAL_REWARD * at_goal + FAIL_REWARD * failed
         cell = jnp.where(failed, cell, reached)
         terminated = failed | at_goal
         truncated = (t + 1 >= TIME_LIMIT) & ~terminated
@@ -113,8 +133,12 @@ def test_dqn_finds_the_optimal_policy_and_values():
     def passes(q_params) -> list[bool]:
         q = np.asarray(jax.vmap(lambda p: network.apply(p, cells))(q_params))
         actions, values = q.argmax(axis=-1), q.max(axis=-1)
-        return [bool(np.array_equal(a[clear], q_star.argmax(axis=1)[clear]) and
-                     np.all(np.abs(v - q_star.max(axis=1)) < 0.25)) for a, v in zip(actions, values)]
+        return [
+            bool(
+                np.array_equal(a[clear], q_star.argmax(axis=1)[clear]) and np.all(np.abs(v - q_star.max(axis=1)) < 0.25)
+            )
+            for a, v in zip(actions, values)
+        ]
 
     trained = passes(runner.q_params)
     assert sum(trained) >= 4, f"seeds finding the optimum: {trained}"

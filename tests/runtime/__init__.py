@@ -46,5 +46,11 @@ def fast_scenario(seed: int, config=None):
     from otgym.runtime.scenario import make_scenario
 
     task = shared_task()
-    return make_scenario(seed, task.route_um, task.route_arc_um, wall_distance_um,
-                         task.config.scene.obstacle_radius_um, config or task.config.scenario)
+    return make_scenario(
+        seed,
+        task.route_um,
+        task.route_arc_um,
+        wall_distance_um,
+        task.config.scene.obstacle_radius_um,
+        config or task.config.scenario,
+    )

@@ -23,10 +23,20 @@ def test_rebuilt_observation_matches_the_tasks_own():
     for tick in range(25):
         obs = task.step(state, navigator.increments(obs), jax.random.PRNGKey(tick))
     spheres = np.asarray(ph.sphere_positions_um(task.scene.model, state.scene.physics.pose[0]), float)
-    rebuilt, route_index = observation_from_spheres(layout_of(task), spheres, obs.trap_xy_um[0], int(obs.phase[0]),
-                                                    float(obs.time_s[0]), 0)
+    rebuilt, route_index = observation_from_spheres(
+        layout_of(task), spheres, obs.trap_xy_um[0], int(obs.phase[0]), float(obs.time_s[0]), 0
+    )
     assert route_index == state.route_index[0]
-    for name in ("time_s", "phase", "cell_xy_um", "cell_arc_um", "trap_xy_um", "handle_xy_um", "obstacle_xy_um",
-                 "obstacle_gap_um", "trap_distance_um"):
+    for name in (
+        "time_s",
+        "phase",
+        "cell_xy_um",
+        "cell_arc_um",
+        "trap_xy_um",
+        "handle_xy_um",
+        "obstacle_xy_um",
+        "obstacle_gap_um",
+        "trap_distance_um",
+    ):
         np.testing.assert_allclose(getattr(rebuilt, name), getattr(obs, name), atol=2e-4, err_msg=name)
     assert np.isnan(rebuilt.contact_force_pn).all()  # not published: never a made-up zero

@@ -189,8 +189,7 @@ def test_replayed_constant_velocity_moves_the_traps_by_tau_v_dt(task, scenario, 
         np.testing.assert_array_equal(record.human_um[~driven], 0.0)
         np.testing.assert_array_equal(moved[~driven], 0.0)
         if index >= SETTLED_TICK:
-            np.testing.assert_allclose(record.human_um[driven], np.broadcast_to(expected, (driven.sum(), 2)),
-                                       rtol=1e-4)
+            np.testing.assert_allclose(record.human_um[driven], np.broadcast_to(expected, (driven.sum(), 2)), rtol=1e-4)
             np.testing.assert_array_equal(record.shared_um, record.human_um)
         previous = obs.trap_xy_um[0]
     loop.close()
@@ -212,10 +211,17 @@ def dragged(task, scenario):
     b = ScriptedDevice(clock, velocity_mm_s=(50.0, 0.0, 0.0), force_limit_n=0.3)
     scale = newtons_per_pn_for(task.config.scene.trap_law)
     fast = RetargetConfig(dead_band_mm_s=0.3, max_trap_speed_um_s=100.0)
-    loop = make_loop(task, scenario, [DeviceBinding(a, (0,), retarget=fast),
-                                      DeviceBinding(b, (1,), retarget=fast,
-                                                    feedback=FeedbackConfig(newtons_per_pn=10 * scale))],
-                     "manual", clock, max_trap_speed_um_s=100.0)
+    loop = make_loop(
+        task,
+        scenario,
+        [
+            DeviceBinding(a, (0,), retarget=fast),
+            DeviceBinding(b, (1,), retarget=fast, feedback=FeedbackConfig(newtons_per_pn=10 * scale)),
+        ],
+        "manual",
+        clock,
+        max_trap_speed_um_s=100.0,
+    )
     history = ticks_with_truth(loop, DRAG_TICKS)
     loop.close()
     return a, b, scale, history
@@ -259,8 +265,9 @@ def test_feedback_opposes_the_lead_with_the_trap_laws_force(task, dragged):
     assert np.all(np.sum(device_force * lead, axis=1) < 0)
     mean_force, mean_lead = device_force.mean(axis=0), lead.mean(axis=0)
     assert mean_force @ mean_lead / (np.linalg.norm(mean_force) * np.linalg.norm(mean_lead)) < -0.99
-    np.testing.assert_allclose(device_force.mean(axis=0), -scale * law_force.mean(axis=0),
-                               atol=scale * 2 * 50.0 * SENSOR_POSITION_BOUND_UM)
+    np.testing.assert_allclose(
+        device_force.mean(axis=0), -scale * law_force.mean(axis=0), atol=scale * 2 * 50.0 * SENSOR_POSITION_BOUND_UM
+    )
     assert np.abs(np.array(a.forces)[-20:]).max() > 0.02  # not vacuous: a force is felt
     assert max(np.linalg.norm(f) for f in a.forces) <= 0.88 + 1e-12
 
@@ -358,8 +365,9 @@ def test_run_stops_when_a_trap_is_lost(task, scenario):
     clock = SimClock()
     fast = RetargetConfig(dead_band_mm_s=0.3, max_trap_speed_um_s=400.0)
     device = ScriptedDevice(clock, velocity_mm_s=(200.0, 0.0, 0.0))
-    loop = make_loop(task, scenario, [DeviceBinding(device, (0,), retarget=fast)], "manual", clock,
-                     max_trap_speed_um_s=400.0)
+    loop = make_loop(
+        task, scenario, [DeviceBinding(device, (0,), retarget=fast)], "manual", clock, max_trap_speed_um_s=400.0
+    )
     records = loop.run(1.0, realtime=False)
     loop.close()
     assert loop.done and records[-1].phase == DONE and len(records) < 25

@@ -28,8 +28,16 @@ STEP_S = SMALL.step_s
 def parked_scenario(points_um) -> Scenario:
     """Obstacles that stay where they start (their tracks depart in a million seconds)."""
     k = len(points_um)
-    return Scenario(0, np.zeros(k), np.zeros(k), np.asarray(points_um, float), np.tile([1.0, 0.0], (k, 1)),
-                    np.full(k, 2.0), np.full(k, 1e6), np.full(k, 1e6 + 1.0))
+    return Scenario(
+        0,
+        np.zeros(k),
+        np.zeros(k),
+        np.asarray(points_um, float),
+        np.tile([1.0, 0.0], (k, 1)),
+        np.full(k, 2.0),
+        np.full(k, 1e6),
+        np.full(k, 1e6 + 1.0),
+    )
 
 
 @pytest.fixture(scope="module")
@@ -68,8 +76,12 @@ def plan(navigator, obs, costs=MPCCosts(), committed=None, seed=0, velocity_um_s
     velocity = np.zeros_like(obs.obstacle_xy_um) if velocity_um_s is None else velocity_um_s
     for ago_s in np.arange(1.0, -1e-9, -0.02):
         navigator.tracker.observe(obs.time_s - ago_s, obs.obstacle_xy_um - velocity * ago_s)
-    pose = navigator._pose(navigator.route, navigator.offsets_um, jnp.asarray(obs.trap_xy_um, jnp.float32),
-                           jnp.asarray(obs.cell_arc_um, jnp.float32))
+    pose = navigator._pose(
+        navigator.route,
+        navigator.offsets_um,
+        jnp.asarray(obs.trap_xy_um, jnp.float32),
+        jnp.asarray(obs.cell_arc_um, jnp.float32),
+    )
     start = np.stack([np.asarray(a) for a in pose], axis=-1).astype(np.float32)
     if committed is None:
         committed = np.array([[0.0, start[0, 1], start[0, 2]]], np.float32)
@@ -77,12 +89,21 @@ def plan(navigator, obs, costs=MPCCosts(), committed=None, seed=0, velocity_um_s
     nominal[..., 0] = SMALL.cruise_speed_um_s
     if nominal_action is not None:
         nominal[:] = nominal_action
-    tracks = {name: jnp.asarray(value, jnp.float32) for name, value in
-              navigator.tracker.predicted_tracks(obs.time_s).items()}
-    best, terms, _ = navigator._replan(navigator.model, navigator.route, navigator.model_offsets_um, costs,
-                                       navigator.model_state(obs), tracks, jnp.asarray(start),
-                                       jnp.asarray(committed, jnp.float32), jnp.asarray(nominal),
-                                       jax.random.PRNGKey(seed))
+    tracks = {
+        name: jnp.asarray(value, jnp.float32) for name, value in navigator.tracker.predicted_tracks(obs.time_s).items()
+    }
+    best, terms, _ = navigator._replan(
+        navigator.model,
+        navigator.route,
+        navigator.model_offsets_um,
+        costs,
+        navigator.model_state(obs),
+        tracks,
+        jnp.asarray(start),
+        jnp.asarray(committed, jnp.float32),
+        jnp.asarray(nominal),
+        jax.random.PRNGKey(seed),
+    )
     return np.asarray(best)[0], {name: float(value[0]) for name, value in terms.items()}
 
 
@@ -117,8 +138,7 @@ def test_calibrated_squeeze_grips_as_hard_as_the_real_traps(task, navigator):
     start = task.route_um[0]
     heading = float(np.arctan2(*(task.route_um[8] - task.route_um[0])[::-1]))
     real = mpc.settled_contact_force_pn(task.scene, start, heading, np.zeros(1))[0]
-    model = mpc.settled_contact_force_pn(navigator.model, start, heading,
-                                         np.array([0.0, navigator.extra_squeeze_um]))
+    model = mpc.settled_contact_force_pn(navigator.model, start, heading, np.array([0.0, navigator.extra_squeeze_um]))
     assert model[0] < 0.6 * real
     assert model[1] == pytest.approx(real, rel=0.05)
 
@@ -129,26 +149,56 @@ def test_model_predicts_the_real_cell_path(task, navigator, gripped):
     The real side executes the same segments tick by tick, as the navigator does."""
     state, obs = gripped
     real_state = copy.copy(state)
-    pose = navigator._pose(navigator.route, navigator.offsets_um, jnp.asarray(obs.trap_xy_um, jnp.float32),
-                           jnp.asarray(obs.cell_arc_um, jnp.float32))
+    pose = navigator._pose(
+        navigator.route,
+        navigator.offsets_um,
+        jnp.asarray(obs.trap_xy_um, jnp.float32),
+        jnp.asarray(obs.cell_arc_um, jnp.float32),
+    )
     start = np.stack([np.asarray(a) for a in pose], axis=-1).astype(np.float32)
     action = np.array([[SMALL.cruise_speed_um_s, 0.0, 0.0]], np.float32)
     steps = 1 + SMALL.plan_steps
-    final, _ = mpc.rollout(navigator.model, navigator.route, navigator.model_offsets_um, MPCCosts(),
-                           navigator.model_state(obs), _parked_tracks(obs), jnp.asarray(start),
-                           jnp.asarray(np.repeat(action[:, None], steps, axis=1)), config=SMALL,
-                           obstacle_config=task.config.scenario)
+    final, _ = mpc.rollout(
+        navigator.model,
+        navigator.route,
+        navigator.model_offsets_um,
+        MPCCosts(),
+        navigator.model_state(obs),
+        _parked_tracks(obs),
+        jnp.asarray(start),
+        jnp.asarray(np.repeat(action[:, None], steps, axis=1)),
+        config=SMALL,
+        obstacle_config=task.config.scenario,
+    )
     model_cell = np.asarray(final.physics.pose)[0, navigator.model.payload, :2]
     real_obs, key = obs, jax.random.PRNGKey(5)
     ticks = navigator.ticks_per_step
     for _ in range(steps):
-        segment = np.stack([np.asarray(a) for a in navigator._pose(
-            navigator.route, navigator.offsets_um, jnp.asarray(real_obs.trap_xy_um, jnp.float32),
-            jnp.asarray(real_obs.cell_arc_um, jnp.float32))], axis=-1).astype(np.float32)
+        segment = np.stack(
+            [
+                np.asarray(a)
+                for a in navigator._pose(
+                    navigator.route,
+                    navigator.offsets_um,
+                    jnp.asarray(real_obs.trap_xy_um, jnp.float32),
+                    jnp.asarray(real_obs.cell_arc_um, jnp.float32),
+                )
+            ],
+            axis=-1,
+        ).astype(np.float32)
         for tick in range(ticks):
-            now, later = (np.asarray(a) for a in navigator._places(
-                navigator.route, navigator.offsets_um, jnp.asarray(segment), jnp.asarray(action),
-                tick / ticks, (tick + 1) / ticks, step_s=STEP_S))
+            now, later = (
+                np.asarray(a)
+                for a in navigator._places(
+                    navigator.route,
+                    navigator.offsets_um,
+                    jnp.asarray(segment),
+                    jnp.asarray(action),
+                    tick / ticks,
+                    (tick + 1) / ticks,
+                    step_s=STEP_S,
+                )
+            )
             key, step_key = jax.random.split(key)
             real_obs = task.step(real_state, later - now, step_key)
     travelled = np.linalg.norm(real_obs.cell_xy_um[0] - obs.cell_xy_um[0])
@@ -167,16 +217,30 @@ def test_model_moves_obstacles_as_the_tracker_predicts(task, navigator, gripped)
     navigator.tracker.reset(1, obs.obstacle_xy_um.shape[1])
     for ago_s in np.arange(1.0, -1e-9, -0.02):
         navigator.tracker.observe(obs.time_s - ago_s, obs.obstacle_xy_um - velocity * ago_s)
-    tracks = {name: jnp.asarray(value, jnp.float32) for name, value in
-              navigator.tracker.predicted_tracks(obs.time_s).items()}
-    pose = navigator._pose(navigator.route, navigator.offsets_um, jnp.asarray(obs.trap_xy_um, jnp.float32),
-                           jnp.asarray(obs.cell_arc_um, jnp.float32))
+    tracks = {
+        name: jnp.asarray(value, jnp.float32) for name, value in navigator.tracker.predicted_tracks(obs.time_s).items()
+    }
+    pose = navigator._pose(
+        navigator.route,
+        navigator.offsets_um,
+        jnp.asarray(obs.trap_xy_um, jnp.float32),
+        jnp.asarray(obs.cell_arc_um, jnp.float32),
+    )
     start = np.stack([np.asarray(a) for a in pose], axis=-1).astype(np.float32)
     steps = 1 + SMALL.plan_steps
     hold = np.repeat(np.array([[[0.0, start[0, 1], start[0, 2]]]], np.float32), steps, axis=1)
-    final, _ = mpc.rollout(navigator.model, navigator.route, navigator.model_offsets_um, MPCCosts(),
-                           navigator.model_state(obs), tracks, jnp.asarray(start), jnp.asarray(hold), config=SMALL,
-                           obstacle_config=task.config.scenario)
+    final, _ = mpc.rollout(
+        navigator.model,
+        navigator.route,
+        navigator.model_offsets_um,
+        MPCCosts(),
+        navigator.model_state(obs),
+        tracks,
+        jnp.asarray(start),
+        jnp.asarray(hold),
+        config=SMALL,
+        obstacle_config=task.config.scenario,
+    )
     obstacles = np.asarray(final.physics.pose)[0, list(navigator.model.obstacles), :2]
     expected = obs.obstacle_xy_um[0] + velocity[0] * steps * STEP_S
     assert np.linalg.norm(velocity[0, 0]) * steps * STEP_S > 1.5
@@ -186,8 +250,14 @@ def test_model_moves_obstacles_as_the_tracker_predicts(task, navigator, gripped)
 def _parked_tracks(obs):
     k = obs.obstacle_xy_um.shape[1]
     zeros = jnp.zeros((1, k), jnp.float32)
-    return {"start_um": jnp.asarray(obs.obstacle_xy_um, jnp.float32), "direction": jnp.zeros((1, k, 2)),
-            "speed_um_s": zeros, "depart_s": zeros, "end_s": zeros + 1e6, "idle": zeros}
+    return {
+        "start_um": jnp.asarray(obs.obstacle_xy_um, jnp.float32),
+        "direction": jnp.zeros((1, k, 2)),
+        "speed_um_s": zeros,
+        "depart_s": zeros,
+        "end_s": zeros + 1e6,
+        "idle": zeros,
+    }
 
 
 def test_progress_sets_the_direction_of_travel(navigator, gripped):
@@ -259,8 +329,11 @@ def test_wall_and_detachment_terms_cost_what_they_should(task, navigator, grippe
     """The wall term grows as the assembly nears a wall; a detachment costs its weight."""
     _, obs = gripped
     state = navigator.model_state(obs)
-    _, events = jax.jit(lambda s: mpc.sc.step_batch(navigator.model, s, jnp.zeros((1, 4, 2)), jax.random.PRNGKey(0),
-                                                    jnp.zeros((1, 4, 2))))(state)
+    _, events = jax.jit(
+        lambda s: mpc.sc.step_batch(
+            navigator.model, s, jnp.zeros((1, 4, 2)), jax.random.PRNGKey(0), jnp.zeros((1, 4, 2))
+        )
+    )(state)
     costs = MPCCosts(wall_margin_um=50.0)
     centred = mpc.step_cost_terms(navigator.model, costs, state, events, 0.0)["wall"]
     pose = state.physics.pose
@@ -280,7 +353,7 @@ def test_replan_is_deterministic_by_key(navigator, gripped):
     again, _ = plan(navigator, obs, seed=3)
     np.testing.assert_array_equal(first, again)
     candidates = [np.asarray(mpc.candidates(jax.random.PRNGKey(k), jnp.zeros((1, 8, 3)), SMALL)) for k in (3, 4)]
-    assert not np.allclose(candidates[0][:, mpc.N_FIXED_MANOEUVRES:], candidates[1][:, mpc.N_FIXED_MANOEUVRES:])
+    assert not np.allclose(candidates[0][:, mpc.N_FIXED_MANOEUVRES :], candidates[1][:, mpc.N_FIXED_MANOEUVRES :])
 
 
 def test_mpc_avoids_an_obstacle_parked_on_the_route_where_the_navigator_collides(task, navigator):
@@ -328,8 +401,15 @@ def test_shared_control_takes_the_mpc_as_its_autonomy():
     short = InteractiveTask(InteractiveConfig(time_limit_s=2.0))
     specs = [TrialSpec(0, mode, 0, scenario=900000) for mode in ("shared", "mpc", "autonomous")]
     stats = {}
-    rows = run_trials(short, specs, dict(enumerate(sample_population(1, seed=4242))), seed=0, shared_autonomy="mpc",
-                      mpc_config=SMALL, mpc_stats=stats)
+    rows = run_trials(
+        short,
+        specs,
+        dict(enumerate(sample_population(1, seed=4242))),
+        seed=0,
+        shared_autonomy="mpc",
+        mpc_config=SMALL,
+        mpc_stats=stats,
+    )
     assert [row["autonomy"] for row in rows] == ["mpc", "mpc", "route"]
     assert stats["replans"] > 0 and max(stats["environments_planned"]) == 2
 
@@ -346,8 +426,9 @@ def test_warm_up_leaves_it_fresh_and_it_plans_alike_from_a_rebuilt_observation(t
 
     state, obs = gripped
     spheres = np.asarray(ph.sphere_positions_um(task.scene.model, state.scene.physics.pose[0]), float)
-    rebuilt, _ = observation_from_spheres(layout_of(task), spheres, obs.trap_xy_um[0], int(obs.phase[0]),
-                                          float(obs.time_s[0]), 0)
+    rebuilt, _ = observation_from_spheres(
+        layout_of(task), spheres, obs.trap_xy_um[0], int(obs.phase[0]), float(obs.time_s[0]), 0
+    )
 
     def drive(observation):
         return [navigator.increments(observation) for _ in range(2 * navigator.ticks_per_step)]

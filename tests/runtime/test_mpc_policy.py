@@ -1,8 +1,8 @@
 """The distilled MPC policy: route-frame features and the clone's fit."""
 
-import pytest
-import numpy as np
 import jax.numpy as jnp
+import numpy as np
+import pytest
 
 from otgym.control import formation as fm
 from otgym.runtime.mpc_policy import ClonedPolicy, dagger, dagger_step, route_features, train
@@ -31,8 +31,16 @@ def test_features_are_the_same_for_a_rotated_and_translated_scene():
     obstacle_v = rng.normal(size=(3, 2, 2))
     plain = route_features(_route(bend), start, committed, cell, arc, cell_v, obstacles, obstacle_v)
     angle, shift = 1.1, (-40.0, 250.0)
-    moved = route_features(_route(_turn(bend, angle, shift)), start, committed, _turn(cell, angle, shift), arc,
-                           _turn(cell_v, angle), _turn(obstacles, angle, shift), _turn(obstacle_v, angle))
+    moved = route_features(
+        _route(_turn(bend, angle, shift)),
+        start,
+        committed,
+        _turn(cell, angle, shift),
+        arc,
+        _turn(cell_v, angle),
+        _turn(obstacles, angle, shift),
+        _turn(obstacle_v, angle),
+    )
     np.testing.assert_allclose(moved, plain, atol=2e-3)  # float32 route geometry at ~250 um
     # and the features do see the world: moving an obstacle changes them
     shifted = route_features(_route(bend), start, committed, cell, arc, cell_v, obstacles + 5.0, obstacle_v)
@@ -44,7 +52,7 @@ def test_the_clone_beats_the_mean_predictor_on_held_out_states(tmp_path):
     # 600 fit / 200 held-out samples
     rng = np.random.default_rng(1)
     x = rng.normal(size=(800, 6)).astype(np.float32)
-    y = np.stack([np.tanh(x[:, 0] - x[:, 1]), x[:, 2] * np.exp(-x[:, 3] ** 2), 0.5 * x[:, 4]], axis=-1)
+    y = np.stack([np.tanh(x[:, 0] - x[:, 1]), x[:, 2] * np.exp(-(x[:, 3] ** 2)), 0.5 * x[:, 4]], axis=-1)
     policy = train(x[:600], y[:600], hidden=(32, 32), epochs=60, batch=100)
     held = np.mean((policy(x[600:]) - y[600:]) ** 2)
     mean = np.mean((y[:600].mean(0) - y[600:]) ** 2)
@@ -89,8 +97,9 @@ def test_dagger_step_labels_every_queried_row_with_the_teacher_and_executes_the_
         np.testing.assert_array_equal(executed[~taken], 7.0)
         np.testing.assert_array_equal(executed[taken], labels[taken[query]])
     # a half mixture takes the teacher's action about half the time
-    taken = [dagger_step(features, learner, teacher, query, 0.5, np.random.default_rng(s))[1][query]
-             for s in range(200)]
+    taken = [
+        dagger_step(features, learner, teacher, query, 0.5, np.random.default_rng(s))[1][query] for s in range(200)
+    ]
     assert 0.4 < np.mean(taken) < 0.6
     # nothing queried: the learner acts, no labels
     executed, taken, labels = dagger_step(features, learner, teacher, np.zeros(6, bool), 1.0, np.random.default_rng(0))
@@ -131,8 +140,9 @@ def test_dagger_corrects_the_covariate_shift_of_plain_cloning():
     features, actions = s[:, None].astype(np.float32), _teacher(s).astype(np.float32)
     fit = lambda f, a: train(f, a, hidden=(16, 16), epochs=40, batch=64)  # noqa: E731
     clone = fit(features, actions)
-    (_, improved, _, _), = dagger(clone, features, actions,
-                                  lambda p, r: _rollout(p, 0.0, np.random.default_rng(10 + r))[:2], 1, fit=fit)
+    ((_, improved, _, _),) = dagger(
+        clone, features, actions, lambda p, r: _rollout(p, 0.0, np.random.default_rng(10 + r))[:2], 1, fit=fit
+    )
     cloned_error = _rollout(clone, 0.0, np.random.default_rng(100))[2].mean()
     dagger_error = _rollout(improved, 0.0, np.random.default_rng(100))[2].mean()
     teacher_error = _rollout(clone, 1.0, np.random.default_rng(100))[2].mean()
@@ -140,14 +150,17 @@ def test_dagger_corrects_the_covariate_shift_of_plain_cloning():
     assert dagger_error < 3 * teacher_error + 0.02
 
 
-@pytest.mark.parametrize("argv, reason", [
-    (["collect", "x.npz", "--first", "130000"], "development scenarios"),
-    (["dagger", "d.npz", "p.npz", ".", "--first", "140000"], "development scenarios"),
-    (["dagger", "missing.npz", "missing.npz", "."], "is not a file"),
-    (["train", "missing.npz", "out.npz"], "is not a file"),
-    (["evaluate", "missing.npz"], "is not a file"),
-    (["collect", "no/such/folder/x.npz"], "does not exist"),
-])
+@pytest.mark.parametrize(
+    "argv, reason",
+    [
+        (["collect", "x.npz", "--first", "130000"], "development scenarios"),
+        (["dagger", "d.npz", "p.npz", ".", "--first", "140000"], "development scenarios"),
+        (["dagger", "missing.npz", "missing.npz", "."], "is not a file"),
+        (["train", "missing.npz", "out.npz"], "is not a file"),
+        (["evaluate", "missing.npz"], "is not a file"),
+        (["collect", "no/such/folder/x.npz"], "does not exist"),
+    ],
+)
 def test_distil_script_refuses_bad_input_in_one_line_before_any_work(argv, reason, tmp_path, monkeypatch, capsys):
     from otgym.experiments.distil_mpc import main
 

@@ -15,8 +15,9 @@ def carrying_navigator(cell_x_um: float) -> RouteNavigator:
     """A navigator carrying a cell at ``cell_x_um`` along the route, its commanded arc
     run ahead to the cell plus its lead (the steady state of an unhindered carry)."""
     route = np.stack([np.linspace(0.0, 300.0, 2401), np.zeros(2401)], axis=1)
-    navigator = RouteNavigator(route, route[:, 0].copy(), OFFSETS_UM, TICK_S, CRUISE_UM_S, lead_um=LEAD_UM,
-                               carry_gain_per_s=GAIN_PER_S)
+    navigator = RouteNavigator(
+        route, route[:, 0].copy(), OFFSETS_UM, TICK_S, CRUISE_UM_S, lead_um=LEAD_UM, carry_gain_per_s=GAIN_PER_S
+    )
     navigator.reset(1)
     at_cell = scene([[cell_x_um, 0.0]], (OFFSETS_UM + [cell_x_um, 0.0])[None], CARRY)
     for _ in range(20):

@@ -77,9 +77,15 @@ def test_idle_until_seen_moving_then_parked_is_not_idle():
     tracker.reset(1, 2)
     end = _observe_path(tracker, [[[0.0, 0.0], [0.0, 0.0]]], [[[0.0, 0.0], [10.0, 0.0]]], ticks=60)
     np.testing.assert_array_equal(tracker.predicted_tracks(np.array([end]))["idle"], [[1.0, 1.0]])
-    end = _observe_path(tracker, [[[0.0, 0.0], [2.0, 0.0]]], [[[0.0, 0.0], [10.0 - 2.0 * (end + TICK_S), 0.0]]],
-                        ticks=60, t0=end + TICK_S)
-    end = _observe_path(tracker, [[[0.0, 0.0], [0.0, 0.0]]], [[[0.0, 0.0], [10.0 + 2.0 * 1.2, 0.0]]], ticks=80,
-                        t0=end + TICK_S)
+    end = _observe_path(
+        tracker,
+        [[[0.0, 0.0], [2.0, 0.0]]],
+        [[[0.0, 0.0], [10.0 - 2.0 * (end + TICK_S), 0.0]]],
+        ticks=60,
+        t0=end + TICK_S,
+    )
+    end = _observe_path(
+        tracker, [[[0.0, 0.0], [0.0, 0.0]]], [[[0.0, 0.0], [10.0 + 2.0 * 1.2, 0.0]]], ticks=80, t0=end + TICK_S
+    )
     np.testing.assert_allclose(tracker.velocity_um_s(), 0.0, atol=1e-9)  # at rest again
     np.testing.assert_array_equal(tracker.predicted_tracks(np.array([end]))["idle"], [[1.0, 0.0]])

@@ -19,8 +19,13 @@ from otgym.teleop.feedback import FeedbackConfig
 TICK_S = 0.02
 OFFSETS_UM = np.array([[-3.5, -6.5], [3.5, -6.5], [3.5, 6.5], [-3.5, 6.5]])  # robot 0 below the cell, robot 1 above
 TRAP_ROBOT = np.array([0, 0, 1, 1])
-STEADY = HumanParams(extent_error_fraction=0.0, direction_error_deg=0.0, signal_dependent_noise=0.0,
-                     tremor_rms_mm=0.0, lapse_rate_per_h=0.0)
+STEADY = HumanParams(
+    extent_error_fraction=0.0,
+    direction_error_deg=0.0,
+    signal_dependent_noise=0.0,
+    tremor_rms_mm=0.0,
+    lapse_rate_per_h=0.0,
+)
 TASK = ParticipantTask()
 
 
@@ -30,8 +35,9 @@ def navigator():
 
 
 def people(params, seed=0, task=TASK, wall_distance_um=None):
-    return SimulatedParticipants(params, TICK_S, seed, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, task,
-                                 wall_distance_um)
+    return SimulatedParticipants(
+        params, TICK_S, seed, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, task, wall_distance_um
+    )
 
 
 def wall_below(y_um):
@@ -45,12 +51,20 @@ def scene(cell_xy, trap_xy, phase, obstacle_xy=((200.0, 100.0),)):
     n_env = len(cell_xy)
     obstacles = np.broadcast_to(np.asarray(obstacle_xy, float), (n_env, len(obstacle_xy), 2)).copy()
     zeros = np.zeros(n_env)
-    return Observation(time_s=zeros, phase=np.full(n_env, phase), cell_xy_um=cell_xy, cell_arc_um=cell_xy[:, 0],
-                       trap_xy_um=np.asarray(trap_xy, float), handle_xy_um=np.asarray(trap_xy, float),
-                       robot_xy_um=np.zeros((n_env, 2, 2)), obstacle_xy_um=obstacles,
-                       obstacle_gap_um=np.full((n_env, len(obstacle_xy)), 100.0),
-                       contact_force_pn=np.zeros((n_env, 2)), cell_gap_um=np.zeros((n_env, 2)),
-                       trap_distance_um=np.zeros((n_env, 4)))
+    return Observation(
+        time_s=zeros,
+        phase=np.full(n_env, phase),
+        cell_xy_um=cell_xy,
+        cell_arc_um=cell_xy[:, 0],
+        trap_xy_um=np.asarray(trap_xy, float),
+        handle_xy_um=np.asarray(trap_xy, float),
+        robot_xy_um=np.zeros((n_env, 2, 2)),
+        obstacle_xy_um=obstacles,
+        obstacle_gap_um=np.full((n_env, len(obstacle_xy)), 100.0),
+        contact_force_pn=np.zeros((n_env, 2)),
+        cell_gap_um=np.zeros((n_env, 2)),
+        trap_distance_um=np.zeros((n_env, 4)),
+    )
 
 
 def drive(participants, obs, modes, ticks, alpha=None, autonomy=None):
@@ -309,8 +323,7 @@ def test_the_person_steps_aside_from_an_obstacle_coming_down_the_route(monkeypat
     import otgym.runtime.participants as participants_module
 
     touch_um = 8.7 + 3.0
-    closest_um, wall_um = carry_past_an_oncoming_obstacle(
-        people([STEADY], wall_distance_um=wall_below(-10.0)), -10.0)
+    closest_um, wall_um = carry_past_an_oncoming_obstacle(people([STEADY], wall_distance_um=wall_below(-10.0)), -10.0)
     assert closest_um > touch_um, closest_um
     assert wall_um > TASK.wall_clearance_um - 0.3, wall_um
     monkeypatch.setattr(participants_module, "SIDE_STEP_DEG", ())
@@ -352,8 +365,9 @@ def test_the_person_squeezes_past_a_standing_obstacle_rather_than_wait_beside_it
     cell = np.zeros((2, 2))
     obstacles = np.array([[[6.0, 11.6]], [[6.0, 10.5]]])
     want = np.array([[2.0, 0.0], [2.0, 0.0]])
-    chosen, _ = choose_velocity(cell, obstacles, np.zeros((2, 1, 2)), want, np.array([[1.0, 0.0]] * 2), TASK,
-                                np.zeros((2, 2)))
+    chosen, _ = choose_velocity(
+        cell, obstacles, np.zeros((2, 1, 2)), want, np.array([[1.0, 0.0]] * 2), TASK, np.zeros((2, 2))
+    )
     assert chosen[0, 0] > 0.5, chosen[0]
     np.testing.assert_allclose(chosen[1], 0.0, atol=1e-9)
 

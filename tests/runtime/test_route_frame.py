@@ -47,12 +47,16 @@ def test_left_normal_is_left_of_the_heading():
 def test_room_in_a_straight_channel_is_its_half_width_less_the_clearance():
     route = np.stack([np.linspace(0, 50, 101), np.full(101, 1.0)], axis=-1)  # 1 um off the centre line
     arc = route[:, 0].copy()
-    grid, left, right = rf.lateral_room_um(route, arc, _straight_channel_distance(12.5), clearance_um=9.0,
-                                           resolution_um=0.25)
+    grid, left, right = rf.lateral_room_um(
+        route, arc, _straight_channel_distance(12.5), clearance_um=9.0, resolution_um=0.25
+    )
     # towards +y the wall is 12.5 - 1 = 11.5 um away: room 2.5; towards -y 13.5: room 4.5 (on a 0.25 um grid)
     assert np.all(np.abs(left - 2.5) <= 0.25) and np.all(np.abs(right - 4.5) <= 0.25)
-    clipped = rf.clip_lateral(rf.route_data(route, arc, _straight_channel_distance(12.5), 9.0),
-                              jnp.array([25.0, 25.0]), jnp.array([10.0, -10.0]))
+    clipped = rf.clip_lateral(
+        rf.route_data(route, arc, _straight_channel_distance(12.5), 9.0),
+        jnp.array([25.0, 25.0]),
+        jnp.array([10.0, -10.0]),
+    )
     assert np.asarray(clipped)[0] <= 2.5 and np.asarray(clipped)[1] >= -4.5
 
 

@@ -23,14 +23,23 @@ def track(start, direction, depart_s, end_s, speed_um_s=100.0) -> Scenario:
     """One obstacle at ``start`` until ``depart_s``, then moving along ``direction``
     until ``end_s``."""
     one = lambda value: np.array([value], float)  # noqa: E731
-    return Scenario(0, one(0.0), one(depart_s), np.array([start], float), np.array([direction], float),
-                    one(speed_um_s), one(depart_s), one(end_s))
+    return Scenario(
+        0,
+        one(0.0),
+        one(depart_s),
+        np.array([start], float),
+        np.array([direction], float),
+        one(speed_um_s),
+        one(depart_s),
+        one(end_s),
+    )
 
 
 def passage(scenario, route=None, shape=POINT, speed_um_s=SPEED_UM_S, **kwargs):
     route_um, arc_um = route if route is not None else straight_route()
-    return earliest_passage(scenario, route_um, arc_um, shape, OBSTACLE_RADIUS_UM, 0.0, 0.0, speed_um_s,
-                            arc_step_um=ARC_STEP_UM, **kwargs)
+    return earliest_passage(
+        scenario, route_um, arc_um, shape, OBSTACLE_RADIUS_UM, 0.0, 0.0, speed_um_s, arc_step_um=ARC_STEP_UM, **kwargs
+    )
 
 
 @pytest.mark.parametrize("speed_um_s", [SPEED_UM_S, 8.0, 13.0])

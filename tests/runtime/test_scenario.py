@@ -65,8 +65,16 @@ def test_position_um_waits_moves_and_stops():
     """A hand-made one-obstacle track: at its start before departure, moving at its
     speed along its direction, held at its end afterwards (catches an unclipped or
     mis-signed time)."""
-    s = Scenario(0, np.array([5.0]), np.array([4.0]), np.array([[1.0, 2.0]]), np.array([[0.6, 0.8]]),
-                 np.array([2.0]), np.array([1.0]), np.array([6.0]))
+    s = Scenario(
+        0,
+        np.array([5.0]),
+        np.array([4.0]),
+        np.array([[1.0, 2.0]]),
+        np.array([[0.6, 0.8]]),
+        np.array([2.0]),
+        np.array([1.0]),
+        np.array([6.0]),
+    )
     np.testing.assert_allclose(s.position_um(0.0), [[1.0, 2.0]], atol=1e-12)
     np.testing.assert_allclose(s.position_um(1.0), [[1.0, 2.0]], atol=1e-12)
     np.testing.assert_allclose(s.position_um(3.5), [[1.0 + 0.6 * 5, 2.0 + 0.8 * 5]], atol=1e-12)
@@ -150,8 +158,11 @@ def test_crossing_times_follow_progress_plus_jitter(task):
     assert abs(residual.mean()) <= 3 * sigma / math.sqrt(n), residual.mean()
     statistic = (n - 1) * residual.var(ddof=1) / sigma**2
     low, high = stats.chi2.ppf([0.0005, 0.9995], n - 1)
-    assert low <= statistic <= high, (residual.std(ddof=1), sigma * math.sqrt(low / (n - 1)),
-                                      sigma * math.sqrt(high / (n - 1)))
+    assert low <= statistic <= high, (
+        residual.std(ddof=1),
+        sigma * math.sqrt(low / (n - 1)),
+        sigma * math.sqrt(high / (n - 1)),
+    )
 
 
 def test_obstacles_depart_at_or_after_time_zero(scenarios):
@@ -182,12 +193,26 @@ def test_zero_obstacles_is_an_empty_scenario():
     assert s.crossing_arc_um.shape == (0,) and s.start_um.shape[0] == 0
 
 
-@pytest.mark.parametrize("kwargs", [
-    dict(n_obstacles=-1), dict(n_obstacles=2.0), dict(cruise_speed_um_s=0.0), dict(obstacle_speed_um_s=-1.0),
-    dict(track_gain_per_s=0.0), dict(max_propulsion_um_s=float("inf")), dict(grip_time_s=-0.1),
-    dict(timing_jitter_s=-1.0), dict(min_crossing_separation_um=float("nan")), dict(park_clearance_um=-1.0),
-    dict(wall_margin_um=-0.5), dict(crossing_arc_fraction=(0.6, 0.4)), dict(crossing_arc_fraction=(-0.1, 0.5)),
-    dict(crossing_arc_fraction=(0.5, 1.2)), dict(crossing_arc_fraction=(0.5, 0.5))])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(n_obstacles=-1),
+        dict(n_obstacles=2.0),
+        dict(cruise_speed_um_s=0.0),
+        dict(obstacle_speed_um_s=-1.0),
+        dict(track_gain_per_s=0.0),
+        dict(max_propulsion_um_s=float("inf")),
+        dict(grip_time_s=-0.1),
+        dict(timing_jitter_s=-1.0),
+        dict(min_crossing_separation_um=float("nan")),
+        dict(park_clearance_um=-1.0),
+        dict(wall_margin_um=-0.5),
+        dict(crossing_arc_fraction=(0.6, 0.4)),
+        dict(crossing_arc_fraction=(-0.1, 0.5)),
+        dict(crossing_arc_fraction=(0.5, 1.2)),
+        dict(crossing_arc_fraction=(0.5, 0.5)),
+    ],
+)
 def test_scenario_config_rejects_invalid(kwargs):
     """Each invalid field raises ValueError (catches a validation that is skipped)."""
     with pytest.raises(ValueError):

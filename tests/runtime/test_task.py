@@ -82,8 +82,11 @@ def test_reset_places_cell_robots_and_obstacles(task, scenarios, fresh):
         outward = np.sign((pose[robot, :2] - cell) @ normal)
         np.testing.assert_allclose(shift, np.broadcast_to(outward * gap * normal, (E, 2)), atol=1e-3)
         on_robot = task.trap_robot == robot
-        np.testing.assert_allclose(obs.trap_xy_um[:, on_robot] - traps[on_robot], np.broadcast_to(
-            outward * gap * normal, (E, on_robot.sum(), 2)), atol=1e-3)
+        np.testing.assert_allclose(
+            obs.trap_xy_um[:, on_robot] - traps[on_robot],
+            np.broadcast_to(outward * gap * normal, (E, on_robot.sum(), 2)),
+            atol=1e-3,
+        )
     assert np.all(np.abs(obs.cell_gap_um - gap) <= 0.1), obs.cell_gap_um
     assert np.all(obs.cell_gap_um <= gap + 1e-3)
     np.testing.assert_allclose(obs.obstacle_xy_um, np.stack([s.start_um for s in scenarios]), atol=1e-3)
@@ -144,8 +147,7 @@ def test_obstacles_follow_their_tracks(scenarios, carry_run):
         expected = np.stack([s.position_um(t) for s, t in zip(scenarios, obs.time_s)])
         error = np.linalg.norm(obs.obstacle_xy_um - expected, axis=-1)
         assert error.max() < 2.0, (obs.time_s[0], error)
-        travelled = max(travelled, np.linalg.norm(expected - np.stack([s.start_um for s in scenarios]),
-                                                  axis=-1).max())
+        travelled = max(travelled, np.linalg.norm(expected - np.stack([s.start_um for s in scenarios]), axis=-1).max())
     assert travelled > 7.0  # the check covers moving obstacles, not only waiting ones
 
 
@@ -246,9 +248,22 @@ def test_trial_metrics_rows_have_the_experiments_columns():
     metrics.peak_contact_force_pn[:] = [12.0, 3.0]
     metrics.band_time_s[:] = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
     rows = metrics.rows()
-    expected_columns = {"completion_time_s", "obstacles_encountered", "obstacles_avoided", "collisions", "success",
-                        "reached_goal", "trap_losses", "detached", "detachments", "peak_contact_force_pn",
-                        "grip_time_s", "time_autonomous_s", "time_balanced_s", "time_fine_tune_s"}
+    expected_columns = {
+        "completion_time_s",
+        "obstacles_encountered",
+        "obstacles_avoided",
+        "collisions",
+        "success",
+        "reached_goal",
+        "trap_losses",
+        "detached",
+        "detachments",
+        "peak_contact_force_pn",
+        "grip_time_s",
+        "time_autonomous_s",
+        "time_balanced_s",
+        "time_fine_tune_s",
+    }
     assert len(rows) == 2 and all(set(row) == expected_columns for row in rows)
     assert not {"participant", "mode", "trial", "scenario"} & set(rows[0])
     first, second = rows

@@ -82,8 +82,12 @@ def test_a_worker_whose_parent_is_killed_saves_its_trial_as_aborted_and_exits(tm
     from otgym.record.replay import summary
 
     path = tmp_path / "session.mcap"
-    parent = subprocess.Popen([sys.executable, "-c", PARENT, str(path)], stdout=subprocess.PIPE, text=True,
-                              env={**os.environ, "PYTHONPATH": str(ROOT)})
+    parent = subprocess.Popen(
+        [sys.executable, "-c", PARENT, str(path)],
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     try:
         line = parent.stdout.readline()
         assert line.startswith("worker"), f"the parent printed {line!r} (exit {parent.poll()})"

@@ -8,8 +8,16 @@ helpers; float tolerances are a few ulps of double precision unless stated."""
 import numpy as np
 import pytest
 
-from otgym.shared import ALPHA_LAWS, MODES, ArbitrationConfig, alpha_for_mode, blend, paper_alpha, smooth_alpha, \
-    step_alpha
+from otgym.shared import (
+    ALPHA_LAWS,
+    MODES,
+    ArbitrationConfig,
+    alpha_for_mode,
+    blend,
+    paper_alpha,
+    smooth_alpha,
+    step_alpha,
+)
 
 D1, D2 = 10.0, 20.0
 
@@ -33,8 +41,7 @@ def test_paper_alpha_is_linear_between_d1_and_d2():
     np.testing.assert_allclose(paper_alpha(12.5, D1, D2), 0.4, atol=1e-12)
     np.testing.assert_allclose(paper_alpha(17.5, D1, D2), 0.2, atol=1e-12)
     # the distances are honoured, not hard-coded: the same fractions on another scale
-    np.testing.assert_allclose(paper_alpha(np.array([1.0, 1.5, 1.25, 2.0]), 1.0, 2.0), [0.5, 0.3, 0.4, 0.1],
-                               atol=1e-12)
+    np.testing.assert_allclose(paper_alpha(np.array([1.0, 1.5, 1.25, 2.0]), 1.0, 2.0), [0.5, 0.3, 0.4, 0.1], atol=1e-12)
 
 
 def test_paper_alpha_broadcasts_over_arrays():
@@ -43,8 +50,10 @@ def test_paper_alpha_broadcasts_over_arrays():
     np.testing.assert_allclose(paper_alpha(distance, D1, D2), [[0.5, 0.3], [0.4, 0.1]], atol=1e-12)
 
 
-@pytest.mark.parametrize("distance, expected", [(0.0, 0.5), (5.0, 0.5), (9.9, 0.5), (10.1, 0.3), (15.0, 0.3),
-                                                (19.9, 0.3), (20.1, 0.1), (50.0, 0.1)])
+@pytest.mark.parametrize(
+    "distance, expected",
+    [(0.0, 0.5), (5.0, 0.5), (9.9, 0.5), (10.1, 0.3), (15.0, 0.3), (19.9, 0.3), (20.1, 0.1), (50.0, 0.1)],
+)
 def test_step_alpha_has_three_bands(distance, expected):
     """Inside each band: 0.5 below d1, 0.3 between, 0.1 beyond d2. Catches swapped
     bands, a missing middle step, or a linear ramp (which gives 0.496 at 10.1)."""
@@ -92,8 +101,10 @@ def test_alpha_for_mode_manual_and_autonomous_ignore_distance():
     np.testing.assert_array_equal(autonomous, 0.0)
 
 
-@pytest.mark.parametrize("law, expected", [("paper", [0.5, 0.4, 0.1]), ("step", [0.5, 0.3, 0.1]),
-                                           ("smooth", [0.5, 0.5 - 0.4 * 0.15625, 0.1])])
+@pytest.mark.parametrize(
+    "law, expected",
+    [("paper", [0.5, 0.4, 0.1]), ("step", [0.5, 0.3, 0.1]), ("smooth", [0.5, 0.5 - 0.4 * 0.15625, 0.1])],
+)
 def test_alpha_for_mode_shared_uses_the_configured_law_and_distances(law, expected):
     """Shared mode applies the config's law at the config's d1, d2 (here 2 and 6 um; 3 um
     is the quarter point): catches a law or distances ignored in favour of the
@@ -116,9 +127,19 @@ def test_alpha_for_mode_rejects_unknown_mode(mode):
         alpha_for_mode(mode, 5.0)
 
 
-@pytest.mark.parametrize("kwargs", [dict(d1_um=20.0, d2_um=20.0), dict(d1_um=25.0, d2_um=20.0),
-                                    dict(d1_um=-1.0, d2_um=20.0), dict(law="linear"), dict(tau=0.0),
-                                    dict(tau=-1.0), dict(d1_um=float("nan")), dict(d2_um=float("inf"))])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(d1_um=20.0, d2_um=20.0),
+        dict(d1_um=25.0, d2_um=20.0),
+        dict(d1_um=-1.0, d2_um=20.0),
+        dict(law="linear"),
+        dict(tau=0.0),
+        dict(tau=-1.0),
+        dict(d1_um=float("nan")),
+        dict(d2_um=float("inf")),
+    ],
+)
 def test_arbitration_config_rejects_invalid(kwargs):
     """d1 >= d2 (a zero-width or reversed ramp divides by zero or inverts), negative d1,
     an unknown law, tau <= 0 and non-finite distances must all raise."""

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from conftest import straight_duct
 
 from otgym.sim.cache import cache_dir, cache_path, chip_fields
 from otgym.sim.chip import Chip, Port
-
-from conftest import straight_duct
 
 
 def test_cache_dir_follows_the_environment(tmp_path, monkeypatch):
@@ -23,8 +22,12 @@ def test_fields_are_stored_and_reloaded_identically():
     first = chip_fields(chip)
     assert cache_path(chip).is_file()
     second = chip_fields(chip)
-    for a, b in ((first.distance_um, second.distance_um), (first.normal, second.normal),
-                 (first.flow.u_faces, second.flow.u_faces), (first.flow.v_faces, second.flow.v_faces)):
+    for a, b in (
+        (first.distance_um, second.distance_um),
+        (first.normal, second.normal),
+        (first.flow.u_faces, second.flow.u_faces),
+        (first.flow.v_faces, second.flow.v_faces),
+    ):
         assert np.array_equal(a, b)
     assert first.median_width_um == second.median_width_um
 
@@ -36,8 +39,13 @@ def test_key_changes_with_any_content():
     variants = [
         Chip(chip.name, image, chip.pixel_size_um, chip.channel_height_um, chip.ports),
         Chip(chip.name, chip.image, chip.pixel_size_um, 40.0, chip.ports),
-        Chip(chip.name, chip.image, chip.pixel_size_um, chip.channel_height_um,
-             tuple(Port(p.name, p.kind, p.xy_um, 2 * p.flow_rate_um3_s) for p in chip.ports)),
+        Chip(
+            chip.name,
+            chip.image,
+            chip.pixel_size_um,
+            chip.channel_height_um,
+            tuple(Port(p.name, p.kind, p.xy_um, 2 * p.flow_rate_um3_s) for p in chip.ports),
+        ),
     ]
     keys = {cache_path(c) for c in variants} | {cache_path(chip)}
     assert len(keys) == 4

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import straight_duct
 from PIL import Image
 
 from otgym.sim.chip import Chip, Port, load_chip, save_chip
 from otgym.sim.default_chip import CHANNEL_HEIGHT_UM, CHANNEL_WIDTH_UM
 from otgym.sim.default_chip import default_chip as generate_default_chip
-
-from conftest import straight_duct
 
 
 def test_shipped_default_matches_the_generator(default_chip):

@@ -6,11 +6,10 @@ import re
 
 import numpy as np
 import pytest
+from conftest import straight_duct
 from PIL import Image
 
 from otgym.cli.app import main
-
-from conftest import straight_duct
 
 
 def _run(argv):
@@ -41,10 +40,13 @@ def test_bare_png_needs_a_pixel_size(tmp_path, capsys):
     assert "zero everywhere" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["chip", "show", "no_such_chip", "--out", "x"], "no_such_chip"),
-    (["chip", "show", "default", "--pixel-size-um", "-1", "--out", "x"], "pixel_size_um"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["chip", "show", "no_such_chip", "--out", "x"], "no_such_chip"),
+        (["chip", "show", "default", "--pixel-size-um", "-1", "--out", "x"], "pixel_size_um"),
+    ],
+)
 def test_user_errors_are_one_line(argv, message, capsys):
     assert _run(argv) == 2
     error = capsys.readouterr().err.strip()

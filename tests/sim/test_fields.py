@@ -35,8 +35,18 @@ def test_samplers_agree_with_scipy(default_chip, default_fields):
 def test_outside_the_image_is_solid_and_finite(default_chip, default_fields):
     flow, walls = fields_from(default_fields, default_chip.fluid)
     width, height = default_chip.size_um
-    far = jnp.array([[-1e6, 50.0], [width + 0.01, 40.0], [150.0, -0.3], [150.0, 1e9], [jnp.inf, 0.0],
-                     [-0.01, 40.0], [width / 2, height + 3.0]], jnp.float32)
+    far = jnp.array(
+        [
+            [-1e6, 50.0],
+            [width + 0.01, 40.0],
+            [150.0, -0.3],
+            [150.0, 1e9],
+            [jnp.inf, 0.0],
+            [-0.01, 40.0],
+            [width / 2, height + 3.0],
+        ],
+        jnp.float32,
+    )
     distance, normal = jax.jit(walls.distance_and_normal)(far)
     assert np.all(np.asarray(distance[:4]) < 0) and np.all(np.asarray(distance[5:]) < 0)
     assert np.all(np.isfinite(np.asarray(normal)))

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import straight_duct
 
 from otgym.sim.fields import fields_from
 from otgym.sim.flow import mid_height_factor, rectangular_duct_velocity, solve_flow
-
-from conftest import straight_duct
 
 WIDTH, HEIGHT, RATE = 25.0, 50.0, 5000.0
 

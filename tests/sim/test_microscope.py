@@ -30,8 +30,9 @@ def test_noise_matches_shot_plus_read_noise():
     """The background's pixel variance must be I/N + read^2 (N photo-electrons at the
     background); with 6400 pixels the sample standard deviation has a relative standard
     error of 1/sqrt(2 * 6400) = 0.9 %, so a 5 % tolerance is over 5 sigma."""
-    params = MicroscopeParams(pixel_size_um=0.1, photons_at_background=1000.0, read_noise=0.01,
-                              defocus_sigma_um=0.0, bit_depth=16)
+    params = MicroscopeParams(
+        pixel_size_um=0.1, photons_at_background=1000.0, read_noise=0.01, defocus_sigma_um=0.0, bit_depth=16
+    )
     image = microscope_image(np.zeros((0, 2)), np.zeros(0), (0.0, 0.0), SHAPE, params, rng=3)
     expected = np.sqrt(params.background / 1000.0 * params.background + (0.01 * params.background) ** 2)
     assert image.std() == pytest.approx(expected, rel=0.05)
@@ -42,7 +43,9 @@ def test_seeded_and_batched():
     params = MicroscopeParams()
     assert np.array_equal(_bead_frame(params, seed=5), _bead_frame(params, seed=5))
     assert not np.array_equal(_bead_frame(params, seed=5), _bead_frame(params, seed=6))
-    batch = microscope_images(np.array([[[4.0, 4.0]], [[2.0, 5.0]]]), np.array([1.5]), np.zeros((2, 2)), SHAPE, params, 0)
+    batch = microscope_images(
+        np.array([[[4.0, 4.0]], [[2.0, 5.0]]]), np.array([1.5]), np.zeros((2, 2)), SHAPE, params, 0
+    )
     assert batch.shape == (2,) + SHAPE and batch.dtype == np.float32
     assert 0.0 <= batch.min() and batch.max() <= 1.0
 
@@ -116,8 +119,10 @@ def test_frames_match_the_numpy_reference(default_chip):
     for scene in range(60):
         frames, spheres = int(rng.integers(1, 4)), int(rng.integers(0, 13))
         shape = (int(rng.integers(8, 70)), int(rng.integers(8, 70)))
-        params = MicroscopeParams(pixel_size_um=float(rng.choice([0.05, 0.1, 0.25, 0.5])),
-                                  defocus_sigma_um=float(rng.choice([0.0, 0.05, 0.12, 0.4])))
+        params = MicroscopeParams(
+            pixel_size_um=float(rng.choice([0.05, 0.1, 0.25, 0.5])),
+            defocus_sigma_um=float(rng.choice([0.0, 0.05, 0.12, 0.4])),
+        )
         chip = default_chip if scene % 4 else None
         corner = np.array(default_chip.image.shape[::-1]) * default_chip.pixel_size_um * rng.random(2)
         origin = corner + rng.uniform(-4.0, 4.0, (frames, 2)) if scene % 3 else rng.uniform(-6.0, 3.0, (frames, 2))

@@ -30,7 +30,7 @@ def test_frame_shows_channels_bodies_and_traps(default_chip):
     assert np.allclose(at((150.0, 100.0)), KIND_RGB[BodyKind.CELL], atol=2)
     assert np.allclose(at((250.0, 160.0)), KIND_RGB[BodyKind.OBSTACLE], atol=2)
     ring = renderer.to_px((100.0, 160.0)) + np.array([max(3.0, 0.6 * renderer.scale), 0.0])
-    patch = frame[int(ring[1]) - 1:int(ring[1]) + 2, int(ring[0]) - 1:int(ring[0]) + 2].reshape(-1, 3).astype(float)
+    patch = frame[int(ring[1]) - 1 : int(ring[1]) + 2, int(ring[0]) - 1 : int(ring[0]) + 2].reshape(-1, 3).astype(float)
     assert np.min(np.abs(patch - TRAP_RGB).max(axis=1)) <= 10
 
 
@@ -56,8 +56,9 @@ def test_without_a_chip_a_plain_field_and_unknown_kinds_in_grey():
 
     renderer = SceneRenderer(None, (200, 100), region_um=(0.0, 0.0, 100.0, 50.0))
     xy = np.array([[20.0, 20.0], [50.0, 20.0], [80.0, 20.0]])
-    frame = renderer.render(xy, [3.0, 3.0, 3.0], np.array([-1, BodyKind.ROBOT, -1]), np.array([False, False, True]),
-                            np.zeros((0, 2)))
+    frame = renderer.render(
+        xy, [3.0, 3.0, 3.0], np.array([-1, BodyKind.ROBOT, -1]), np.array([False, False, True]), np.zeros((0, 2))
+    )
     at = lambda xy: frame[int(renderer.to_px(xy)[1]), int(renderer.to_px(xy)[0])].astype(float)  # noqa: E731
     assert np.allclose(at((90.0, 45.0)), CHANNEL_RGB, atol=1)
     assert np.allclose(at(xy[0]), UNKNOWN_KIND_RGB, atol=2)

@@ -153,8 +153,9 @@ def test_stiff_traps_do_not_push_bodies_through_walls(transport):
     model, law = transport.model, transport.config.trap_law
     robot = transport.robots[0]
     shape = ph.two_handle_robot()  # the transport scene's robots
-    mobility = ph.mobility.body_hydrodynamics(shape.offsets_um, shape.radii_um, transport.config.viscosity_pa_s
-                                              ).max_point_mobility_um_per_pn_s
+    mobility = ph.mobility.body_hydrodynamics(
+        shape.offsets_um, shape.radii_um, transport.config.viscosity_pa_s
+    ).max_point_mobility_um_per_pn_s
     dt = float(model.dt_s)
     thermal = 3 * np.sqrt(2 * thermal_energy_pn_um(transport.config.temperature_k) * mobility * dt)
     give_um = 1.25 * (2 * 2 * law.max_force_pn * dt * mobility + thermal)
@@ -186,13 +187,16 @@ def test_navigation_and_bead_scenes_run():
         assert not bool(events.failed)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    ({"kind": "juggling"}, "kind"),
-    ({"n_obstacles": -1}, "n_obstacles"),
-    ({"cell_radius_um": 0.0}, "cell_radius_um"),
-    ({"dt_s": 1.0}, "dt_s"),
-    ({"flow_scale": float("nan")}, "flow_scale"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"kind": "juggling"}, "kind"),
+        ({"n_obstacles": -1}, "n_obstacles"),
+        ({"cell_radius_um": 0.0}, "cell_radius_um"),
+        ({"dt_s": 1.0}, "dt_s"),
+        ({"flow_scale": float("nan")}, "flow_scale"),
+    ],
+)
 def test_bad_scene_configuration_names_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=name):
         sc.SceneConfig(**kwargs)
@@ -214,8 +218,10 @@ def test_sampling_fields_every_ten_steps_changes_nothing_that_matters(transport)
     assert every_tenth.model.field_refresh == 10 and every_step.model.field_refresh == 1
     state = sc.reset_at(every_step, jax.random.PRNGKey(7), jnp.array([60.0, 40.0]), jnp.array(0.0))
     velocity = jnp.tile(jnp.array([[3.0, 1.0]]), (4, 1))
-    ends = [np.asarray(step(scene, state, velocity, jax.random.PRNGKey(8))[0].physics.pose[:3, :2])
-            for scene in (every_step, every_tenth)]
+    ends = [
+        np.asarray(step(scene, state, velocity, jax.random.PRNGKey(8))[0].physics.pose[:3, :2])
+        for scene in (every_step, every_tenth)
+    ]
     assert np.abs(ends[0] - ends[1]).max() < 1e-3
 
 

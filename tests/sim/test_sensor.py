@@ -11,9 +11,9 @@ from otgym.envs.presets import PRESETS
 from otgym.physics.bodies import two_handle_robot
 from otgym.physics.traps import TRAP_LAWS, TrapLaw
 from otgym.runtime.task import interactive_scene
+from otgym.sim.locate import kept_median, sample
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.scene import SceneConfig
-from otgym.sim.locate import kept_median, sample
 from otgym.sim.sensor import VisionForceSensor, sensor_errors, trap_force_pn
 
 FRAMES = 1000
@@ -28,7 +28,9 @@ def _random_frames(seed, frames=FRAMES, extra_sphere=False):
     rng = np.random.default_rng(seed)
     robot = two_handle_robot()
     theta = rng.uniform(0.0, 2 * np.pi, frames)
-    rotation = np.stack([np.stack([np.cos(theta), -np.sin(theta)], -1), np.stack([np.sin(theta), np.cos(theta)], -1)], -2)
+    rotation = np.stack(
+        [np.stack([np.cos(theta), -np.sin(theta)], -1), np.stack([np.sin(theta), np.cos(theta)], -1)], -2
+    )
     centre = np.array([7.0, 7.0]) + rng.uniform(-0.5, 0.5, (frames, 2))
     spheres = centre[:, None, :] + np.einsum("bij,nj->bni", rotation, robot.offsets_um)
     radii = np.broadcast_to(robot.radii_um, spheres.shape[:2])
@@ -109,10 +111,15 @@ def test_bad_sensor_inputs():
 def _law_presets():
     """Every trap law the project builds: the defaults, the task presets' laws, the
     interactive scene's and a calibrated harmonic law."""
-    laws = {"default": TrapLaw(), "paper": TrapLaw.paper(), "harmonic": TrapLaw("harmonic", stiffness_pn_per_um=12.5),
-            "scene": SceneConfig().trap_law, "interactive": interactive_scene().trap_law,
-            "paper_no_offset": TrapLaw.paper(paper_c_pn=0.0, paper_delta_um=0.3),
-            "gaussian_wide": TrapLaw("gaussian", stiffness_pn_per_um=20.0, waist_um=1.1)}
+    laws = {
+        "default": TrapLaw(),
+        "paper": TrapLaw.paper(),
+        "harmonic": TrapLaw("harmonic", stiffness_pn_per_um=12.5),
+        "scene": SceneConfig().trap_law,
+        "interactive": interactive_scene().trap_law,
+        "paper_no_offset": TrapLaw.paper(paper_c_pn=0.0, paper_delta_um=0.3),
+        "gaussian_wide": TrapLaw("gaussian", stiffness_pn_per_um=20.0, waist_um=1.1),
+    }
     laws.update({f"preset_{name}": make().scene.trap_law for name, make in PRESETS.items()})
     assert {law.name for law in laws.values()} == set(TRAP_LAWS)
     return laws

@@ -34,7 +34,7 @@ def test_normals_are_unit_and_point_into_the_fluid():
     chip, exact, offset = _disc_chamber()
     normal = wall_normals(signed_distance_um(chip))
     assert np.allclose(np.linalg.norm(normal, axis=-1), 1.0)
-    band = (np.abs(exact) < 5.0)
+    band = np.abs(exact) < 5.0
     inward = -offset[band] / np.linalg.norm(offset[band], axis=-1, keepdims=True)
     assert np.min(np.sum(normal[band] * inward, axis=-1)) > np.cos(np.radians(5.0))
 

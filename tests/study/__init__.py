@@ -15,12 +15,23 @@ def make_trials(times: dict, avoided: dict | None = None, encountered: int = 10)
     for mode, values in times.items():
         for participant, time in enumerate(values):
             n_avoided = encountered if avoided is None else int(avoided[mode][participant])
-            rows.append({"participant": participant, "mode": mode, "trial": 0, "scenario": 0,
-                         "completion_time_s": float(time), "obstacles_encountered": encountered,
-                         "obstacles_avoided": n_avoided,
-                         "success": n_avoided / encountered if encountered else np.nan,
-                         "reached_goal": True, "trap_losses": 0, "detached": False,
-                         "peak_contact_force_pn": 1.0, "operator_seed": 7})
+            rows.append(
+                {
+                    "participant": participant,
+                    "mode": mode,
+                    "trial": 0,
+                    "scenario": 0,
+                    "completion_time_s": float(time),
+                    "obstacles_encountered": encountered,
+                    "obstacles_avoided": n_avoided,
+                    "success": n_avoided / encountered if encountered else np.nan,
+                    "reached_goal": True,
+                    "trap_losses": 0,
+                    "detached": False,
+                    "peak_contact_force_pn": 1.0,
+                    "operator_seed": 7,
+                }
+            )
     return pd.DataFrame(rows)
 
 

@@ -27,8 +27,10 @@ EXPECTED_SCORES = {  # participant, mode: raw TLX, weighted TLX, UEQ-S pragmatic
 def write_trials(folder, participants=PARTICIPANTS, trials=2):
     """Every participant: ``trials`` trials in manual, autonomous and shared; shared and
     autonomous faster than manual."""
-    times = {mode: [base + 3 * i for i, _ in enumerate(participants)]
-             for mode, base in (("manual", 160), ("autonomous", 54), ("shared", 50))}
+    times = {
+        mode: [base + 3 * i for i, _ in enumerate(participants)]
+        for mode, base in (("manual", 160), ("autonomous", 54), ("shared", 50))
+    }
     frame = make_trials(times, {mode: [9 - i % 2 for i, _ in enumerate(participants)] for mode in times})
     frame["participant"] = frame["participant"].map(dict(enumerate(participants)))
     frame = pd.concat([frame.assign(trial=t, scenario=t) for t in range(trials)], ignore_index=True)
@@ -39,9 +41,11 @@ def write_trials(folder, participants=PARTICIPANTS, trials=2):
 def write_answers(folder, ueq=True):
     """The answers behind ``EXPECTED_SCORES`` (no answers after autonomous trials)."""
     weights = weights_from_choices(ranked_choices())
-    answers = (rows("P1", "manual", 0, RATINGS, weights, UEQ_RAW if ueq else None)
-               + rows("P1", "manual", 1, dict.fromkeys(TLX_SUBSCALES, 10), None, (4,) * 8 if ueq else None)
-               + rows("P1", "shared", 0, dict.fromkeys(TLX_SUBSCALES, 20), weights, (7,) * 8 if ueq else None))
+    answers = (
+        rows("P1", "manual", 0, RATINGS, weights, UEQ_RAW if ueq else None)
+        + rows("P1", "manual", 1, dict.fromkeys(TLX_SUBSCALES, 10), None, (4,) * 8 if ueq else None)
+        + rows("P1", "shared", 0, dict.fromkeys(TLX_SUBSCALES, 20), weights, (7,) * 8 if ueq else None)
+    )
     for i, p in enumerate(PARTICIPANTS[1:], start=1):
         answers += rows(p, "manual", 0, dict.fromkeys(TLX_SUBSCALES, 60 + 5 * i), weights, (3,) * 8 if ueq else None)
         answers += rows(p, "shared", 1, dict.fromkeys(TLX_SUBSCALES, 20 + 5 * i), weights, (6,) * 8 if ueq else None)
@@ -65,14 +69,25 @@ def test_scores_figure_and_summary_with_answers(tmp_path):
         answers[answers["participant"].isin(people)].to_csv(folder / "questionnaires.csv", index=False)
     result = analyze([first, second], tmp_path / "out")
     scores = pd.read_csv(tmp_path / "out" / "questionnaire_scores.csv", dtype={"participant": str})
-    assert list(scores.columns) == ["participant", "mode", "raw_tlx", "weighted_tlx", "ueq_pragmatic", "ueq_hedonic",
-                                    "ueq_overall"]
+    assert list(scores.columns) == [
+        "participant",
+        "mode",
+        "raw_tlx",
+        "weighted_tlx",
+        "ueq_pragmatic",
+        "ueq_hedonic",
+        "ueq_overall",
+    ]
     got = {(row.participant, row.mode): tuple(row[2:]) for row in scores.itertuples(index=False)}
     assert got.keys() == EXPECTED_SCORES.keys()
     for key, expected in EXPECTED_SCORES.items():
         assert got[key] == pytest.approx(expected), key
-    assert result["panels"] == ["(a) Success rate", "(b) Task completion time", "(c) NASA-TLX (lower: less workload)",
-                                "(d) UEQ-S (higher: better)"]
+    assert result["panels"] == [
+        "(a) Success rate",
+        "(b) Task completion time",
+        "(c) NASA-TLX (lower: less workload)",
+        "(d) UEQ-S (higher: better)",
+    ]
     assert json.loads((tmp_path / "out" / "analysis.json").read_text())["panels"] == result["panels"]
     summary = (tmp_path / "out" / "summary.md").read_text()
     assert "| raw_tlx | 59.38 ± 21.64 (n = 4) | 27.50 ± 6.45 (n = 4) |" in summary  # (27.5+65+70+75)/4, (20+25+30+35)/4
@@ -100,8 +115,9 @@ def test_holm_runs_over_the_whole_panel_and_needs_two_pairs_of_answers():
     weights = weights_from_choices(ranked_choices())
     answers = []
     for i, p in enumerate(PARTICIPANTS):
-        answers += rows(p, "manual", 0, {**dict.fromkeys(TLX_SUBSCALES, 50 + 5 * i), "mental": 80 - 5 * (i % 2)},
-                        weights)
+        answers += rows(
+            p, "manual", 0, {**dict.fromkeys(TLX_SUBSCALES, 50 + 5 * i), "mental": 80 - 5 * (i % 2)}, weights
+        )
         answers += rows(p, "shared", 0, dict.fromkeys(TLX_SUBSCALES, 20 + 10 * (i % 3)), weights)
     answers += rows("P9", "mpc", 0, RATINGS)  # one participant: no test against mpc
     result = compare_measures(participant_measures(pd.DataFrame(answers)), TLX_MEASURES)
@@ -113,14 +129,17 @@ def test_holm_runs_over_the_whole_panel_and_needs_two_pairs_of_answers():
     assert "fewer than 2 participants" in result["note"] and "mpc" in result["note"]
 
 
-@pytest.mark.parametrize("damage, message", [
-    (lambda f: f.drop(columns="detached"), r"lacks column\(s\) \['detached'\]"),
-    (lambda f: f.assign(success=1.5), "success must lie in"),
-    (lambda f: f.assign(obstacles_avoided=f["obstacles_encountered"] + 1), "exceeds"),
-    (lambda f: f.assign(completion_time_s=-1.0), "completion_time_s"),
-    (lambda f: f.assign(trap_losses=0.5), "trap_losses"),
-    (lambda f: f.assign(reached_goal="maybe"), "reached_goal"),
-])
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda f: f.drop(columns="detached"), r"lacks column\(s\) \['detached'\]"),
+        (lambda f: f.assign(success=1.5), "success must lie in"),
+        (lambda f: f.assign(obstacles_avoided=f["obstacles_encountered"] + 1), "exceeds"),
+        (lambda f: f.assign(completion_time_s=-1.0), "completion_time_s"),
+        (lambda f: f.assign(trap_losses=0.5), "trap_losses"),
+        (lambda f: f.assign(reached_goal="maybe"), "reached_goal"),
+    ],
+)
 def test_bad_trials_are_refused(tmp_path, damage, message):
     write_trials(tmp_path / "s")
     frame = pd.read_csv(tmp_path / "s" / "trials.csv")

@@ -7,9 +7,19 @@ import math
 import pandas as pd
 import pytest
 
-from otgym.study.questionnaires import (QUESTIONNAIRE_COLUMNS, SCORE_COLUMNS, TLX_PAIRS, TLX_SUBSCALES, UEQ_ITEMS,
-                                        append_answers, read_answers, score, weights_from_choices)
+from otgym.study.questionnaires import (
+    QUESTIONNAIRE_COLUMNS,
+    SCORE_COLUMNS,
+    TLX_PAIRS,
+    TLX_SUBSCALES,
+    UEQ_ITEMS,
+    append_answers,
+    read_answers,
+    score,
+    weights_from_choices,
+)
 from tests.study import RATINGS, UEQ_RAW, ranked_choices, rows
+
 
 def test_the_fifteen_pairs_cover_every_pair_once():
     assert len(TLX_PAIRS) == 15 and len(set(map(frozenset, TLX_PAIRS))) == 15
@@ -18,8 +28,14 @@ def test_the_fifteen_pairs_cover_every_pair_once():
 
 def test_weights_from_choices_count_how_often_each_subscale_was_chosen():
     weights = weights_from_choices(ranked_choices())
-    assert weights == {"weight_mental": 5, "weight_effort": 4, "weight_temporal": 3, "weight_frustration": 2,
-                       "weight_performance": 1, "weight_physical": 0}
+    assert weights == {
+        "weight_mental": 5,
+        "weight_effort": 4,
+        "weight_temporal": 3,
+        "weight_frustration": 2,
+        "weight_performance": 1,
+        "weight_physical": 0,
+    }
     choices = ranked_choices()
     del choices[TLX_PAIRS[3]]
     with pytest.raises(ValueError, match="15 TLX pairs"):
@@ -37,9 +53,11 @@ def test_scores_match_hand_computation():
     """Trial 0: weighted (raw 270/6 = 45, weighted (70*5 + 60*4 + 50*3 + 40*2 + 30*1 + 20*0)/15
     = 850/15) with the UEQ-S set above; trial 1: unweighted, every rating 10, no UEQ-S.
     Averaged over the trials that have a score: raw (45 + 10)/2, weighted 850/15 alone."""
-    answers = pd.DataFrame(rows(ratings=RATINGS, weights=weights_from_choices(ranked_choices()), ueq=UEQ_RAW)
-                           + rows(trial=1, ratings=dict.fromkeys(TLX_SUBSCALES, 10))
-                           + rows(mode="shared", ratings=RATINGS, ueq=(4,) * 8))
+    answers = pd.DataFrame(
+        rows(ratings=RATINGS, weights=weights_from_choices(ranked_choices()), ueq=UEQ_RAW)
+        + rows(trial=1, ratings=dict.fromkeys(TLX_SUBSCALES, 10))
+        + rows(mode="shared", ratings=RATINGS, ueq=(4,) * 8)
+    )
     scores = score(answers).set_index("mode")
     assert list(score(answers).columns) == SCORE_COLUMNS
     manual, shared = scores.loc["manual"], scores.loc["shared"]
@@ -69,21 +87,31 @@ def _bad(rows_, key, value):
     return changed
 
 
-@pytest.mark.parametrize("make, message", [
-    (lambda: _bad(rows(ratings=RATINGS), "value", 37), "multiple of 5"),
-    (lambda: _bad(rows(ratings=RATINGS), "value", 105), r"\[0, 100\]"),
-    (lambda: rows(ratings=RATINGS, weights={**weights_from_choices(ranked_choices()), "weight_mental": 4}),
-     "sum to 14"),
-    (lambda: rows(ratings=RATINGS, weights={**weights_from_choices(ranked_choices()), "weight_mental": 6,
-                                             "weight_effort": 3}), r"\[0, 5\]"),
-    (lambda: _bad(rows(ratings=RATINGS), "item", "boredom"), "unknown item 'boredom'"),
-    (lambda: _bad(rows(ratings=RATINGS), "instrument", "sus"), "unknown instrument 'sus'"),
-    (lambda: rows(ueq=UEQ_RAW[:7]), r"incomplete UEQ-S items .*ueq8"),
-    (lambda: rows(ueq=(8,) + UEQ_RAW[1:]), r"\[1, 7\]"),
-    (lambda: rows(ueq=(4.5,) + UEQ_RAW[1:]), "whole number"),
-    (lambda: rows(ratings={**RATINGS, "weight_mental": 5}), "incomplete TLX weights"),
-    (lambda: _bad(rows(ratings=RATINGS), "trial", -1), "trial"),
-])
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: _bad(rows(ratings=RATINGS), "value", 37), "multiple of 5"),
+        (lambda: _bad(rows(ratings=RATINGS), "value", 105), r"\[0, 100\]"),
+        (
+            lambda: rows(ratings=RATINGS, weights={**weights_from_choices(ranked_choices()), "weight_mental": 4}),
+            "sum to 14",
+        ),
+        (
+            lambda: rows(
+                ratings=RATINGS,
+                weights={**weights_from_choices(ranked_choices()), "weight_mental": 6, "weight_effort": 3},
+            ),
+            r"\[0, 5\]",
+        ),
+        (lambda: _bad(rows(ratings=RATINGS), "item", "boredom"), "unknown item 'boredom'"),
+        (lambda: _bad(rows(ratings=RATINGS), "instrument", "sus"), "unknown instrument 'sus'"),
+        (lambda: rows(ueq=UEQ_RAW[:7]), r"incomplete UEQ-S items .*ueq8"),
+        (lambda: rows(ueq=(8,) + UEQ_RAW[1:]), r"\[1, 7\]"),
+        (lambda: rows(ueq=(4.5,) + UEQ_RAW[1:]), "whole number"),
+        (lambda: rows(ratings={**RATINGS, "weight_mental": 5}), "incomplete TLX weights"),
+        (lambda: _bad(rows(ratings=RATINGS), "trial", -1), "trial"),
+    ],
+)
 def test_a_bad_row_is_refused_and_nothing_is_written(tmp_path, make, message):
     path = tmp_path / "questionnaires.csv"
     with pytest.raises(ValueError, match=message):

@@ -21,8 +21,9 @@ def _big_effect(seed: int = 1, n: int = 8) -> pd.DataFrame:
     probability (seed 0 does, p = 0.0016); the rate itself is checked by
     ``test_no_effect_gives_the_nominal_false_positive_rate``."""
     rng = np.random.default_rng(seed)
-    return make_trials({"manual": rng.normal(160, 8, n), "autonomous": rng.normal(54, 1, n),
-                        "shared": rng.normal(54, 1, n)})
+    return make_trials(
+        {"manual": rng.normal(160, 8, n), "autonomous": rng.normal(54, 1, n), "shared": rng.normal(54, 1, n)}
+    )
 
 
 def _pair(result: dict, a: str, b: str) -> dict:
@@ -33,8 +34,11 @@ def test_big_effect_is_found_and_equal_modes_are_not():
     result = compare_modes(_big_effect(), "time")
     assert result["n_participants"] == 8 and result["note"] == ""
     assert result["anova"]["p_unc"] < 0.001 and result["anova"]["p_gg_corr"] < 0.001
-    assert [(p["a"], p["b"]) for p in result["posthoc"]] == [("manual", "autonomous"), ("manual", "shared"),
-                                                              ("autonomous", "shared")]
+    assert [(p["a"], p["b"]) for p in result["posthoc"]] == [
+        ("manual", "autonomous"),
+        ("manual", "shared"),
+        ("autonomous", "shared"),
+    ]
     for other in ("autonomous", "shared"):
         pair = _pair(result, "manual", other)
         assert pair["p_holm"] < 0.001 and pair["stars"] == "***"
@@ -91,14 +95,26 @@ def test_two_modes_have_no_sphericity_correction_and_match_a_paired_t_test():
     result = compare_modes(make_trials({"manual": a, "shared": b}), "time")
     t = sps.ttest_rel(a, b)
     assert math.isnan(result["anova"]["p_gg_corr"]) and result["anova"]["p"] == result["anova"]["p_unc"]
-    assert result["anova"]["F"] == pytest.approx(t.statistic ** 2, rel=1e-9)
+    assert result["anova"]["F"] == pytest.approx(t.statistic**2, rel=1e-9)
     (pair,) = result["posthoc"]
     assert pair["T"] == pytest.approx(t.statistic, rel=1e-9) and pair["p_holm"] == pytest.approx(t.pvalue, rel=1e-9)
 
 
-@pytest.mark.parametrize("p, expected", [(0.0, "***"), (0.00099, "***"), (0.001, "**"), (0.0099, "**"),
-                                         (0.01, "*"), (0.0499, "*"), (0.05, "ns"), (1.0, "ns"),
-                                         (math.nan, ""), (None, "")])
+@pytest.mark.parametrize(
+    "p, expected",
+    [
+        (0.0, "***"),
+        (0.00099, "***"),
+        (0.001, "**"),
+        (0.0099, "**"),
+        (0.01, "*"),
+        (0.0499, "*"),
+        (0.05, "ns"),
+        (1.0, "ns"),
+        (math.nan, ""),
+        (None, ""),
+    ],
+)
 def test_stars_thresholds(p, expected):
     assert stars(p) == expected
 
@@ -125,8 +141,9 @@ def test_wilson_interval_rejects_bad_input(args):
 
 def test_participant_means_pool_success_and_average_times_of_goals_only():
     trials = make_trials({"manual": [100.0, 200.0], "shared": [50.0, 60.0]})
-    extra = trials.iloc[[0]].assign(obstacles_encountered=3, obstacles_avoided=0, completion_time_s=999.0,
-                                    reached_goal=False)
+    extra = trials.iloc[[0]].assign(
+        obstacles_encountered=3, obstacles_avoided=0, completion_time_s=999.0, reached_goal=False
+    )
     trials = pd.concat([trials, extra], ignore_index=True)
     success = participant_means(trials, "success").set_index(["participant", "mode"])["value"]
     assert success[(0, "manual")] == pytest.approx(10 / 13)  # pooled, not the mean of 1.0 and 0.0
@@ -180,11 +197,14 @@ def test_too_few_complete_participants_give_nan_not_an_exception():
     assert "no test is possible with n < 2 (n = 1 participant(s)" in result["note"]
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda t: t.drop(columns="completion_time_s"), "completion_time_s"),
-    (lambda t: t.iloc[0:0], "no rows"),
-    (lambda t: t.assign(obstacles_avoided=t["obstacles_encountered"] + 1), "obstacles_avoided <="),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda t: t.drop(columns="completion_time_s"), "completion_time_s"),
+        (lambda t: t.iloc[0:0], "no rows"),
+        (lambda t: t.assign(obstacles_avoided=t["obstacles_encountered"] + 1), "obstacles_avoided <="),
+    ],
+)
 def test_bad_input_raises_a_clear_value_error(change, message):
     metric = "success" if "obstacles" in message else "time"
     with pytest.raises(ValueError, match=message):

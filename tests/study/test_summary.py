@@ -65,6 +65,7 @@ def test_summarize_rejects_a_table_without_a_needed_column():
 def _strict_json(text: str):
     def reject(constant):
         raise AssertionError(f"stats.json is not strict JSON: {constant}")
+
     return json.loads(text, parse_constant=reject)
 
 

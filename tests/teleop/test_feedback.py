@@ -61,8 +61,7 @@ def test_force_grows_toward_the_bend():
     bend = LAW.escape_distance
     force = np.array([[0.05, 0.0]])
     ratios = np.linspace(0.2, 1.2, 11)
-    magnitudes = [np.linalg.norm(_steady(FeedbackLaw(config, LAW, TICK_HZ), force, [[r * bend, 0.0]]))
-                  for r in ratios]
+    magnitudes = [np.linalg.norm(_steady(FeedbackLaw(config, LAW, TICK_HZ), force, [[r * bend, 0.0]])) for r in ratios]
     base = config.newtons_per_pn * 0.05
     expected = base * (1 + config.bend_stiffening * np.clip((ratios - 0.5) / 0.5, 0, 1) ** 2)
     np.testing.assert_allclose(magnitudes, expected, rtol=1e-6)
@@ -110,8 +109,9 @@ def test_feedback_from_a_real_microscope_frame_opposes_the_true_offset():
     traps = handles + rng.uniform(0.1, 0.4, (frames, 2))[..., None] * np.stack([np.cos(angle), np.sin(angle)], -1)
     params = MicroscopeParams(pixel_size_um=0.1)
     origin = np.zeros((frames, 2))
-    images = microscope_images(spheres, np.broadcast_to(robot.radii_um, spheres.shape[:2]), origin, (140, 140),
-                               params, rng=5)
+    images = microscope_images(
+        spheres, np.broadcast_to(robot.radii_um, spheres.shape[:2]), origin, (140, 140), params, rng=5
+    )
     reading = VisionForceSensor(LAW).measure(images, origin, params.pixel_size_um, traps)
     assert reading.valid.all()
     for b in range(frames):

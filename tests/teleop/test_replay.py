@@ -71,15 +71,18 @@ def test_looped_playback_keeps_sequences_increasing(tmp_path):
     assert sample.time_s == pytest.approx(50.0 + 0.6 + 0.1)
 
 
-@pytest.mark.parametrize("content, reason", [
-    (None, "No such file"),
-    ("", "header"),
-    ("a,b,c\n1,2,3\n", "header"),
-    (",".join(COLUMNS) + "\n", "no samples"),
-    (",".join(COLUMNS) + "\n1,1,0,0,0,0,0,0\n", "8 fields"),
-    (",".join(COLUMNS) + "\n1,1,x,0,0,0,0,0,0\n", "line 2"),
-    (",".join(COLUMNS) + "\n1,1,0,0,0,0,0,0,0\n0.5,2,0,0,0,0,0,0,0\n", "non-decreasing"),
-])
+@pytest.mark.parametrize(
+    "content, reason",
+    [
+        (None, "No such file"),
+        ("", "header"),
+        ("a,b,c\n1,2,3\n", "header"),
+        (",".join(COLUMNS) + "\n", "no samples"),
+        (",".join(COLUMNS) + "\n1,1,0,0,0,0,0,0\n", "8 fields"),
+        (",".join(COLUMNS) + "\n1,1,x,0,0,0,0,0,0\n", "line 2"),
+        (",".join(COLUMNS) + "\n1,1,0,0,0,0,0,0,0\n0.5,2,0,0,0,0,0,0,0\n", "non-decreasing"),
+    ],
+)
 def test_bad_files_give_one_line_device_errors(tmp_path, content, reason):
     path = tmp_path / "stream.csv"
     if content is not None:

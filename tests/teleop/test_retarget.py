@@ -130,11 +130,13 @@ def test_tremor_filter_gain_measured_by_streaming_a_sinusoid(freq_hz):
 
 
 def test_config_validation_names_the_parameter():
-    for kwargs, name in [({"motion_scale_um_per_mm": 0.0}, "motion_scale_um_per_mm"),
-                         ({"dead_band_mm_s": -1.0}, "dead_band_mm_s"),
-                         ({"filter_order": 0}, "filter_order"),
-                         ({"clutch_bit": 40}, "clutch_bit"),
-                         ({"plane": "yz"}, "plane")]:
+    for kwargs, name in [
+        ({"motion_scale_um_per_mm": 0.0}, "motion_scale_um_per_mm"),
+        ({"dead_band_mm_s": -1.0}, "dead_band_mm_s"),
+        ({"filter_order": 0}, "filter_order"),
+        ({"clutch_bit": 40}, "clutch_bit"),
+        ({"plane": "yz"}, "plane"),
+    ]:
         with pytest.raises(ValueError, match=name):
             RetargetConfig(**kwargs)
     with pytest.raises(ValueError, match="tremor_cutoff_hz"):

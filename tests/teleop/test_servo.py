@@ -117,9 +117,11 @@ def test_closed_form_butterworth_matches_scipy(cutoff_hz, rate_hz):
     impulse responses are compared, 400 samples)."""
     impulse = np.zeros(400)
     impulse[0] = 1.0
-    np.testing.assert_allclose(signal.sosfilt(butterworth3_sos(cutoff_hz, rate_hz), impulse),
-                               signal.sosfilt(signal.butter(3, cutoff_hz, fs=rate_hz, output="sos"), impulse),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        signal.sosfilt(butterworth3_sos(cutoff_hz, rate_hz), impulse),
+        signal.sosfilt(signal.butter(3, cutoff_hz, fs=rate_hz, output="sos"), impulse),
+        atol=1e-12,
+    )
 
 
 def test_velocity_estimator_streams_like_scipy():
@@ -158,8 +160,9 @@ def test_the_servo_loop_reports_the_scheduling_it_runs_under(priority):
     where it does not); not asked, it runs under normal scheduling and says so. Catches
     a flag that is set without the call, or a call that is never made."""
     hand = SteadyHand(velocity_mm_s=(HAND_SPEED_MM_S, 0.0, 0.0))
-    device = ServoDevice(functools.partial(SimulatedHapticBackend, hand=hand), SIMULATED_HAPTIC_CAPS,
-                         realtime_priority=priority)
+    device = ServoDevice(
+        functools.partial(SimulatedHapticBackend, hand=hand), SIMULATED_HAPTIC_CAPS, realtime_priority=priority
+    )
     device.start()
     try:
         policy = os.sched_getscheduler(device.process.pid)

@@ -32,7 +32,8 @@ def test_missing_libhd_is_a_device_error(tmp_path, monkeypatch):
     package = tmp_path / "pyOpenHaptics"
     package.mkdir()
     (package / "__init__.py").write_text(
-        'raise OSError("libHD.so: cannot open shared object file: No such file or directory")\n')
+        'raise OSError("libHD.so: cannot open shared object file: No such file or directory")\n'
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     for name in [m for m in sys.modules if m.startswith("pyOpenHaptics")]:
         monkeypatch.delitem(sys.modules, name)

@@ -20,9 +20,17 @@ def test_haptic_gauges_against_each_device_limit_none_without_haptics():
     assert gauges[1] is None
 
 
-@pytest.mark.parametrize("alpha, mode, shown", [
-    (0.399, "shared", False), (0.4, "shared", True), (0.5, "shared", True), (0.1, "shared", False),
-    (1.0, "manual", False), (0.0, "autonomous", False)])
+@pytest.mark.parametrize(
+    "alpha, mode, shown",
+    [
+        (0.399, "shared", False),
+        (0.4, "shared", True),
+        (0.5, "shared", True),
+        (0.1, "shared", False),
+        (1.0, "manual", False),
+        (0.0, "autonomous", False),
+    ],
+)
 def test_fine_tune_prompt_exactly_in_the_fine_tuning_band_of_shared_control(alpha, mode, shown):
     assert cues.fine_tune_prompt(alpha, mode) is shown
 
@@ -66,7 +74,8 @@ def test_motion_direction_points_along_the_route_ahead():
     route = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0]])
     arc = np.array([0.0, 100.0, 200.0])
     assert cues.motion_direction([20.0, 5.0], 20.0, route, arc, lookahead_um=10.0) == pytest.approx(
-        np.array([10.0, -5.0]) / np.hypot(10.0, 5.0))
+        np.array([10.0, -5.0]) / np.hypot(10.0, 5.0)
+    )
     assert cues.motion_direction([100.0, 100.0], 200.0, route, arc) == pytest.approx([0.0, 0.0])
 
 

@@ -19,11 +19,11 @@ import numpy as np  # noqa: E402
 import pygame  # noqa: E402
 import pytest  # noqa: E402
 
+from otgym.runtime.session import Session  # noqa: E402
 from otgym.runtime.trials import TRIAL_COLUMNS  # noqa: E402
 from otgym.teleop.device import Device, DeviceCaps, Sample  # noqa: E402
 from otgym.ui.app import PlayApp  # noqa: E402
 from otgym.ui.bindings import play_bindings  # noqa: E402
-from otgym.runtime.session import Session  # noqa: E402
 from otgym.ui.views import ROUTE_RGB  # noqa: E402
 from tests.runtime import shared_task  # noqa: E402
 
@@ -148,8 +148,9 @@ def test_mouse_drag_moves_the_robots_traps_toward_the_pointer(session, task):
     start_px = view.to_px(traps)
     target_um = traps + np.array([0.0, 4.0])
     pygame.event.post(pygame.event.Event(pygame.MOUSEBUTTONDOWN, pos=tuple(start_px), button=1))
-    pygame.event.post(pygame.event.Event(pygame.MOUSEMOTION, pos=tuple(view.to_px(target_um)), rel=(0, 0),
-                                         buttons=(1, 0, 0)))
+    pygame.event.post(
+        pygame.event.Event(pygame.MOUSEMOTION, pos=tuple(view.to_px(target_um)), rel=(0, 0), buttons=(1, 0, 0))
+    )
     run_frames(app, 15)
     moved = view.trap_centre_um(simulation.snapshot, 1) - traps
     assert moved[1] > 1.0 and abs(moved[0]) < 0.5 * moved[1]
@@ -165,12 +166,29 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     out = tmp_path / "out"
     shot = out / "play.png"  # into --out, which the command creates
     with pytest.raises(SystemExit) as exit_info:
-        main(["play", "--headless", "--device", "simulated", "--duration", "2", "--no-questionnaire",
-              "--participant", "P7", "--seed", "2", "--screenshot", str(shot), "--out", str(out)])
+        main(
+            [
+                "play",
+                "--headless",
+                "--device",
+                "simulated",
+                "--duration",
+                "2",
+                "--no-questionnaire",
+                "--participant",
+                "P7",
+                "--seed",
+                "2",
+                "--screenshot",
+                str(shot),
+                "--out",
+                str(out),
+            ]
+        )
     assert exit_info.value.code == 0
     with open(out / "trials.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
-    assert list(rows[0])[:len(TRIAL_COLUMNS)] == TRIAL_COLUMNS
+    assert list(rows[0])[: len(TRIAL_COLUMNS)] == TRIAL_COLUMNS
     assert len(rows) == 1 and rows[0]["participant"] == "P7" and rows[0]["trial"] == "1"
     assert rows[0]["scenario"] == "20001" and rows[0]["ended_by"] == "duration"
     # cut off by --duration: the time it ran, not an empty cell, and not a goal
@@ -206,15 +224,18 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     assert shared["trials"] == 1 and shared["goals_reached"] == 0 and np.isnan(shared["completion_time_mean_s"])
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["--device", "joystick"], "unknown device 'joystick'"),
-    (["--mode", "telepathic"], "unknown mode 'telepathic'"),
-    (["--device", "touch"], "Geomagic Touch"),
-    (["--chip", "no_such_chip"], "no chip file"),
-    (["--device", "gamepad"], "no gamepad"),  # none plugged in on a test machine
-    (["--navigator", "mpc"], "needs --distributed"),
-    (["--navigator", "oracle"], "--navigator must be route or mpc"),
-])
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--device", "joystick"], "unknown device 'joystick'"),
+        (["--mode", "telepathic"], "unknown mode 'telepathic'"),
+        (["--device", "touch"], "Geomagic Touch"),
+        (["--chip", "no_such_chip"], "no chip file"),
+        (["--device", "gamepad"], "no gamepad"),  # none plugged in on a test machine
+        (["--navigator", "mpc"], "needs --distributed"),
+        (["--navigator", "oracle"], "--navigator must be route or mpc"),
+    ],
+)
 def test_cli_refuses_bad_arguments_with_one_line_and_writes_nothing(tmp_path, capsys, arguments, message):
     from otgym.cli.app import main
 
@@ -246,8 +267,9 @@ def test_a_finished_trial_asks_the_questionnaires_and_saves_the_answers(task, tm
     from otgym.study.questionnaires import read_answers, score
 
     pygame.init()
-    simulation = Session(task, play_bindings([SpyStylus(), None], keyboard=False), "Q1", "manual", seed=3,
-                         duration_s=0.2)
+    simulation = Session(
+        task, play_bindings([SpyStylus(), None], keyboard=False), "Q1", "manual", seed=3, duration_s=0.2
+    )
     simulation.start()
     try:
         app = PlayApp(simulation, tmp_path, questionnaire=True, step=True)
@@ -267,7 +289,8 @@ def test_a_finished_trial_asks_the_questionnaires_and_saves_the_answers(task, tm
     answers = read_answers(tmp_path / "questionnaires.csv")
     assert len(answers) == 14
     assert set(zip(answers.participant.astype(str), answers["mode"], answers.trial.astype(str))) == {
-        (trial["participant"], trial["mode"], trial["trial"])}
+        (trial["participant"], trial["mode"], trial["trial"])
+    }
     scores = score(answers).iloc[0]
     assert scores["raw_tlx"] == 50 and scores["ueq_overall"] == 2
 
@@ -285,8 +308,7 @@ def test_the_keyboard_moves_both_robots_as_a_formation(task):
     try:
         simulation.advance()
         before = np.array(simulation.loop.observation.trap_xy_um[0])
-        primaries[0].handle_event(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RIGHT, mod=0, unicode="",
-                                                     scancode=0))
+        primaries[0].handle_event(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RIGHT, mod=0, unicode="", scancode=0))
         for _ in range(12):
             time.sleep(0.05)
             simulation.advance()
@@ -317,9 +339,15 @@ def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_pa
     pygame.init()
     windowed = window_devices("keyboard")
     start_devices(windowed)
-    session = SessionProcess(WorkerSpec(functools.partial(play_setup, "default", "keyboard",
-                                                          tmp_path / "session.mcap"),
-                                        "K2", "manual", 3, forwarded_caps=tuple(d.caps for d in windowed)))
+    session = SessionProcess(
+        WorkerSpec(
+            functools.partial(play_setup, "default", "keyboard", tmp_path / "session.mcap"),
+            "K2",
+            "manual",
+            3,
+            forwarded_caps=tuple(d.caps for d in windowed),
+        )
+    )
     session.start()
     try:
         app = PlayApp(session, tmp_path, window_devices=windowed, questionnaire=False)

@@ -27,8 +27,10 @@ def marked(marker: str) -> list[int]:
         if not entry.name.isdigit():
             continue
         try:
-            if f"OTGYM_TEST_MARKER={marker}".encode() in (entry / "environ").read_bytes().split(b"\0") and \
-                    (entry / "status").read_text().split("State:")[1].split()[0] != "Z":
+            if (
+                f"OTGYM_TEST_MARKER={marker}".encode() in (entry / "environ").read_bytes().split(b"\0")
+                and (entry / "status").read_text().split("State:")[1].split()[0] != "Z"
+            ):
                 found.append(int(entry.name))
         except (OSError, IndexError):
             continue
@@ -36,10 +38,28 @@ def marked(marker: str) -> list[int]:
 
 
 def launch(out: Path, marker: str, *arguments: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "otgym", "play", "--headless", "--distributed", "--device",
-                             "simulated", "--no-questionnaire", "--participant", "D1", *arguments, "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONPATH": str(ROOT), "OTGYM_TEST_MARKER": marker})
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "otgym",
+            "play",
+            "--headless",
+            "--distributed",
+            "--device",
+            "simulated",
+            "--no-questionnaire",
+            "--participant",
+            "D1",
+            *arguments,
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT), "OTGYM_TEST_MARKER": marker},
+    )
 
 
 def wait_gone(marker: str, timeout_s: float = 20.0) -> list[int]:
@@ -77,8 +97,9 @@ def test_a_node_that_dies_stops_them_all_with_one_error_line(tmp_path):
             if line.startswith("nodes ready"):
                 break
         time.sleep(2.0)  # the session runs
-        device = [pid for pid in marked(marker)
-                  if b"device\0--device\0simulated" in Path(f"/proc/{pid}/cmdline").read_bytes()]
+        device = [
+            pid for pid in marked(marker) if b"device\0--device\0simulated" in Path(f"/proc/{pid}/cmdline").read_bytes()
+        ]
         assert len(device) == 1
         os.kill(device[0], signal.SIGKILL)
         stdout, stderr = run.communicate(timeout=120)

@@ -10,8 +10,15 @@ os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 import pygame  # noqa: E402
 import pytest  # noqa: E402
 
-from otgym.study.questionnaires import (TLX_PAIRS, TLX_SUBSCALES, UEQ_ITEM_NAMES, append_answers,  # noqa: E402
-                                        read_answers, score, weights_from_choices)
+from otgym.study.questionnaires import (
+    TLX_PAIRS,
+    TLX_SUBSCALES,
+    UEQ_ITEM_NAMES,
+    append_answers,  # noqa: E402
+    read_answers,
+    score,
+    weights_from_choices,
+)
 from otgym.ui.questionnaire import PAIRS_PAGE, UEQ_PAGE, QuestionnaireForm, run_questionnaire  # noqa: E402
 
 SIZE = (1024, 700)
@@ -62,9 +69,11 @@ def test_clicks_give_exactly_the_answers_clicked(surface):
     assert not form.done
     click(form, form.next_rect.center)
     assert form.done
-    expected = {**{("nasa_tlx", k): v for k, v in ratings.items()},
-                **{("nasa_tlx", k): v for k, v in weights_from_choices(choices).items()},
-                **{("ueq_s", k): v for k, v in ueq.items()}}
+    expected = {
+        **{("nasa_tlx", k): v for k, v in ratings.items()},
+        **{("nasa_tlx", k): v for k, v in weights_from_choices(choices).items()},
+        **{("ueq_s", k): v for k, v in ueq.items()},
+    }
     answers = form.answers()
     assert len(answers) == 20 and as_dict(answers) == expected
 

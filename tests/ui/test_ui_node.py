@@ -7,7 +7,6 @@ in the loss banner; a finished trial's row comes from its ``trial_end``."""
 from __future__ import annotations
 
 import socket
-import threading
 import time
 
 import numpy as np
@@ -47,7 +46,7 @@ def test_the_window_on_the_bus_draws_what_the_sim_sees_and_sends_checked_command
 
     layout, loop = layout_and_loop
     endpoint = free_endpoint()
-    commands, lock = [], threading.Lock()
+    commands = []
     with Node("sim", "sim", listen=[endpoint]) as sim, Node("ui", "ui", connect=[endpoint]) as ui:
         sim.subscribe(msg.COMMAND, lambda topic, message, data: commands.append(msg.event_fields(message)))
         session = BusSession(ui, layout, [], "mouse", ["device0"])
@@ -59,10 +58,16 @@ def test_the_window_on_the_bus_draws_what_the_sim_sees_and_sends_checked_command
             for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), mode="shared", stamp_s=time.time()):
                 sim.publish(topic, data)
             time.sleep(0.02)
+
         for _ in range(3):  # the tick's messages, again until they arrive (the bus may drop one under load)
             record = loop.tick()
-            wait_until(lambda: (publish_tick(record), session.snapshot is not None and np.array_equal(
-                session.snapshot.observation.trap_xy_um[0], record.trap_xy_um))[1])
+            wait_until(
+                lambda: (
+                    publish_tick(record),
+                    session.snapshot is not None
+                    and np.array_equal(session.snapshot.observation.trap_xy_um[0], record.trap_xy_um),
+                )[1]
+            )
         assert session.snapshot.time_s >= 3 * layout.tick_s  # its clock counts the ticks it saw
         seen, truth = session.snapshot.observation, loop.observation
         np.testing.assert_allclose(seen.trap_xy_um, truth.trap_xy_um)
