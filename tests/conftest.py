@@ -1,17 +1,34 @@
-"""Shared test setup: JAX's persistent compilation cache, so repeated runs (and CI on
-the same machine) reuse compiled XLA programs instead of compiling again; the paper
-preset's task parameters, built once per session."""
+"""Shared test setup.
+
+- JAX's persistent compilation cache, shared by every xdist worker and every process a
+  test starts (through ``JAX_COMPILATION_CACHE_DIR``), so a program compiled once in a
+  run is read back instead of compiled again.
+- Hypothesis profiles: ``ci`` (the default: derandomised, so every run draws the same
+  cases; no deadline, since a loaded machine is no failure) and ``dev``
+  (``HYPOTHESIS_PROFILE=dev``: fresh random cases each run). A failure prints the
+  ``@reproduce_failure`` blob that replays it.
+- Fixtures shared across packages: the ``paper`` preset's task parameters, Q-network
+  parameters with a fixed greedy action.
+"""
 
 import os
 from pathlib import Path
 
-import jax
-import pytest
-
 _CACHE = Path(os.environ.get("OTGYM_JAX_CACHE", Path.home() / ".cache" / "otgym" / "jax"))
 _CACHE.mkdir(parents=True, exist_ok=True)
-jax.config.update("jax_compilation_cache_dir", str(_CACHE))
-jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(_CACHE))
+os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
+
+import jax  # noqa: E402
+import pytest  # noqa: E402
+from hypothesis import settings  # noqa: E402
+
+jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+
+settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
+settings.register_profile("dev", deadline=None, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 @pytest.fixture(scope="session")
