@@ -8,6 +8,13 @@ import sys
 
 import typer
 
+from typer import Abort
+
+try:  # typer 0.2x carries its own copy of click
+    from typer._click.exceptions import ClickException, NoArgsIsHelpError
+except ImportError:  # older typer runs on click itself
+    from click.exceptions import ClickException, NoArgsIsHelpError
+
 app = typer.Typer(
     name="otgym",
     help="otgym: optical-tweezer microrobotics simulator, planner and learning gym.",
@@ -35,7 +42,11 @@ def report_worker_error(error: Exception) -> None:
     raise SystemExit(1)
 
 
-def _register_commands() -> None:
+def register_commands() -> None:
+    """Add every sub-command to ``app`` (once; later calls do nothing)."""
+    global _registered
+    if _registered:
+        return
     from otgym.cli import chip, demo, evaluate, experiment, node, plan, play, replay, study, train
 
     demo.register(app)
@@ -48,22 +59,56 @@ def _register_commands() -> None:
     study.register(app)
     replay.register(app)
     node.register(app)
+    _registered = True
 
 
 _registered = False
 
 
+def _fail(message: str) -> None:
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
 def main(argv: list[str] | None = None) -> None:
-    """Entry point of the ``otgym`` console script."""
-    global _registered
-    if not _registered:
-        _register_commands()
-        _registered = True
+    """Entry point of the ``otgym`` console script: runs the command and exits with its
+    code (0 on success). A bad command line (an unknown option, a value outside its
+    range, a missing file) or a user error raised by the command is one ``error:`` line
+    on stderr and exit code 2."""
+    register_commands()
+    _use_persistent_jax_cache()
     try:
-        app(args=argv, prog_name="otgym")
+        code = app(args=argv, prog_name="otgym", standalone_mode=False)
+    except NoArgsIsHelpError as error:  # ``otgym`` or ``otgym chip`` alone: the help
+        print(error.format_message())
+        sys.exit(0)
+    except ClickException as error:
+        _fail(error.format_message())
+    except Abort:
+        _fail("aborted")
     except USER_ERRORS as error:
-        print(f"error: {error}", file=sys.stderr)
-        sys.exit(2)
+        _fail(str(error))
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _use_persistent_jax_cache() -> None:
+    """Every command, and every process it starts, keeps compiled XLA programs in JAX's
+    persistent cache (``$JAX_COMPILATION_CACHE_DIR`` when set, else the ``jax`` folder
+    of otgym's cache, ``$OTGYM_CACHE_DIR`` or ``~/.cache/otgym``): a second run, or a
+    node started again, skips most of its compiling. Set before JAX is imported, so
+    it reaches child processes through the environment."""
+    import os
+
+    if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+        from otgym.sim.cache import cache_dir
+
+        os.environ["JAX_COMPILATION_CACHE_DIR"] = str(cache_dir() / "jax")
+    os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
+    if "jax" in sys.modules:  # imported already (a test, an embedding program): tell JAX directly
+        import jax
+
+        if not jax.config.jax_compilation_cache_dir:
+            jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
 
 
 if __name__ == "__main__":

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import typer
 
+from otgym.cli import options
+
 
 def register(app: typer.Typer) -> None:
     chip_app = typer.Typer(help="Microfluidic chips: inspect their walls and flow.", no_args_is_help=True)
@@ -13,14 +15,21 @@ def register(app: typer.Typer) -> None:
 
     @chip_app.command("show")
     def show(
-        chip: str = typer.Argument("default", help="Shipped chip name (e.g. default) or a PNG file."),
+        chip: str = options.chip_argument("default"),
         pixel_size_um: float = typer.Option(
-            None, "--pixel-size-um", help="Pixel size in um; required for a PNG without a JSON sidecar."
+            None,
+            "--pixel-size-um",
+            min=1e-3,
+            max=1e3,
+            help="Pixel size in um; required for a PNG without a JSON sidecar.",
         ),
-        out: Path = typer.Option(..., "--out", help="Folder for the figure."),
+        out: Path = options.out_dir(..., "Folder for the figure."),
     ) -> None:
         """Write <out>/chip_<name>.png (signed wall distance; focal-plane flow speed with
-        streamlines) and print size, channel widths and flow speeds."""
+        streamlines) and print size, channel widths and flow speeds.
+
+        Example: otgym chip show default --out results/chip
+        """
         from otgym.sim.cache import chip_fields
         from otgym.sim.chip import load_chip
 

@@ -1,10 +1,9 @@
 """``otgym demo``: the main job, a headless run that writes its results to a folder.
 
 One line per stage on stdout, flushed, whether or not stdout is a terminal (a progress
-bar follows the long stages only in a terminal). The demo keeps compiled XLA programs in
-JAX's persistent cache (``$JAX_COMPILATION_CACHE_DIR`` when set, else the ``jax`` folder
-of otgym's cache, ``$OTGYM_CACHE_DIR`` or ``~/.cache/otgym``), so a second run skips
-most of its compiling."""
+bar follows the long stages only in a terminal). Like every command it keeps compiled
+XLA programs in JAX's persistent cache (``otgym.cli.app``), so a second run skips most
+of its compiling."""
 
 from __future__ import annotations
 
@@ -16,54 +15,64 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from otgym.cli import options
 from otgym.experiments.demo import DEMO_EPISODES, DEMO_RUNS, FULL_EPISODES, SIZE_RANGES, StudyConfig
-
-
-def _use_persistent_jax_cache() -> None:
-    import jax
-
-    if not jax.config.jax_compilation_cache_dir:
-        from otgym.sim.cache import cache_dir
-
-        jax.config.update("jax_compilation_cache_dir", str(cache_dir() / "jax"))
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)  # scene building compiles ~100 small ops
 
 
 def _range(name: str) -> str:
     low, high = SIZE_RANGES[name]
-    return f"[{low}, {high}]" if isinstance(low, int) else f"({low:g}, {high:g}]"
+    return f"[{low}, {high}]" if isinstance(low, int) else f"[{low:g}, {high:g}]"
+
+
+def _bounds(name: str) -> dict:
+    """typer's min/max of a size."""
+    low, high = SIZE_RANGES[name]
+    return {"min": low, "max": high}
 
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def demo(
-        out: Path = typer.Option(Path("results"), "--out", help="Folder for the results (created if needed)."),
-        policy: str = typer.Option("pretrained", "--policy", help="Speed-control policy file or 'pretrained'."),
+        out: Path = options.out_dir(Path("results"), "Folder for the results (created if needed)."),
+        policy: str = options.policy("pretrained", "Speed-control policy file or 'pretrained'."),
         episodes: int = typer.Option(
             DEMO_EPISODES,
             "--episodes",
+            **_bounds("episodes"),
             help=f"Speed-control episodes per policy (RL, G1..G6, untrained), "
             f"{_range('episodes')}; `otgym evaluate` runs the full {FULL_EPISODES}.",
         ),
         speed_um_s: float = typer.Option(
-            4.0, help=f"Constant speed of the whole-path transport, um/s, {_range('speed_um_s')}."
+            4.0,
+            "--speed-um-s",
+            **_bounds("speed_um_s"),
+            help=f"Constant speed of the whole-path transport, um/s, {_range('speed_um_s')}.",
         ),
         runs: int = typer.Option(
-            DEMO_RUNS, help=f"Whole-path transports simulated at once (own noise and obstacles), {_range('runs')}."
+            DEMO_RUNS,
+            "--runs",
+            **_bounds("runs"),
+            help=f"Whole-path transports simulated at once (own noise and obstacles), {_range('runs')}.",
         ),
-        seed: int = typer.Option(1, help=f"Random seed of the episodes, runs and study, {_range('seed')}."),
+        seed: int = options.seed(1, "Random seed of the episodes, runs and study,"),
         study_participants: int = typer.Option(
             StudyConfig.participants,
             "--study-participants",
+            min=0,
+            max=SIZE_RANGES["study_participants"][1],
             help=f"Simulated participants of the shared-control study, "
             f"{_range('study_participants')}; 0 leaves the study out.",
         ),
         study_trials: int = typer.Option(
-            StudyConfig.trials, "--study-trials", help=f"Trials per participant and mode, {_range('study_trials')}."
+            StudyConfig.trials,
+            "--study-trials",
+            **_bounds("study_trials"),
+            help=f"Trials per participant and mode, {_range('study_trials')}.",
         ),
         study_time_limit_s: float = typer.Option(
             StudyConfig.time_limit_s,
             "--study-time-limit-s",
+            **_bounds("study_time_limit_s"),
             help=f"Simulated seconds after which a study trial ends unfinished, {_range('study_time_limit_s')}.",
         ),
         sequential: bool = typer.Option(
@@ -76,7 +85,10 @@ def register(app: typer.Typer) -> None:
         against constant speeds (Table II, safety violins), carry the cell along the
         whole path, run a small manual/autonomous/shared study (Fig. 8), and write
         report.md beside the paper's numbers. Small samples, about two minutes on two
-        cores; every size is printed with its result."""
+        cores; every size is printed with its result.
+
+        Example: otgym demo --out results
+        """
         from otgym.experiments.demo import demo_config, run_demo
 
         began = time.perf_counter()
@@ -91,7 +103,6 @@ def register(app: typer.Typer) -> None:
             study_time_limit_s,
             background_study=not sequential,
         )
-        _use_persistent_jax_cache()
         console = Console(soft_wrap=True)
         columns = (
             TextColumn("{task.description}"),

@@ -9,24 +9,31 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from otgym.cli import options
+
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def evaluate(
-        policy: str = typer.Option(..., "--policy", help="Policy file (policy.npz from otgym train) or 'pretrained'."),
+        policy: str = options.policy(...),
         episodes: int = typer.Option(
-            256, "--episodes", help="Episodes per policy (the same seeded episodes for each)."
+            256, "--episodes", min=1, max=2**20, help="Episodes per policy (the same seeded episodes for each)."
         ),
-        out: Path = typer.Option(Path("results/evaluate"), "--out", help="Folder for the results."),
-        seed: int = typer.Option(1, help="Random seed of the episodes."),
+        out: Path = options.out_dir(Path("results/evaluate"), "Folder for the results."),
+        seed: int = options.seed(1, "Random seed of the episodes,"),
         repeats: int = typer.Option(
             1,
             "--repeats",
+            min=1,
+            max=1000,
             help="Batches of --episodes to pool, seeds SEED .. SEED+R-1 "
             "(e.g. --episodes 256 --repeats 4: 1024 episodes over 4 seeds).",
         ),
     ) -> None:
-        """Table II: ASR, ATCT and success rate of RL and constant speeds G1..Gn, and the safety figure."""
+        """Table II: ASR, ATCT and success rate of RL and constant speeds G1..Gn, and the safety figure.
+
+        Example: otgym evaluate --policy pretrained --episodes 256 --out results/evaluate
+        """
         if episodes < 1:
             raise ValueError(f"--episodes must be at least 1, got {episodes}")
         if not 1 <= repeats <= 1000:

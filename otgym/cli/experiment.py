@@ -6,6 +6,39 @@ from pathlib import Path
 
 import typer
 
+from otgym.cli import options
+
+
+def parse_speeds(text: str) -> list[float]:
+    """``"5,8"`` -> [5.0, 8.0]: at least one speed, each finite in (0, 20] um/s."""
+    import math
+
+    try:
+        speeds = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        speeds = []
+    if not speeds or not all(math.isfinite(v) and 0 < v <= 20 for v in speeds):
+        raise ValueError(f"--speeds-um-s must be comma-separated speeds in (0, 20] um/s, got {text!r}")
+    return speeds
+
+
+def _check_speeds(value: str) -> str:
+    try:
+        parse_speeds(value)
+    except ValueError as error:
+        raise typer.BadParameter(str(error)) from None
+    return value
+
+
+def _check_modes(value: str) -> str:
+    from otgym.experiments.shared_control import parse_modes
+
+    try:
+        parse_modes(value)
+    except ValueError as error:
+        raise typer.BadParameter(str(error), param_hint="--modes") from None
+    return value
+
 
 def register(app: typer.Typer) -> None:
     experiment = typer.Typer(help="The paper's experiments with simulated participants.", no_args_is_help=True)
@@ -16,30 +49,43 @@ def register(app: typer.Typer) -> None:
         participants: int = typer.Option(
             8,
             "--participants",
+            min=1,
+            max=1000,
             help="Simulated participants (the statistical tests need 2 or more; with "
             "one, summary.md says that no test is possible).",
         ),
-        trials: int = typer.Option(8, "--trials", help="Trials per participant and mode."),
+        trials: int = typer.Option(8, "--trials", min=1, max=1000, help="Trials per participant and mode."),
         modes: str = typer.Option(
             "manual,autonomous,shared",
             "--modes",
+            metavar="MODES",
+            callback=_check_modes,
             help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive).",
         ),
-        seed: int = typer.Option(0, "--seed", help="Seed of the participants and scenarios."),
-        chip: str = typer.Option("default", "--chip", help="Chip name or PNG."),
-        time_limit_s: float = typer.Option(300.0, "--time-limit-s", help="A trial not done by then ends unfinished."),
-        shared_autonomy: str = typer.Option(
-            "route", "--shared-autonomy", help="Shared control's dP_r: route (the route navigator) or mpc."
+        seed: int = options.seed(0, "Seed of the participants and scenarios,"),
+        chip: str = options.chip("default"),
+        time_limit_s: float = typer.Option(
+            300.0,
+            "--time-limit-s",
+            min=1.0,
+            max=3600.0,
+            help="A trial not done by then ends unfinished, in s.",
         ),
-        mpc_rollouts: int = typer.Option(32, "--mpc-rollouts", help="The MPC's rollouts per replan."),
+        shared_autonomy: str = options.name(
+            "route", "--shared-autonomy", ("route", "mpc"), "Shared control's dP_r: the route navigator or the MPC."
+        ),
+        mpc_rollouts: int = typer.Option(32, "--mpc-rollouts", min=1, max=4096, help="The MPC's rollouts per replan."),
         mpc_plan_steps: int = typer.Option(
-            24, "--mpc-plan-steps", help="The MPC's plan length in 0.1 s steps (horizon: one more)."
+            24, "--mpc-plan-steps", min=1, max=1000, help="The MPC's plan length in 0.1 s steps (horizon: one more)."
         ),
-        out: Path = typer.Option(..., "--out", help="Folder for trials.csv, summary.*, stats.json, fig8.png."),
+        out: Path = options.out_dir(..., "Folder for trials.csv, summary.*, stats.json, fig8.png."),
     ) -> None:
         """Manual, autonomous, shared and model-predictive control on the same seeded
         scenarios: success (obstacles avoided / encountered) and completion time per
-        mode (Fig. 8 a, b)."""
+        mode (Fig. 8 a, b).
+
+        Example: otgym experiment shared-control --participants 8 --trials 8 --seed 0 --out results/fig8
+        """
         from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.shared_control import (
             check_arguments,
@@ -104,30 +150,33 @@ def register(app: typer.Typer) -> None:
 
     @experiment.command("route-bound")
     def route_bound(
-        trials: int = typer.Option(8, "--trials", help="Scenarios: those of trials 0..N-1 of the study's seed."),
-        seed: int = typer.Option(0, "--seed", help="The study's seed (scenarios seed * 10000 + trial)."),
+        trials: int = typer.Option(
+            8, "--trials", min=1, max=1000, help="Scenarios: those of trials 0..N-1 of the study's seed."
+        ),
+        seed: int = options.seed(0, "The study's seed (scenarios seed * 10000 + trial),"),
         speeds_um_s: str = typer.Option(
             "5,8",
             "--speeds-um-s",
-            help="Comma-separated speed limits in um/s (5: the autonomy's cruise; 8: a person's hurried pace).",
+            metavar="NUMBERS",
+            callback=_check_speeds,
+            help="Comma-separated speed limits in um/s, each in (0, 20] (5: the autonomy's cruise; "
+            "8: a person's hurried pace).",
         ),
-        chip: str = typer.Option("default", "--chip", help="Chip name or PNG."),
-        out: Path = typer.Option(..., "--out", help="Folder for route_bound.csv, .json and .md."),
+        chip: str = options.chip("default"),
+        out: Path = options.out_dir(..., "Folder for route_bound.csv, .json and .md."),
     ) -> None:
         """The earliest a controller that keeps the assembly on the planned route could
         reach the goal past the obstacles of shared-control's scenarios (perfect
-        foresight): a lower bound on manual and shared control's completion time."""
+        foresight): a lower bound on manual and shared control's completion time.
+
+        Example: otgym experiment route-bound --trials 8 --seed 0 --out results/route-bound
+        """
         from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.route_bound import run_route_bound, write_route_bound
         from otgym.experiments.shared_control import check_arguments
 
-        try:
-            speeds = [float(v) for v in speeds_um_s.split(",") if v.strip()]
-        except ValueError:
-            raise ValueError(f"--speeds-um-s must be comma-separated numbers, got {speeds_um_s!r}") from None
+        speeds = parse_speeds(speeds_um_s)
         check_arguments(2, trials, seed)
-        if not speeds or not all(0 < v <= 20 for v in speeds):
-            raise ValueError(f"--speeds-um-s must be speeds in (0, 20] um/s, got {speeds_um_s!r}")
         check_out_dir(out)
         frame = run_route_bound(trials, seed, speeds, chip, report=lambda line: print(line, flush=True))
         write_route_bound(frame, out)

@@ -7,6 +7,8 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from otgym.cli import options
+
 # The simulator defines a pixel as fluid when its gray value is above one half; the
 # planner binarises chips the same way so both agree on where the walls are.
 CHIP_FLUID_THRESHOLD = 0.5
@@ -15,30 +17,43 @@ CHIP_FLUID_THRESHOLD = 0.5
 def register(app: typer.Typer) -> None:
     @app.command()
     def plan(
-        chip: str = typer.Option(..., "--chip", help="Shipped chip name (e.g. default) or a PNG file."),
+        chip: str = options.chip(...),
         pixel_size_um: float = typer.Option(
-            None, "--pixel-size-um", help="Pixel size in um; required for a PNG without a JSON sidecar."
+            None,
+            "--pixel-size-um",
+            min=1e-3,
+            max=1e3,
+            help="Pixel size in um; required for a PNG without a JSON sidecar.",
         ),
-        start: str = typer.Option(..., "--start", help="Start X,Y in um (origin top-left, y down)."),
-        goal: str = typer.Option(..., "--goal", help="Goal X,Y in um (origin top-left, y down)."),
-        robot_radius_um: float = typer.Option(5.0, "--robot-radius-um", help="Robot radius in um."),
+        start: str = options.point(..., "--start", "Start X,Y in um (origin top-left, y down)."),
+        goal: str = options.point(..., "--goal", "Goal X,Y in um (origin top-left, y down)."),
+        robot_radius_um: float = typer.Option(5.0, "--robot-radius-um", min=0.1, max=100.0, help="Robot radius in um."),
         margin_um: float = typer.Option(
-            None, "--margin-um", help="Safety margin in um added to the radius (default: sqrt(2) pixels)."
+            None,
+            "--margin-um",
+            min=0.0,
+            max=100.0,
+            help="Safety margin in um added to the radius (default: sqrt(2) pixels).",
         ),
         manual: Path = typer.Option(
             None,
             "--manual",
+            exists=True,
+            dir_okay=False,
             help="Recorded manual trajectory, CSV with columns x_um,y_um (default: a simulated human operator).",
         ),
-        out: Path = typer.Option(..., "--out", help="Folder for the results."),
-        seed: int = typer.Option(0, "--seed", help="Seed of the simulated operator."),
+        out: Path = options.out_dir(..., "Folder for the results."),
+        seed: int = options.seed(0, "Seed of the simulated operator,"),
     ) -> None:
         """A* + B-spline path on a chip; writes path.csv, astar.csv, manual.csv, metrics.csv,
-        metrics.md (Table I: manual, A*, B-spline), paths.png and spectrum.png."""
+        metrics.md (Table I: manual, A*, B-spline), paths.png and spectrum.png.
+
+        Example: otgym plan --chip default --start 15,40 --goal 285,160 --out results/plan
+        """
         from otgym.planning.pipeline import load_path_csv, metrics_markdown, write_plan
 
-        start_um = parse_point("--start", start)
-        goal_um = parse_point("--goal", goal)
+        start_um = options.parse_point("--start", start)
+        goal_um = options.parse_point("--goal", goal)
         manual_um = load_path_csv(manual) if manual is not None else None
         loaded = load_chip_arrays(chip, pixel_size_um)
         metrics = write_plan(
@@ -60,17 +75,6 @@ def register(app: typer.Typer) -> None:
             soft_wrap=True,
         )
         console.print(metrics_markdown(metrics), markup=False, soft_wrap=True)
-
-
-def parse_point(option: str, text: str) -> tuple[float, float]:
-    """``"X,Y"`` -> (x, y); a ValueError naming the option otherwise."""
-    parts = text.split(",")
-    try:
-        if len(parts) != 2:
-            raise ValueError
-        return float(parts[0]), float(parts[1])
-    except ValueError:
-        raise ValueError(f"{option} must be two numbers X,Y in um, got {text!r}") from None
 
 
 def load_chip_arrays(name_or_png: str, pixel_size_um: float | None):

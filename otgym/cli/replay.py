@@ -10,28 +10,43 @@ from pathlib import Path
 
 import typer
 
+from otgym.cli import options
+
 
 def register(app: typer.Typer) -> None:
     @app.command("replay")
     def replay(
-        file: Path = typer.Argument(..., help="An MCAP recording (otgym play's session.mcap or a recorder node's)."),
-        out: Path = typer.Option(
-            None,
-            "--out",
-            help="Folder for PNG frames of the global view (none without it); with --video, the folder for the MP4.",
+        file: Path = typer.Argument(
+            ...,
+            exists=True,
+            dir_okay=False,
+            help="An MCAP recording (otgym play's session.mcap or a recorder node's).",
         ),
-        every: int = typer.Option(25, "--every", help="PNG frames: one per this many ticks (25: 0.5 s at 50 Hz)."),
+        out: Path = options.out_dir(
+            None,
+            "Folder for PNG frames of the global view (none without it); with --video, the folder for the MP4.",
+        ),
+        every: int = typer.Option(
+            25, "--every", min=1, max=10**6, help="PNG frames: one per this many ticks (25: 0.5 s at 50 Hz)."
+        ),
         video: bool = typer.Option(
             False,
             "--video",
             help="Write an MP4 (H.264) instead of PNG frames: FILE's name with .mp4, beside FILE or in --out.",
         ),
-        fps: float = typer.Option(25.0, "--fps", help="Video frames per second."),
-        speed: float = typer.Option(1.0, "--speed", help="Video speed: 1 plays simulated time in real time."),
-        width: int = typer.Option(960, "--width", help="Frame width in pixels (the height follows the chip)."),
+        fps: float = typer.Option(25.0, "--fps", min=1.0, max=240.0, help="Video frames per second."),
+        speed: float = typer.Option(
+            1.0, "--speed", min=0.01, max=100.0, help="Video speed: 1 plays simulated time in real time."
+        ),
+        width: int = typer.Option(
+            960, "--width", min=64, max=7680, help="Frame width in pixels (the height follows the chip)."
+        ),
     ) -> None:
         """Print a recording's duration, messages per topic and trials; with --out, draw
-        frames of the global view; with --video, encode them as an MP4."""
+        frames of the global view; with --video, encode them as an MP4.
+
+        Example: otgym replay results/play/session.mcap --out results/frames --every 25
+        """
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import typer
 
+from otgym.cli import options
+
 
 def register(app: typer.Typer) -> None:
     study = typer.Typer(help="Analyse recorded study sessions.", no_args_is_help=True)
@@ -18,19 +20,21 @@ def register(app: typer.Typer) -> None:
     def analyze(
         sources: list[Path] = typer.Argument(
             ...,
+            exists=True,
             help="Session folders (trials.csv and, where answers were "
             "given, questionnaires.csv; without trials.csv, its "
             "session*.mcap recordings) or MCAP files; participant "
             "ids unique across them.",
         ),
-        out: Path = typer.Option(
-            ...,
-            "--out",
-            help="Folder for fig8.png, questionnaire_scores.csv, summary.md, summary.csv, stats.json, analysis.json.",
+        out: Path = options.out_dir(
+            ..., "Folder for fig8.png, questionnaire_scores.csv, summary.md, summary.csv, stats.json, analysis.json."
         ),
     ) -> None:
         """Success and completion time per mode (Fig. 8 a, b) and, where answers were
-        recorded, NASA-TLX and UEQ-S per mode (Fig. 8 c, d), with paired tests."""
+        recorded, NASA-TLX and UEQ-S per mode (Fig. 8 c, d), with paired tests.
+
+        Example: otgym study analyze results/session-p1 results/session-p2 --out results/analysis
+        """
         from otgym.experiments.output_folder import check_out_dir
         from otgym.study.analyze import analyze as run
 

@@ -9,17 +9,24 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from otgym.cli import options
+
+PRESETS = ("paper", "realistic")
+
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def train(
-        preset: str = typer.Option("paper", "--preset", help="Task preset: paper or realistic."),
-        out: Path = typer.Option(Path("results/train"), "--out", help="Folder for the results."),
-        steps: int = typer.Option(200_000, help="Environment steps in all."),
-        envs: int = typer.Option(64, help="Environments simulated at once."),
-        seed: int = typer.Option(0, help="Random seed."),
+        preset: str = options.name("paper", "--preset", PRESETS, "Task preset."),
+        out: Path = options.out_dir(Path("results/train"), "Folder for the results."),
+        steps: int = typer.Option(200_000, "--steps", min=1, max=10**9, help="Environment steps in all."),
+        envs: int = typer.Option(64, "--envs", min=1, max=2**20, help="Environments simulated at once."),
+        seed: int = options.seed(0, "Random seed,"),
     ) -> None:
-        """Train the DQN speed controller (the paper's progressive scheme: planned path, learned speed)."""
+        """Train the DQN speed controller (the paper's progressive scheme: planned path, learned speed).
+
+        Example: otgym train --preset paper --steps 204800 --out results/train
+        """
         from otgym.envs.presets import preset as make_preset
         from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.speed_control import train as run_training

@@ -99,21 +99,21 @@ class StudyConfig:
 SIZE_RANGES = {
     "episodes": (1, 4096),
     "runs": (1, 64),
-    "speed_um_s": (0.0, 20.0),  # open below: a positive speed
+    "speed_um_s": (0.5, 20.0),
     "seed": (0, 2**32 - 1),
     "study_participants": (2, 16),  # a repeated-measures analysis needs two
     "study_trials": (1, 8),
-    "study_time_limit_s": (0.0, 300.0),  # open below; 300 s is the full study's limit
+    "study_time_limit_s": (1.0, 300.0),  # 300 s is the full study's limit
 }
-"""Valid ranges (inclusive; the float ones open at zero) of the demo's sizes. The
-speed's top is the interactive task's trap-speed clamp (``otgym.runtime.trials``):
-beyond it the formation outruns what the traps are meant to carry."""
+"""Valid ranges (inclusive) of the demo's sizes. The speed's
+top is the interactive task's trap-speed clamp (``otgym.runtime.trials``): beyond it the
+formation outruns what the traps are meant to carry; at its bottom the whole 307 um path
+takes over 10 minutes of simulated time, longer than the rest of the demo together."""
 
 
 def check_range(name: str, value, low, high, integer: bool = True, unit: str = "") -> None:
     """Raise ValueError naming ``name``, its valid range and ``value`` if ``value`` is
-    not an integer (``integer``) or a finite number in [low, high] ((low, high] for
-    floats)."""
+    not an integer (``integer``) or a finite number in [low, high]."""
     if integer:
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
@@ -121,9 +121,9 @@ def check_range(name: str, value, low, high, integer: bool = True, unit: str = "
         isinstance(value, bool)
         or not isinstance(value, (int, float))
         or not math.isfinite(value)
-        or not low < value <= high
+        or not low <= value <= high
     ):
-        raise ValueError(f"{name} must lie in ({low:g}, {high:g}]{unit}, got {value!r}")
+        raise ValueError(f"{name} must lie in [{low:g}, {high:g}]{unit}, got {value!r}")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -209,11 +209,7 @@ def load_chip(name_or_path: str | Path, pixel_size_um: float | None = None) -> C
     if pixel_size_um is not None:
         require_positive_scalar("pixel_size_um", pixel_size_um)
     path = _resolve(name_or_path)
-    try:
-        with Image.open(path) as picture:
-            image = np.asarray(picture.convert("L"), dtype=np.float32) / 255.0
-    except UnidentifiedImageError as error:
-        raise ValueError(f"{path} is not an image file PIL can read") from error
+    image = _read_gray(path)
     sidecar = path.with_suffix(".json")
     meta = json.loads(sidecar.read_text()) if sidecar.is_file() else {}
     if pixel_size_um is None and "pixel_size_um" not in meta:
@@ -229,6 +225,27 @@ def load_chip(name_or_path: str | Path, pixel_size_um: float | None = None) -> C
         channel_height_um=float(meta.get("channel_height_um", DEFAULT_CHANNEL_HEIGHT_UM)),
         ports=ports,
     )
+
+
+def check_chip_source(name_or_path: str | Path) -> Path:
+    """The PNG of a shipped chip's name or of a path, after reading it whole (a
+    truncated or non-image file raises ValueError; an unknown name FileNotFoundError;
+    a folder IsADirectoryError). Cheap: reads the image, derives nothing."""
+    path = _resolve(name_or_path)
+    _read_gray(path)
+    return path
+
+
+def _read_gray(path: Path) -> np.ndarray:
+    """The image at ``path`` as gray values in [0, 1], float32; ValueError if it is not
+    an image PIL can read whole."""
+    try:
+        with Image.open(path) as picture:
+            return np.asarray(picture.convert("L"), dtype=np.float32) / 255.0
+    except UnidentifiedImageError:
+        raise ValueError(f"{path} is not an image file PIL can read") from None
+    except OSError as error:  # a truncated or corrupt file
+        raise ValueError(f"{path} cannot be read as an image ({error})") from None
 
 
 def _resolve(name_or_path: str | Path) -> Path:

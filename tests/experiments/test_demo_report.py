@@ -262,14 +262,14 @@ def test_table_ii_section_names_its_size_and_reads_the_rows():
         ({"episodes": 0}, "--episodes must be an integer in [1, 4096], got 0"),
         ({"episodes": 5000}, "--episodes must be an integer in [1, 4096]"),
         ({"runs": 65}, "--runs must be an integer in [1, 64], got 65"),
-        ({"speed_um_s": 0.0}, "--speed-um-s must lie in (0, 20] um/s"),
-        ({"speed_um_s": float("inf")}, "--speed-um-s must lie in (0, 20] um/s"),
+        ({"speed_um_s": 0.0}, "--speed-um-s must lie in [0.5, 20] um/s"),
+        ({"speed_um_s": float("inf")}, "--speed-um-s must lie in [0.5, 20] um/s"),
         ({"seed": -1}, "--seed must be an integer in [0, 4294967295]"),
         ({"seed": 2**32}, "--seed must be an integer in [0, 4294967295]"),
         ({"study_participants": 1}, "--study-participants must be an integer in [2, 16], got 1"),
         ({"study_trials": 0}, "--study-trials must be an integer in [1, 8]"),
-        ({"study_time_limit_s": 301.0}, "--study-time-limit-s must lie in (0, 300] s"),
-        ({"study_time_limit_s": float("nan")}, "--study-time-limit-s must lie in (0, 300] s"),
+        ({"study_time_limit_s": 301.0}, "--study-time-limit-s must lie in [1, 300] s"),
+        ({"study_time_limit_s": float("nan")}, "--study-time-limit-s must lie in [1, 300] s"),
     ],
 )
 def test_sizes_outside_their_range_are_refused_with_it(options, message):

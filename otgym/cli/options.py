@@ -1,0 +1,122 @@
+"""Options that several commands share, declared once with their ranges and kinds.
+
+Every option of every command says what a good value is, so that typer refuses a bad one
+while it parses the command line, before the command starts: numbers carry ``min`` and
+``max`` (NaN and infinities are outside every range), paths say whether they are an
+input (``exists``) and a file or a folder, and text options name their kind with a
+metavar (``CHIP``, ``NAME``, ``POLICY``, ``X,Y``, ``NUMBERS``, ``MODES``, ``ENDPOINT``,
+``NAMES``, or ``TEXT`` for free text) and check it in a callback. ``tests/cli/
+test_bad_input.py`` reads these declarations from the app and tries bad values of each.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+SEED_MAX = 2**32 - 1
+"""The largest seed: JAX's ``PRNGKey`` keeps the low 32 bits of a larger one, so seeds
+2**32 and 0 would draw the same numbers."""
+
+
+def seed(default: int, help: str) -> typer.Option:
+    """``--seed``: an integer in [0, 2**32 - 1]."""
+    return typer.Option(default, "--seed", min=0, max=SEED_MAX, help=f"{help} [0, 2**32 - 1].")
+
+
+def out_dir(default: Path | None, help: str) -> typer.Option:
+    """``--out``: a folder (made if missing; an existing file is refused)."""
+    return typer.Option(default, "--out", file_okay=False, dir_okay=True, metavar="DIR", help=help)
+
+
+def _check_chip(value: str | None) -> str | None:
+    if value is None:
+        return value
+    from otgym.sim.chip import check_chip_source
+
+    try:
+        check_chip_source(value)
+    except (ValueError, OSError) as error:
+        raise typer.BadParameter(str(error)) from None
+    return value
+
+
+def chip(default: str | None, help: str = "Shipped chip name (e.g. default) or a PNG file.") -> typer.Option:
+    """``--chip``: a shipped chip's name or a readable PNG."""
+    return typer.Option(default, "--chip", metavar="CHIP", callback=_check_chip, help=help)
+
+
+def chip_argument(default: str, help: str = "Shipped chip name (e.g. default) or a PNG file.") -> typer.Argument:
+    return typer.Argument(default, metavar="CHIP", callback=_check_chip, help=help)
+
+
+def check_choice(option: str, choices: tuple[str, ...]):
+    """A typer callback refusing a value outside ``choices``, naming them."""
+
+    def check(value: str | None) -> str | None:
+        if value is not None and value not in choices:
+            raise typer.BadParameter(f"{value!r} is not one of {', '.join(choices)}", param_hint=option)
+        return value
+
+    return check
+
+
+def name(default: str | None, option: str, choices: tuple[str, ...], help: str) -> typer.Option:
+    """An option whose value is one of a closed set of names."""
+    return typer.Option(
+        default,
+        option,
+        metavar="NAME",
+        callback=check_choice(option, choices),
+        help=f"{help} One of: {', '.join(choices)}.",
+    )
+
+
+def parse_point(option: str, text: str) -> tuple[float, float]:
+    """``"X,Y"`` -> (x, y), two finite numbers; a ValueError naming the option otherwise."""
+    import math
+
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        x, y = float(parts[0]), float(parts[1])
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError
+        return x, y
+    except ValueError:
+        raise ValueError(f"{option} must be two finite numbers X,Y in um, got {text!r}") from None
+
+
+def point(default: str | None, option: str, help: str) -> typer.Option:
+    """An ``X,Y`` option in um, checked while parsing."""
+
+    def check(value: str | None) -> str | None:
+        if value is not None:
+            try:
+                parse_point(option, value)
+            except ValueError as error:
+                raise typer.BadParameter(str(error)) from None
+        return value
+
+    return typer.Option(default, option, metavar="X,Y", callback=check, help=help)
+
+
+def _check_policy(value: str | None) -> str | None:
+    if value is None:
+        return value
+    from otgym.rl.policy import policy_meta, resolve_policy
+
+    try:
+        policy_meta(resolve_policy(value))
+    except (ValueError, OSError) as error:
+        raise typer.BadParameter(str(error)) from None
+    return value
+
+
+def policy(
+    default: str | None, help: str = "Policy file (policy.npz from otgym train) or 'pretrained'."
+) -> typer.Option:
+    """``--policy``: ``pretrained`` or a readable policy file."""
+    return typer.Option(default, "--policy", metavar="POLICY", callback=_check_policy, help=help)
