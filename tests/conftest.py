@@ -60,3 +60,22 @@ def fixed_action_q_params():
         return params
 
     return make
+
+
+if os.environ.get("OTGYM_COMPILE_STATS"):  # a profile of the suite: XLA compilations per test, appended as JSON lines
+    import json
+    import time
+
+    _compiles: list[float] = []
+    jax.monitoring.register_event_duration_secs_listener(
+        lambda event, duration, **kwargs: _compiles.append(duration) if "backend_compile" in event else None
+    )
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(item, nextitem):
+        _compiles.clear()
+        began = time.perf_counter()
+        yield
+        with open(os.environ["OTGYM_COMPILE_STATS"], "a") as stats:
+            row = {"test": item.nodeid, "wall_s": time.perf_counter() - began, "compiles": len(_compiles)}
+            stats.write(json.dumps(row | {"compile_s": sum(_compiles)}) + "\n")
