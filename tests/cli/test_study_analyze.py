@@ -3,16 +3,15 @@
 ``error: ...`` and exit code 2."""
 
 import json
-import subprocess
-import sys
 
 import pandas as pd
 import pytest
 
 from otgym.cli.app import main
+from tests.otgym_cli import run_otgym
 from tests.study.test_analyze import PARTICIPANTS, write_answers, write_trials
 
-COMMAND = [sys.executable, "-c", "from otgym.cli.app import main; main()", "study", "analyze"]
+COMMAND = ["study", "analyze"]
 
 
 def test_analyze_end_to_end(tmp_path):
@@ -23,12 +22,7 @@ def test_analyze_end_to_end(tmp_path):
     answers[answers["participant"].isin(PARTICIPANTS[:2])].to_csv(tmp_path / "s1" / "questionnaires.csv", index=False)
     answers[answers["participant"].isin(PARTICIPANTS[2:])].to_csv(tmp_path / "s2" / "questionnaires.csv", index=False)
     out = tmp_path / "out"
-    run = subprocess.run(
-        COMMAND + [str(tmp_path / "s1"), str(tmp_path / "s2"), "--out", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    run = run_otgym(COMMAND + [str(tmp_path / "s1"), str(tmp_path / "s2"), "--out", str(out)])
     assert run.returncode == 0, run.stderr
     for name in ("fig8.png", "questionnaire_scores.csv", "summary.md", "summary.csv", "stats.json", "analysis.json"):
         assert (out / name).stat().st_size > 0, name
@@ -99,24 +93,14 @@ def test_recordings_give_the_same_analysis_as_trials_csv(tmp_path, capsys):
     (tmp_path / "csv" / "questionnaires.csv").rename(recorded / "questionnaires.csv")
     write_answers(tmp_path / "csv")
     for source, out in (([tmp_path / "csv"], tmp_path / "from_csv"), ([recorded], tmp_path / "from_mcap")):
-        run = subprocess.run(
-            COMMAND + [*map(str, source), "--out", str(out)], capture_output=True, text=True, timeout=300
-        )
+        run = run_otgym(COMMAND + [*map(str, source), "--out", str(out)])
         assert run.returncode == 0, run.stderr
     assert "trials from session.mcap, session-2.mcap" in run.stdout
     for name in ("summary.csv", "stats.json", "questionnaire_scores.csv"):
         assert (tmp_path / "from_csv" / name).read_text() == (tmp_path / "from_mcap" / name).read_text(), name
     # one file: the same trials of its participants
     single = tmp_path / "single"
-    assert (
-        subprocess.run(
-            COMMAND + [str(recorded / "session.mcap"), "--out", str(single)],
-            capture_output=True,
-            text=True,
-            timeout=300,
-        ).returncode
-        == 0
-    )
+    assert run_otgym(COMMAND + [str(recorded / "session.mcap"), "--out", str(single)]).returncode == 0
     assert json.loads((single / "analysis.json").read_text())["participants"] == 2
 
 
@@ -140,9 +124,7 @@ def test_a_simulator_nodes_recording_is_refused_with_one_line(tmp_path, capsys):
 def test_one_participant_draws_the_figure_and_says_no_test_is_possible(tmp_path):
     write_trials(tmp_path / "s", PARTICIPANTS[:1])
     out = tmp_path / "out"
-    run = subprocess.run(
-        COMMAND + [str(tmp_path / "s"), "--out", str(out)], capture_output=True, text=True, timeout=300
-    )
+    run = run_otgym(COMMAND + [str(tmp_path / "s"), "--out", str(out)])
     assert run.returncode == 0, run.stderr
     summary = (out / "summary.md").read_text()
     assert summary.count("No test: no test is possible with n < 2 (n = 1 participant(s)") == 2  # success, time
@@ -153,8 +135,6 @@ def test_one_participant_draws_the_figure_and_says_no_test_is_possible(tmp_path)
     one_mode.mkdir()
     frame = pd.read_csv(tmp_path / "s" / "trials.csv")
     frame[frame["mode"] == "shared"].to_csv(one_mode / "trials.csv", index=False)
-    run = subprocess.run(
-        COMMAND + [str(one_mode), "--out", str(tmp_path / "out1")], capture_output=True, text=True, timeout=300
-    )
+    run = run_otgym(COMMAND + [str(one_mode), "--out", str(tmp_path / "out1")])
     assert run.returncode == 0, run.stderr
     assert "No test: only one mode (shared): nothing to compare" in (tmp_path / "out1" / "summary.md").read_text()

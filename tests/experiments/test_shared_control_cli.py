@@ -2,15 +2,14 @@
 participants x 1 trial x 3 modes, trials cut at 6 s of simulated time."""
 
 import json
-import subprocess
-import sys
 
 import pandas as pd
 import pytest
 
 from otgym.experiments.shared_control import TRIAL_COLUMNS, parse_modes
+from tests.otgym_cli import run_otgym
 
-COMMAND = [sys.executable, "-c", "from otgym.cli.app import main; main()", "experiment", "shared-control"]
+COMMAND = ["experiment", "shared-control"]
 
 
 def test_small_experiment_writes_every_file(tmp_path):
@@ -19,12 +18,7 @@ def test_small_experiment_writes_every_file(tmp_path):
     (it grips in under 0.1 s and carries at 5 um/s: a cell near the start at 6 s means
     the navigator or the task's stepping is broken)."""
     out = tmp_path / "fig8"
-    run = subprocess.run(
-        COMMAND + ["--participants", "2", "--trials", "1", "--time-limit-s", "6", "--out", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=900,
-    )
+    run = run_otgym(COMMAND + ["--participants", "2", "--trials", "1", "--time-limit-s", "6", "--out", str(out)])
     assert run.returncode == 0, run.stderr
     for name in (
         "trials.csv",
@@ -55,7 +49,7 @@ def test_mpc_mode_alone_with_one_participant(tmp_path):
     MPC's dP_r, if mpc.json or acceptance.json's MPC figures (with 95 % intervals) are
     missing, or if the MPC does not grip in the route navigator's 0.5 s."""
     out = tmp_path / "mpc"
-    run = subprocess.run(
+    run = run_otgym(
         COMMAND
         + [
             "--participants",
@@ -72,10 +66,7 @@ def test_mpc_mode_alone_with_one_participant(tmp_path):
             "5",
             "--out",
             str(out),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=900,
+        ]
     )
     assert run.returncode == 0, run.stderr
     trials = pd.read_csv(out / "trials.csv")
@@ -94,18 +85,16 @@ def test_mpc_mode_alone_with_one_participant(tmp_path):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--participants", "0"], "at least 1"),
-        (["--modes", "manual,bogus"], "bogus"),
-        (["--trials", "0"], "at least 1"),
-        (["--seed", "-1"], "seed"),
-        (["--time-limit-s", "0"], "time-limit"),
-        (["--shared-autonomy", "human"], "shared-autonomy"),
+        (["--modes", "manual,manual"], "twice"),
         (["--mpc-rollouts", "3"], "mpc-rollouts"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):
+    """What the option's declaration cannot say (each option's own range and kind is
+    tried by tests/cli/test_bad_input.py): a mode named twice; rollouts within the
+    option's range but too few for the MPC's configuration."""
     out = tmp_path / "never"
-    run = subprocess.run(COMMAND + args + ["--out", str(out)], capture_output=True, text=True, timeout=120)
+    run = run_otgym(COMMAND + args + ["--out", str(out)])
     assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr
     assert not out.exists()
 
@@ -113,7 +102,7 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):
 def test_out_that_is_a_file_is_refused(tmp_path):
     target = tmp_path / "file.txt"
     target.write_text("x")
-    run = subprocess.run(COMMAND + ["--out", str(target)], capture_output=True, text=True, timeout=120)
+    run = run_otgym(COMMAND + ["--out", str(target)])
     assert run.returncode == 2 and "is a file" in run.stderr
 
 

@@ -1,0 +1,25 @@
+"""Run the ``otgym`` command in this process, as a user would from a shell, and keep
+what it printed: the same ``subprocess.CompletedProcess`` a child process would give,
+without a fresh interpreter importing JAX and compiling again for each call. Tests
+whose point is a separate process (nodes, faults) start real ones instead."""
+
+from __future__ import annotations
+
+import io
+import subprocess
+from contextlib import redirect_stderr, redirect_stdout
+
+from otgym.cli.app import main
+
+
+def run_otgym(argv) -> subprocess.CompletedProcess:
+    """``otgym ARGV...``: its exit code (0 on success, 2 for bad input), stdout, stderr."""
+    argv = [str(a) for a in argv]
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        try:
+            main(argv)
+            code = 0
+        except SystemExit as exit_:
+            code = exit_.code if isinstance(exit_.code, int) else (0 if exit_.code is None else 1)
+    return subprocess.CompletedProcess(["otgym", *argv], code, out.getvalue(), err.getvalue())
