@@ -196,6 +196,17 @@ def all_cases():
                 yield pytest.param(path, command, argv, param, case, id=f"{name} {param.name}: {case.label}")
 
 
+_REGISTERED: list[bool] = []
+_COMPILED: list[list[str]] = []
+"""While a case runs: one list, of the XLA compilations seen (registered once: JAX offers
+no way to remove one listener)."""
+
+
+def _on_event(event: str, duration: float, **kwargs) -> None:
+    if _COMPILED and "backend_compile" in event:
+        _COMPILED[0].append(event)
+
+
 class Started(Exception):
     """Expensive work began before the input was checked."""
 
@@ -205,7 +216,6 @@ def no_expensive_work(monkeypatch):
     """Fail a case at once if it compiles with JAX, starts a process or opens a bus."""
     import multiprocessing
 
-    import jax
     import zenoh
 
     def refuse(what):
@@ -217,13 +227,16 @@ def no_expensive_work(monkeypatch):
     monkeypatch.setattr(multiprocessing.Process, "start", refuse("a process"))
     monkeypatch.setattr(subprocess, "Popen", refuse("a child process"))
     monkeypatch.setattr(zenoh, "open", refuse("a zenoh session"))
+    if not _REGISTERED:
+        import jax
 
-    compiled = []
-    jax.monitoring.register_event_duration_secs_listener(
-        lambda event, duration, **kwargs: compiled.append(event) if "backend_compile" in event else None
-    )
-    yield compiled
-    jax.monitoring.clear_event_listeners()
+        jax.monitoring.register_event_duration_secs_listener(_on_event)
+        _REGISTERED.append(True)
+
+    _COMPILED.clear()
+    _COMPILED.append([])
+    yield _COMPILED[0]
+    _COMPILED.clear()
 
 
 def _example_inputs(command, argv: list[str], folder: Path) -> None:
