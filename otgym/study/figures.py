@@ -203,14 +203,15 @@ def _measures_panel(ax, means: pd.DataFrame, result: dict, panel: tuple, rng) ->
     ax.legend(fontsize=8, loc="upper right", ncols=len(modes), frameon=False)
 
 
-def plot_fig8(trials: pd.DataFrame, path, stats: dict | None = None, questionnaires: dict | None = None) -> list[str]:
-    """Write Fig. 8 to ``path`` (PNG, 150 dpi): (a) success rate and (b) completion time
-    per mode, and from ``questionnaires`` (``{"means": participant_measures table,
-    "tlx": ..., "ueq": ...}``, the last two as ``compare_measures`` gives; a key left out
-    or None: no such answers) (c) NASA-TLX and (d) UEQ-S. ``stats`` is ``{"success":
-    ..., "time": ...}`` as ``compare_modes`` (or ``write_summary``, or its
-    ``stats.json``) gives; computed here when None. Modes in ``MODE_ORDER`` (manual,
-    autonomous, shared, then mpc). Returns the titles of the panels drawn."""
+def fig8_figure(trials: pd.DataFrame, stats: dict | None = None, questionnaires: dict | None = None) -> Figure:
+    """Fig. 8 as a matplotlib ``Figure`` (on its own Agg canvas, not saved): (a) success
+    rate and (b) completion time per mode, and from ``questionnaires`` (``{"means":
+    participant_measures table, "tlx": ..., "ueq": ...}``, the last two as
+    ``compare_measures`` gives; a key left out or None: no such answers) (c) NASA-TLX and
+    (d) UEQ-S. ``stats`` is ``{"success": ..., "time": ...}`` as ``compare_modes`` (or
+    ``write_summary``, or its ``stats.json``) gives; computed here when None. Modes in
+    ``MODE_ORDER`` (manual, autonomous, shared, then mpc). Its axes are the panels, in
+    order; each panel's bars are ``ax.patches`` and its participants' dots a collection."""
     if stats is None:
         stats = {metric: compare_modes(trials, metric) for metric in ("success", "time")}
     extra = [key for key in ("tlx", "ueq") if (questionnaires or {}).get(key) is not None]
@@ -231,6 +232,13 @@ def plot_fig8(trials: pd.DataFrame, path, stats: dict | None = None, questionnai
         "per mode (stars: Holm-corrected paired t-tests)",
         fontsize=11,
     )
+    return fig
+
+
+def plot_fig8(trials: pd.DataFrame, path, stats: dict | None = None, questionnaires: dict | None = None) -> list[str]:
+    """Write Fig. 8 (``fig8_figure``, same arguments) to ``path`` (PNG, 150 dpi; its
+    folder created). Returns the titles of the panels drawn."""
+    fig = fig8_figure(trials, stats, questionnaires)
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=150)

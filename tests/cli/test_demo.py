@@ -5,6 +5,7 @@ bad input is one clear line before any work."""
 
 import csv
 import json
+import threading
 import time
 
 import numpy as np
@@ -228,19 +229,20 @@ def test_a_failing_stage_stops_the_background_study_and_is_the_error_reported(tm
     stage's error, not the study's."""
     import otgym.experiments.speed_control_eval as evaluation
 
-    ended = []
+    ended, reporting = [], threading.Event()
 
     def endless_study(study, seed, out_dir, detail):
         try:
             while True:
                 detail("working")
-                time.sleep(0.01)
+                reporting.set()
+                time.sleep(0.01)  # a stand-in's pace, not a wait for anything
         except BaseException as error:
             ended.append(type(error).__name__)
             raise
 
     def broken_evaluation(*args, **kwargs):
-        time.sleep(0.2)  # the study is running by now
+        assert reporting.wait(120.0), "the study never reported"  # the study is running
         raise RuntimeError("broken evaluation")
 
     monkeypatch.setattr(demo_module, "run_study", endless_study)

@@ -1,7 +1,7 @@
 """MCAP recordings (``otgym.record``): what was written reads back with the mcap
 library's own (indexed) reader, per topic and byte for byte; chunks reach the file by
-time, so a writer killed with SIGKILL leaves a file readable up to its last second
-(``otgym replay``: test_replay.py)."""
+the recorder's clock (a fake one here: counted, not timed), so a writer killed with
+SIGKILL leaves a file readable up to its last flush (``otgym replay``: test_replay.py)."""
 
 from __future__ import annotations
 
@@ -88,40 +88,57 @@ def test_chunks_reach_the_file_once_a_second_has_passed(tmp_path):
 
 
 WRITER = """
-import sys, time
+import sys
 from otgym.bus import messages as m
 from otgym.record.mcap_file import McapRecorder
-recorder = McapRecorder(sys.argv[1])
-start = time.monotonic()
-for i in range(10**6):
-    now_ns = time.time_ns()
-    recorder.write(m.ALPHA, m.FLOAT64, m.SCHEMAS[m.FLOAT64], m.float64(i / 10**6), log_time_ns=now_ns)
-    print(i, now_ns, flush=True)
-    time.sleep(max(0.0, start + 0.02 * (i + 1) - time.monotonic()))
+now_s = [0.0]
+recorder = McapRecorder(sys.argv[1], monotonic=lambda: now_s[0])
+for i in range(int(sys.argv[2])):
+    now_s[0] = i / 64  # the recorder's clock: 64 messages a second, exact in binary
+    data = m.float64(i / 1000)
+    recorder.write(m.ALPHA, m.FLOAT64, m.SCHEMAS[m.FLOAT64], data, log_time_ns=10**9 + i * 15_625_000)
+    print(i, recorder.flushes, data.hex(), flush=True)
+print("written", flush=True)
+sys.stdin.read()  # the recording stays open until the process is killed
 """
+MESSAGES = 200
 
 
-def test_a_writer_killed_with_sigkill_loses_at_most_about_the_last_second(tmp_path):
+def test_a_writer_killed_with_sigkill_keeps_every_message_up_to_its_last_flush(tmp_path):
+    """A writer in its own process, on a fake clock of 64 messages a second, writes 200
+    messages, says so, and is killed with SIGKILL while its recording is open. Counted,
+    not timed: it flushes exactly when a message arrives a whole period (1 s) after the
+    previous flush, at messages 64, 128 and 192; the file it leaves is incomplete (no
+    summary) and holds exactly messages 0-192 (those up to its last flush, whose chunks
+    the operating system kept), in order, with their log times and bytes, and none of the
+    7 messages of the chunk still open. Catches a writer that flushes by another rule,
+    loses a flushed chunk when killed, writes a chunk torn, or claims a complete file."""
     path = tmp_path / "killed.mcap"
     child = subprocess.Popen(
-        [sys.executable, "-c", WRITER, str(path)],
+        [sys.executable, "-c", WRITER, str(path), str(MESSAGES)],
+        stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
     )
     try:
         lines = []
-        while not lines or int(lines[-1].split()[0]) < 150:  # 3 s at 50 Hz
-            lines.append(child.stdout.readline())
+        for line in child.stdout:  # the writer's own report, message by message; EOF if it died
+            if line.strip() == "written":
+                break
+            lines.append(line.split())
+        assert len(lines) == MESSAGES, f"the writer stopped after {len(lines)} messages (exit {child.poll()})"
         os.kill(child.pid, signal.SIGKILL)
+        assert child.wait(timeout=60) == -signal.SIGKILL
     finally:
         child.kill()
         child.wait()
-    last_sent_ns = int(lines[-1].split()[1])
+    flushes = [int(flushes) for _, flushes, _ in lines]
+    assert [i for i in range(1, MESSAGES) if flushes[i] != flushes[i - 1]] == [64, 128, 192] and flushes[0] == 0
+    assert flushes[-1] == 3
     recording = read_recording(path)
-    assert not recording.complete and len(recording.messages) >= 50
-    assert [msg.log_time_ns for msg in recording.messages] == [
-        int(line.split()[1]) for line in lines[: len(recording.messages)]
+    assert not recording.complete
+    kept = 193  # messages 0-192
+    assert [(msg.topic, msg.log_time_ns, msg.data.hex()) for msg in recording.messages] == [
+        (m.ALPHA, 10**9 + int(i) * 15_625_000, data) for i, _, data in lines[:kept]
     ]
-    lost_s = (last_sent_ns - recording.messages[-1].log_time_ns) * 1e-9
-    assert lost_s <= 1.5  # the flush period (1 s) and a message interval, with room for a loaded machine

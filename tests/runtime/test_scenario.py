@@ -219,6 +219,36 @@ def test_scenario_config_rejects_invalid(kwargs):
         ScenarioConfig(**kwargs)
 
 
-def test_scenario_config_accepts_edge_values():
-    """Zero jitter, zero separation and the full route (0, 1) are valid."""
-    ScenarioConfig(timing_jitter_s=0.0, min_crossing_separation_um=0.0, crossing_arc_fraction=(0.0, 1.0))
+def test_scenario_config_accepts_edge_values(task):
+    """Zero jitter, zero separation and the full route (0, 1) are valid: the config holds
+    them as given, and scenarios built with them (8 seeds, the task's other settings) are
+    valid ones: four obstacles each, arcs sorted within the route, every crossing time
+    exactly the timing law's grip_time_s + arc / cruise_speed_um_s (no jitter: 1e-12 s),
+    each obstacle at its crossing's route point at that time (1e-6 um), and departures at
+    t >= 0. Zero separation is honoured: two crossings of one scenario come closer than
+    the default 10 um (seed 3's are 6 nm apart). Catches a validation that refuses an edge
+    value, a jitter drawn although its SD is zero, or a default separation applied
+    instead of the config's."""
+    config = dataclasses.replace(
+        task.config.scenario, timing_jitter_s=0.0, min_crossing_separation_um=0.0, crossing_arc_fraction=(0.0, 1.0)
+    )
+    assert config.timing_jitter_s == 0.0 and config.min_crossing_separation_um == 0.0
+    assert config.crossing_arc_fraction == (0.0, 1.0)
+    length = task.route_arc_um[-1]
+    closest = math.inf
+    for seed in range(8):
+        s = fast_scenario(seed, config)
+        assert len(s.crossing_arc_um) == config.n_obstacles
+        assert np.all(np.diff(s.crossing_arc_um) >= 0.0)
+        assert 0.0 <= s.crossing_arc_um[0] and s.crossing_arc_um[-1] <= length
+        np.testing.assert_allclose(
+            s.crossing_time_s,
+            np.maximum(config.grip_time_s + s.crossing_arc_um / config.cruise_speed_um_s, 1.0),
+            rtol=0,
+            atol=1e-12,
+        )
+        for k, (arc, time_s) in enumerate(zip(s.crossing_arc_um, s.crossing_time_s)):
+            np.testing.assert_allclose(s.position_um(time_s)[k], route_point(task, arc), rtol=0, atol=1e-6)
+        assert s.depart_s.min() >= 0.0
+        closest = min(closest, np.diff(s.crossing_arc_um).min())
+    assert closest < ScenarioConfig().min_crossing_separation_um, closest

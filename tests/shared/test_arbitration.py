@@ -147,10 +147,26 @@ def test_arbitration_config_rejects_invalid(kwargs):
         ArbitrationConfig(**kwargs)
 
 
-def test_arbitration_config_accepts_valid():
-    """d1 = 0 is allowed (0 <= d1 < d2); guards against over-strict validation."""
+def test_arbitration_config_at_d1_zero_shares_control_from_contact_on():
+    """d1 = 0 is allowed (0 <= d1 < d2): a config that hands the human the near share only
+    at contact. Built with law smooth, d1 0, d2 1 um and tau 0.5, it behaves so: alpha
+    0.5 at and inside contact (d <= d1 = 0, an overlap gives a negative gap), the
+    smoothstep's midpoint 0.5 - 0.4 / 2 = 0.3 halfway (0.5 um), 0.5 - 0.4 x 0.15625 at the
+    quarter point, 0.1 at and beyond d2; the paper law at the same distances is the straight
+    ramp (0.4 at 0.25 um); and the blend of the accepted config scales by its tau. Catches a
+    validation that refuses d1 = 0, a ramp that divides by d1 or measures from a default
+    d1, a law or tau of the config that is not the one applied."""
     config = ArbitrationConfig(law="smooth", d1_um=0.0, d2_um=1.0, tau=0.5)
-    assert (config.law, config.d1_um, config.d2_um, config.tau) == ("smooth", 0.0, 1.0, 0.5)
+    gaps = np.array([-0.5, 0.0, 0.25, 0.5, 1.0, 2.0])
+    np.testing.assert_allclose(
+        alpha_for_mode("shared", gaps, config), [0.5, 0.5, 0.5 - 0.4 * 0.15625, 0.3, 0.1, 0.1], atol=1e-12
+    )
+    paper = ArbitrationConfig(law="paper", d1_um=0.0, d2_um=1.0)
+    np.testing.assert_allclose(alpha_for_mode("shared", gaps, paper), [0.5, 0.5, 0.4, 0.3, 0.1, 0.1], atol=1e-12)
+    alpha = alpha_for_mode("shared", 0.5, config)
+    np.testing.assert_allclose(
+        blend(HUMAN, ROBOT, alpha, tau=config.tau), 0.5 * (0.3 * HUMAN + 0.7 * ROBOT), atol=1e-12
+    )
 
 
 HUMAN = np.array([[1.0, -2.0], [0.5, 3.0]])

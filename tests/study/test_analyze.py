@@ -4,15 +4,19 @@ drawn only from recorded answers, Holm over a whole panel, and bad folders refus
 import json
 import math
 
+import numpy as np
 import pandas as pd
 import pingouin as pg
 import pytest
 
 from otgym.experiments.shared_control import TRIAL_COLUMNS
+from otgym.study import figures
 from otgym.study.analyze import TRIALS_COLUMNS, analyze, load_study
-from otgym.study.questionnaire_stats import TLX_MEASURES, compare_measures
+from otgym.study.figures import fig8_figure
+from otgym.study.questionnaire_stats import TLX_MEASURES, UEQ_MEASURES, compare_measures
 from otgym.study.questionnaires import TLX_SUBSCALES, append_answers, participant_measures, weights_from_choices
 from tests.study import RATINGS, UEQ_RAW, make_trials, ranked_choices, rows
+from tests.study.fig8_content import brackets, group_bars, group_dots, group_position, mode_bars
 
 PARTICIPANTS = ("P1", "P2", "P3", "P4")
 EXPECTED_SCORES = {  # participant, mode: raw TLX, weighted TLX, UEQ-S pragmatic, hedonic, overall
@@ -22,6 +26,8 @@ EXPECTED_SCORES = {  # participant, mode: raw TLX, weighted TLX, UEQ-S pragmatic
     **{(p, "manual"): (60 + 5 * i, 60 + 5 * i, -1.0, -1.0, -1.0) for i, p in enumerate(PARTICIPANTS) if i},
     **{(p, "shared"): (20 + 5 * i, 20 + 5 * i, 2.0, 2.0, 2.0) for i, p in enumerate(PARTICIPANTS) if i},
 }
+SCORE_INDEX = {"raw_tlx": 0, "weighted_tlx": 1, "ueq_pragmatic": 2, "ueq_hedonic": 3, "ueq_overall": 4}
+"""Where each measure sits in ``EXPECTED_SCORES``' tuples."""
 
 
 def write_trials(folder, participants=PARTICIPANTS, trials=2):
@@ -56,9 +62,23 @@ def test_trials_columns_are_the_experiments():
     assert TRIALS_COLUMNS == TRIAL_COLUMNS
 
 
-def test_scores_figure_and_summary_with_answers(tmp_path):
+def test_scores_figure_and_summary_with_answers(tmp_path, monkeypatch):
     """Two folders (P1, P2 | P3, P4): the scores CSV matches hand computation, the figure
-    has four panels, summary.md has the questionnaire table and tests."""
+    has four panels, summary.md has the questionnaire table and tests. The figure shows
+    them (its matplotlib objects, ``tests.study.fig8_content``): in (a, b) the per-mode
+    means of the participants' values (each folder's two: avoided 0.9 and 0.8, 85 %;
+    times base and base + 3 s, base + 1.5 s); in (c, d) one bar per measure and mode at the mean of the
+    hand-computed scores (raw TLX 59.375 manual, 27.5 shared...), one dot per participant
+    at their score; brackets exactly on the pairs whose Holm p is below 0.05, with their
+    stars. Catches panels fed the wrong measure or mode, scores swapped between modes,
+    brackets not from analysis.json's tests."""
+    drawn = []
+
+    def keep_figure(*arguments):
+        drawn.append(fig8_figure(*arguments))
+        return drawn[-1]
+
+    monkeypatch.setattr(figures, "fig8_figure", keep_figure)
     first, second = tmp_path / "day1", tmp_path / "day2"
     write_trials(first, PARTICIPANTS[:2])
     write_trials(second, PARTICIPANTS[2:])
@@ -92,7 +112,33 @@ def test_scores_figure_and_summary_with_answers(tmp_path):
     summary = (tmp_path / "out" / "summary.md").read_text()
     assert "| raw_tlx | 59.38 ± 21.64 (n = 4) | 27.50 ± 6.45 (n = 4) |" in summary  # (27.5+65+70+75)/4, (20+25+30+35)/4
     assert "raw_tlx: manual vs shared (n = 4)" in summary and "ueq_overall: manual vs shared" in summary
-    assert (tmp_path / "out" / "fig8.png").stat().st_size > 0
+    assert (tmp_path / "out" / "fig8.png").stat().st_size > 0  # written (its pixels: tests/study/test_figures.py)
+    (figure,) = drawn
+    success_ax, time_ax, tlx_ax, ueq_ax = figure.axes
+    assert mode_bars(success_ax) == pytest.approx({"manual": 85.0, "autonomous": 85.0, "shared": 85.0})
+    assert mode_bars(time_ax) == pytest.approx({"manual": 161.5, "autonomous": 55.5, "shared": 51.5})
+    modes = ["manual", "shared"]
+    for ax, measures in ((tlx_ax, TLX_MEASURES), (ueq_ax, UEQ_MEASURES)):
+        labels = [tick.get_text() for tick in ax.get_xticklabels()]
+        assert len(labels) == len(measures)
+        measure_of = dict(zip(labels, measures))
+        bars, dots = group_bars(ax, modes), group_dots(ax, modes)
+        assert set(bars) == set(dots) == {(label, mode) for label in labels for mode in modes}
+        for (label, mode), height in bars.items():
+            if measure_of[label] in SCORE_INDEX:
+                scores = [EXPECTED_SCORES[(p, mode)][SCORE_INDEX[measure_of[label]]] for p in PARTICIPANTS]
+                assert height == pytest.approx(sum(scores) / len(scores)), (label, mode)
+                np.testing.assert_allclose(dots[(label, mode)], np.sort(scores))
+            assert len(dots[(label, mode)]) == len(PARTICIPANTS)
+        key = "tlx" if measures == TLX_MEASURES else "ueq"
+        label_of = {measure: label for label, measure in measure_of.items()}
+        significant = {
+            frozenset(((label_of[t["measure"]], t["a"]), (label_of[t["measure"]], t["b"]))): t["stars"]
+            for t in result["questionnaire_tests"][key]["tests"]
+            if t["p_holm"] < 0.05
+        }
+        assert significant and brackets(ax, group_position(ax, modes)) == significant, key
+    assert {"Raw\nTLX", "Weighted\nTLX"} <= {tick.get_text() for tick in tlx_ax.get_xticklabels()}
 
 
 def test_without_answers_only_panels_a_and_b(tmp_path):

@@ -46,21 +46,26 @@ def test_force_saturation_keeps_direction_and_rejects_non_finite():
 def test_open_simulated_gives_a_servo_stylus_that_follows_its_hand():
     """``open_device("simulated")`` (it named a class that did not exist) gives a
     simulated stylus in its own servo process; held by a hand moving at 10 mm/s along
-    x, its tip moves along x and reports a finite sample."""
+    x, 0.3 s of its own sample time after its first sample its tip has moved along x
+    (more than 1 mm of the hand's 3, the stylus starting from rest) and reports a finite
+    sample. The test waits for samples (60 s at most, a bound against hangs), never for
+    a fixed time."""
     import time
 
     from otgym.teleop.servo import SteadyHand
 
+    def wait_for(condition):
+        deadline = time.monotonic() + 60.0
+        while not condition(sample := device.read()):
+            assert time.monotonic() < deadline, "the servo process gave no such sample within 60 s"
+            time.sleep(0.01)
+        return sample
+
     device = open_device("simulated", hand=SteadyHand(velocity_mm_s=(10.0, 0.0, 0.0)))
     device.start()
     try:
-        first = device.read()
-        deadline = time.monotonic() + 5.0
-        while first is None and time.monotonic() < deadline:  # None until the first servo tick
-            time.sleep(0.01)
-            first = device.read()
-        time.sleep(0.3)
-        later = device.read()
+        first = wait_for(lambda sample: sample is not None)  # None until the first servo tick
+        later = wait_for(lambda sample: sample.time_s >= first.time_s + 0.3)
     finally:
         device.stop()
     assert later.finite and later.sequence > first.sequence

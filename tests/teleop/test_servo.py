@@ -1,6 +1,9 @@
 """The servo loop in its own process, driven by the simulated haptic backend (a
 virtual 45 g stylus held by a scripted hand with a 300 N/m grip). No assertion on
-timing: bounds are on motion, and waits only give the process time to move."""
+timing: bounds are on motion against the servo's own sample times, and a test waits for
+what it needs (the stylus moving, a span of sample time, the stylus back) with a
+deadline that only bounds a hang. The servo's rate and jitter are measured in
+``benchmarks/interactive.py``."""
 
 from __future__ import annotations
 
@@ -33,33 +36,55 @@ def _simulated_device(**backend_options):
     return ServoDevice(functools.partial(SimulatedHapticBackend, hand=hand, **backend_options), SIMULATED_HAPTIC_CAPS)
 
 
+def samples_until(device, condition, timeout_s: float = 60.0, force_n=None) -> list:
+    """Read ``device`` (every new sample, refreshing ``force_n`` if given) until
+    ``condition(samples)`` holds; the deadline only bounds a hang."""
+    samples, deadline = [], time.monotonic() + timeout_s
+    while not samples or not condition(samples):
+        assert time.monotonic() < deadline, f"not within {timeout_s} s ({len(samples)} samples)"
+        if force_n is not None:
+            device.set_force(force_n)
+        sample = device.read()
+        if sample is not None and (not samples or sample.sequence != samples[-1].sequence):
+            samples.append(sample)
+        time.sleep(0.005)
+    return samples
+
+
 def test_servo_device_tracks_the_hand_and_feels_the_force():
-    """The hand moves the stylus along device x at 20 mm/s: samples advance and the
-    filtered velocity is within 5 mm/s of 20 (5 reads over 0.25 s; the estimator is
-    exact on a ramp once its 20 Hz filter has settled, the margin covers a late tick).
-    A 0.5 N push along +y deflects the grip by F/k = 1.67 mm; when set_force is no
-    longer refreshed the force times out and the stylus returns."""
+    """The hand moves the stylus along device x at 20 mm/s. Once the stylus moves (its
+    tip 2 mm along), over the next 0.3 s of the servo's own sample times: sequences and
+    times advance, the tip advances at 20 mm/s within 3 mm/s (its position against its
+    sample times; a steady spring lag does not change the slope) and the reported
+    velocity's median is within 5 mm/s of 20 (the estimator is exact on a ramp once its
+    20 Hz filter has settled; the margin covers the transient of a late tick). A 0.5 N
+    push along +y, refreshed, deflects the grip by F/k = 1.67 mm: 0.3 s of servo time
+    after it starts the tip is 1.2-2.2 mm along y. No longer refreshed, the force times
+    out (after 0.25 s) and the stylus returns to within 0.3 mm of y = 0 (waited for, 60
+    s at most: a force that never times out keeps it at 1.67 mm). Every servo tick after
+    the first recorded its period. Stopped, the process has ended and reads give None.
+    Only the servo's own clock measures here: a loaded machine makes the test wait
+    longer, not fail (the servo's rate and jitter: ``benchmarks/interactive.py``)."""
     device = _simulated_device()
     with device:
-        time.sleep(0.3)
-        samples = []
-        for _ in range(5):
-            time.sleep(0.05)
-            samples.append(device.read())
-        sequences = [s.sequence for s in samples]
-        assert all(b > a for a, b in zip(sequences, sequences[1:]))
+        start = samples_until(device, lambda s: s[-1].position_mm[0] > 2.0)[-1]
+        samples = [start] + samples_until(device, lambda s: s[-1].time_s >= start.time_s + 0.3)
+        assert all(b.sequence > a.sequence for a, b in zip(samples, samples[1:]))
         assert all(b.time_s > a.time_s for a, b in zip(samples, samples[1:]))
-        assert samples[-1].position_mm[0] > samples[0].position_mm[0] + 2.0
+        times = np.array([s.time_s for s in samples])
+        slope_mm_s = np.polyfit(times, [s.position_mm[0] for s in samples], 1)[0]
+        assert abs(slope_mm_s - HAND_SPEED_MM_S) < 3.0, slope_mm_s
         assert abs(np.median([s.velocity_mm_s[0] for s in samples]) - HAND_SPEED_MM_S) < 5.0
         assert samples[-1].buttons == 1
-        for _ in range(15):
-            device.set_force([0.0, 0.5, 0.0])
-            time.sleep(0.02)
-        pushed_y = device.read().position_mm[1]
-        assert 1.2 < pushed_y < 2.2
-        time.sleep(0.8)  # no refresh: the force times out after 0.25 s
-        assert abs(device.read().position_mm[1]) < 0.3
-        assert len(device.loop_periods_s()) > 100
+        push = [0.0, 0.5, 0.0]
+        device.set_force(push)
+        pushed_from = device.read().time_s
+        pushed = samples_until(device, lambda s: s[-1].time_s >= pushed_from + 0.3, force_n=push)[-1]
+        assert 1.2 < pushed.position_mm[1] < 2.2, pushed.position_mm
+        samples_until(device, lambda s: abs(s[-1].position_mm[1]) < 0.3)  # no refresh: the force times out
+        last = device.read()
+        periods = device.loop_periods_s()
+        assert len(periods) >= min(last.sequence - 1, 4096) and np.all(periods > 0)
     assert not device.process.is_alive()
     assert device.read() is None
     device.stop()  # idempotent
@@ -77,7 +102,7 @@ def _hold_a_servo_device(conn):
     device = _simulated_device()
     device.start()
     conn.send(device.process.pid)
-    time.sleep(60)
+    time.sleep(600)  # held until the test kills this process
 
 
 def _ended(pid: int) -> bool:
@@ -95,14 +120,16 @@ def test_the_servo_process_ends_when_its_parent_dies():
     parent = context.Process(target=_hold_a_servo_device, args=(sender,))  # daemons may not have children
     parent.start()
     try:
-        while not receiver.poll(0.1):
+        deadline = time.monotonic() + 120.0
+        while not receiver.poll(0.1):  # the helper's servo device has started (its pid sent)
             assert parent.is_alive(), "the helper failed to start its servo device"
+            assert time.monotonic() < deadline, "the helper did not start its servo device within 120 s"
         servo_pid = receiver.recv()
         assert not _ended(servo_pid)
     finally:
         os.kill(parent.pid, process_signals.SIGKILL)
         parent.join()
-    deadline = time.monotonic() + 20.0
+    deadline = time.monotonic() + 60.0  # bounds a hang; it ends within a servo tick of noticing
     while not _ended(servo_pid) and time.monotonic() < deadline:
         time.sleep(0.05)
     ended = _ended(servo_pid)

@@ -4,7 +4,10 @@ the mode keys change the loop's alpha, space stops simulated time and zeros the
 devices' force, R starts the next trial, Esc ends the session and the devices are
 sent zero force; the CLI runs a short session with the simulated stylus and writes
 trials.csv and a screenshot with the route drawn; bad arguments are one error line,
-exit 2, nothing written."""
+exit 2, nothing written. In-process sessions run on a stepped clock that each frame
+advances (``SteppedClock``), so the ticks a test sees do not depend on the machine's
+speed; a session in its own process is waited for through its snapshots, with a
+deadline that only bounds a hang."""
 
 from __future__ import annotations
 
@@ -49,6 +52,21 @@ class SpyStylus(Device):
         self.forces.append(np.array(force_n, float))
 
 
+class SteppedClock:
+    """A session's wall clock that only the test moves (``advance``), so that a frame
+    runs the ticks due by the time the test says has passed, however fast the machine
+    is. Devices keep the real clock: their samples are always fresh."""
+
+    def __init__(self):
+        self.now_s = 1000.0
+
+    def __call__(self) -> float:
+        return self.now_s
+
+    def advance(self, seconds: float) -> None:
+        self.now_s += seconds
+
+
 @pytest.fixture(scope="module")
 def task():
     return shared_task()
@@ -56,11 +74,12 @@ def task():
 
 @pytest.fixture
 def session(task, tmp_path):
-    """A started session in this process (shared mode) with a spy stylus on robot 0,
-    under a headless window whose frames also run the ticks (the test steps frames)."""
+    """A started session in this process (shared mode) with a spy stylus on robot 0, on
+    a stepped clock, under a headless window whose frames also run the ticks (the test
+    steps frames, each advancing the clock: 60 ms, three ticks, by default)."""
     pygame.init()
     spy = SpyStylus()
-    simulation = Session(task, play_bindings([spy, None], keyboard=False), "T1", "shared", seed=3)
+    simulation = Session(task, play_bindings([spy, None], keyboard=False), "T1", "shared", seed=3, clock=SteppedClock())
     simulation.start()
     app = PlayApp(simulation, tmp_path, questionnaire=False, step=True)
     yield app, simulation, spy
@@ -68,15 +87,26 @@ def session(task, tmp_path):
     pygame.quit()
 
 
-def press(app, key, frames=1, pause_s=0.06):
+def press(app, key, frames=1, step_s=0.06):
     pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=key, mod=0, unicode="", scancode=0))
-    run_frames(app, frames, pause_s)
+    run_frames(app, frames, step_s)
 
 
-def run_frames(app, frames, pause_s=0.06):
+def run_frames(app, frames, step_s=0.06):
+    """``frames`` frames, the session's stepped clock advanced by ``step_s`` before each."""
     for _ in range(frames):
-        time.sleep(pause_s)
+        app.session.clock.advance(step_s)
         app.frame()
+
+
+def frames_until(app, condition, timeout_s: float = 120.0) -> None:
+    """Frames (about 100 a second) until ``condition()`` holds, for a session in another
+    process on the real clock; the deadline only bounds a hang."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, f"not within {timeout_s} s"
+        app.frame()
+        time.sleep(0.01)
 
 
 def test_mode_keys_switch_the_loops_mode_and_alpha(session):
@@ -110,7 +140,7 @@ def test_r_starts_trial_2_from_the_start(session):
     app, simulation, _ = session
     run_frames(app, 4)
     assert simulation.trial == 1 and simulation.loop.time_s > 0
-    press(app, pygame.K_r, frames=1, pause_s=0.0)
+    press(app, pygame.K_r, frames=1, step_s=0.0)
     assert simulation.trial == 2 and simulation.snapshot.trial == 2
     assert simulation.participant == "T1" and simulation.loop.time_s < 0.2
     assert simulation.take_finished() is None  # an abandoned trial writes no row
@@ -201,7 +231,9 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     assert recorded["complete"] and recorded["trials"] == 1 and recorded["ended_by"] == ["duration"]
     counts = recorded["counts"]
     assert counts["/otgym/traps"] == counts["/otgym/bodies"] == counts["/otgym/shared/alpha"] == 100
-    assert counts["/otgym/device/device0/twist"] >= 90 and counts["/otgym/feedback/device0"] == 100
+    # a new stylus sample is recorded once, on the tick that read it: at most one a tick (how many ticks
+    # found a new one is the servo process's pace, measured in benchmarks/interactive.py)
+    assert 0 < counts["/otgym/device/device0/twist"] <= 100 and counts["/otgym/feedback/device0"] == 100
     # the global view's scene, once, and the mode at the trial's start only (issue 12: replay draws the chip)
     assert counts["/otgym/session"] == counts["/otgym/chip"] == counts["/otgym/route"] == counts["/otgym/mode"] == 1
     from otgym.record.replay import session_scene
@@ -267,15 +299,19 @@ def test_a_finished_trial_asks_the_questionnaires_and_saves_the_answers(task, tm
     from otgym.study.questionnaires import read_answers, score
 
     pygame.init()
+    clock = SteppedClock()
     simulation = Session(
-        task, play_bindings([SpyStylus(), None], keyboard=False), "Q1", "manual", seed=3, duration_s=0.2
+        task, play_bindings([SpyStylus(), None], keyboard=False), "Q1", "manual", seed=3, duration_s=0.2, clock=clock
     )
     simulation.start()
     try:
         app = PlayApp(simulation, tmp_path, questionnaire=True, step=True)
-        while not simulation.over:
-            time.sleep(0.03)
+        for _ in range(11):  # 0.2 s of ticks is due by the 10th step of 30 ms; one to spare
+            if simulation.over:
+                break
+            clock.advance(0.03)
             simulation.advance()
+        assert simulation.over
         pygame.event.clear()
         keys = [pygame.K_RIGHT, pygame.K_DOWN] * 6 + [pygame.K_RETURN] + [pygame.K_6] * 8 + [pygame.K_RETURN]
         for key in keys:
@@ -296,21 +332,23 @@ def test_a_finished_trial_asks_the_questionnaires_and_saves_the_answers(task, tm
 
 
 def test_the_keyboard_moves_both_robots_as_a_formation(task):
-    """--device keyboard: holding the right arrow for about half a second moves both
-    robots' traps along +x by the same amount (one keyboard shared by both bindings);
-    with the keyboard on robot 0 alone, robot 1's traps would not move."""
+    """--device keyboard: holding the right arrow for 30 ticks (0.6 s of the session's
+    stepped clock) moves both robots' traps along +x by the same amount (one keyboard
+    shared by both bindings); with the keyboard on robot 0 alone, robot 1's traps would
+    not move."""
     from otgym.ui.bindings import primary_devices
 
     pygame.init()
     primaries = primary_devices("keyboard")
-    simulation = Session(task, play_bindings(primaries, keyboard=True), "K1", "manual", seed=3)
+    clock = SteppedClock()
+    simulation = Session(task, play_bindings(primaries, keyboard=True), "K1", "manual", seed=3, clock=clock)
     simulation.start()
     try:
         simulation.advance()
         before = np.array(simulation.loop.observation.trap_xy_um[0])
         primaries[0].handle_event(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RIGHT, mod=0, unicode="", scancode=0))
-        for _ in range(12):
-            time.sleep(0.05)
+        for _ in range(12):  # 0.6 s of the session's clock: 30 ticks
+            clock.advance(0.05)
             simulation.advance()
         moved = np.array(simulation.loop.observation.trap_xy_um[0]) - before
     finally:
@@ -325,10 +363,13 @@ def test_the_keyboard_moves_both_robots_as_a_formation(task):
 def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_path):
     """``otgym play``'s arrangement: the session in a worker process, the keyboard read
     by the window and its samples forwarded. Holding the right arrow moves both robots'
-    traps along +x (manual mode: nothing else moves them); closing the window mid-trial
-    saves the trial as aborted, and its recording ends with it."""
+    traps along +x (manual mode: nothing else moves them; the window draws frames until
+    every trap has moved 1 um, 120 s at most, then the motion must point along x);
+    closing the window mid-trial saves the trial as aborted, and its recording ends with
+    it, holding the forwarded key samples (the keyboard's 2 mm/s along x)."""
     import functools
 
+    from otgym.bus import messages as msg
     from otgym.record.mcap_file import read_recording
     from otgym.record.replay import summary
     from otgym.runtime.worker import SessionProcess, WorkerSpec
@@ -351,19 +392,25 @@ def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_pa
     session.start()
     try:
         app = PlayApp(session, tmp_path, window_devices=windowed, questionnaire=False)
-        run_frames(app, 10, 0.02)
+        frames_until(app, lambda: session.snapshot is not None and session.snapshot.observation.time_s[0] > 0)
         before = np.array(session.snapshot.observation.trap_xy_um[0])
         pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RIGHT, mod=0, unicode="", scancode=0))
-        run_frames(app, 40, 0.02)
-        moved = np.array(session.snapshot.observation.trap_xy_um[0]) - before
+
+        def moved_um():
+            return np.array(session.snapshot.observation.trap_xy_um[0]) - before
+
+        frames_until(app, lambda: np.all(moved_um()[:, 0] > 1.0))
+        moved = moved_um()
         pygame.event.post(pygame.event.Event(pygame.QUIT))
         app.run()
     finally:
         session.finish()
         pygame.quit()
-    assert np.all(moved[:, 0] > 0.5) and np.all(np.abs(moved[:, 1]) < 0.1 * moved[:, 0]), moved
+    assert np.all(np.abs(moved[:, 1]) < 0.1 * moved[:, 0]), moved
     with open(tmp_path / "trials.csv", newline="") as handle:
         assert [row["ended_by"] for row in csv.DictReader(handle)] == ["aborted"]
-    recorded = summary(read_recording(tmp_path / "session.mcap"))
+    recording = read_recording(tmp_path / "session.mcap")
+    recorded = summary(recording)
     assert recorded["complete"] and recorded["ended_by"] == ["aborted"]
-    assert recorded["counts"]["/otgym/device/device0/twist"] > 20  # the forwarded samples are recorded
+    twists = [msg.velocity_mm_s(msg.decode(m.topic, m.data)) for m in recording.topic(msg.twist_topic("device0"))]
+    assert any(np.allclose(v, [2.0, 0.0, 0.0]) for v in twists)  # the forwarded key samples are recorded

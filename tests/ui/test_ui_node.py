@@ -23,11 +23,31 @@ def free_endpoint() -> str:
         return f"tcp/127.0.0.1:{probe.getsockname()[1]}"
 
 
-def wait_until(condition, timeout_s: float = 10.0) -> None:
+def wait_until(condition, timeout_s: float = 60.0, poll_s: float = 0.005) -> None:
+    """Poll ``condition()`` every ``poll_s`` until it holds; the deadline only bounds a hang."""
     deadline = time.monotonic() + timeout_s
     while not condition():
-        assert time.monotonic() < deadline, "not within the time allowed"
-        time.sleep(0.005)
+        assert time.monotonic() < deadline, f"not within {timeout_s} s"
+        time.sleep(poll_s)
+
+
+def publish_tick(sim, loop, record) -> None:
+    """One tick's messages, as the sim publishes them."""
+    for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), mode="shared", stamp_s=time.time()):
+        sim.publish(topic, data)
+
+
+def publish_until(publish, condition, every_s: float = 0.5, timeout_s: float = 60.0) -> None:
+    """``publish()``, then wait up to ``every_s`` for ``condition()``, again until it holds
+    (the bus may drop a message under load); one copy is sent when none is lost."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        publish()
+        try:
+            wait_until(condition, timeout_s=min(every_s, max(deadline - time.monotonic(), 0.0)))
+            return
+        except AssertionError:
+            assert time.monotonic() < deadline, f"not within {timeout_s} s"
 
 
 @pytest.fixture(scope="module")
@@ -51,22 +71,17 @@ def test_the_window_on_the_bus_draws_what_the_sim_sees_and_sends_checked_command
         sim.subscribe(msg.COMMAND, lambda topic, message, data: commands.append(msg.event_fields(message)))
         session = BusSession(ui, layout, [], "mouse", ["device0"])
         wait_until(lambda: session.simulator_live)
-        time.sleep(0.3)  # subscriptions meet
-        sim.publish(msg.EVENTS, msg.event("trial_start", trial=4, scenario=7, mode="shared", participant="P9"))
-
-        def publish_tick(record) -> None:
-            for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), mode="shared", stamp_s=time.time()):
-                sim.publish(topic, data)
-            time.sleep(0.02)
-
+        start = msg.event("trial_start", trial=4, scenario=7, mode="shared", participant="P9")
+        # again until the window has it (until the subscriptions meet; a repeat of a trial's start is ignored)
+        publish_until(lambda: sim.publish(msg.EVENTS, start), lambda: session._trial == 4, every_s=0.1)
         for _ in range(3):  # the tick's messages, again until they arrive (the bus may drop one under load)
             record = loop.tick()
-            wait_until(
+            publish_until(
+                lambda: publish_tick(sim, loop, record),
                 lambda: (
-                    publish_tick(record),
                     session.snapshot is not None
-                    and np.array_equal(session.snapshot.observation.trap_xy_um[0], record.trap_xy_um),
-                )[1]
+                    and np.array_equal(session.snapshot.observation.trap_xy_um[0], record.trap_xy_um)
+                ),
             )
         assert session.snapshot.time_s >= 3 * layout.tick_s  # its clock counts the ticks it saw
         seen, truth = session.snapshot.observation, loop.observation
@@ -99,11 +114,17 @@ def test_the_window_on_the_bus_draws_what_the_sim_sees_and_sends_checked_command
 def test_a_window_that_joins_mid_trial_knows_the_trial_and_the_participant(layout_and_loop):
     """The sim's bus sink sends each trial_start also on the latched /otgym/trial/current:
     a ui node that connects after it still shows trial 2 of P5 (on the events alone it
-    showed trial 0 of '?')."""
+    showed trial 0 of '?'). Trial 3 then starts; once a tick of it has been counted, the
+    same trial_start arrives again on both topics (as a window that joins sees it twice)
+    followed by a mode event: the window still shows trial 3 and keeps the ticks it
+    counted (a repeated start does not restart the trial, which would zero them). The events topic's copy is
+    known to be handled when the mode event after it is (one publisher, one key: in
+    order); the latched copy when the test's own subscriber, declared after the
+    window's, has seen it."""
     from otgym.bus.sim_node import BusSink
     from otgym.ui.node import BusSession
 
-    layout, _ = layout_and_loop
+    layout, loop = layout_and_loop
     endpoint = free_endpoint()
     with Node("sim", "sim", listen=[endpoint]) as sim:
         sink = BusSink(lambda messages: [sim.publish(topic, data) for topic, data in messages])
@@ -111,9 +132,18 @@ def test_a_window_that_joins_mid_trial_knows_the_trial_and_the_participant(layou
             sink.event("trial_start", trial=trial, scenario=trial, mode="autonomous", participant="P5")
         with Node("ui", "ui", connect=[endpoint]) as ui:
             session = BusSession(ui, layout, [], "mouse", [])
+            latched = []
+            ui.subscribe(msg.TRIAL, lambda topic, message, data: latched.append(msg.event_fields(message)["trial"]))
             wait_until(lambda: session._trial == 2)
             assert session.participant == "P5" and session._mode == "autonomous"
             sink.event("trial_start", trial=3, scenario=3, mode="shared", participant="P5")
-            wait_until(lambda: session._trial == 3)
-            time.sleep(0.3)  # a second copy (events and the latched topic) would have arrived
-            assert session._trial == 3 and session._ticks == 0
+            wait_until(lambda: session._trial == 3 and latched.count(3) == 1)
+            record = loop.tick()
+            publish_until(lambda: publish_tick(sim, loop, record), lambda: session._ticks > 0)
+            ticks = session._ticks
+            again = msg.event("trial_start", trial=3, scenario=3, mode="shared", participant="P5")
+            sim.publish(msg.TRIAL, again)
+            sim.publish(msg.EVENTS, again)
+            sim.publish(msg.EVENTS, msg.event("mode", trial=3, mode="manual"))
+            wait_until(lambda: session._mode == "manual" and latched.count(3) == 2)
+            assert session._trial == 3 and session._ticks >= ticks > 0  # a copy of the tick may still have come
