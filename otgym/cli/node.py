@@ -213,21 +213,23 @@ SESSION_END_RECORDED = "recorded: session_end"
 
 def _recorder(stop, endpoints, *, out, **_):
     from otgym.bus import messages as msg
-    from otgym.bus.nodes import record_all
+    from otgym.bus.foxglove_scene import SceneRecording
     from otgym.bus.transport import Node
     from otgym.experiments.output_folder import check_out_dir
     from otgym.record.mcap_file import McapRecorder, session_path
 
     path = session_path(check_out_dir(out))
     with McapRecorder(path) as recorder, Node("recorder", "recorder", **endpoints) as node:
+        scene = SceneRecording(recorder.write_encoded)
 
-        def sink(topic: str, data: bytes) -> None:
+        def sink(topic: str, message, data: bytes) -> None:
             type_name = msg.topic_type(topic)
             recorder.write(topic, type_name, msg.SCHEMAS[type_name], data)
-            if topic == msg.EVENTS and msg.event_fields(msg.decode(topic, data)).get("event") == "session_end":
+            scene.take(topic, message)
+            if topic == msg.EVENTS and msg.event_fields(message).get("event") == "session_end":
                 print(SESSION_END_RECORDED, flush=True)  # what otgym play --distributed waits for
 
-        record_all(node, sink)
+        node.subscribe("/otgym/**", sink)
         _ready(f"recorder into {path}")
         while not stop.wait(0.25):
             recorder.flush()

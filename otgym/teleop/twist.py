@@ -94,9 +94,14 @@ class TwistDevice(Device):
     def read(self) -> Sample | None:
         now = self.clock()
         with self._lock:
-            if self._sample is not None and now - self._sample.time_s < self.period_s:
-                return self._sample
             fresh = self._command is not None and now - self._command[0] <= self.timeout_s
+            cached = self._sample
+            if (
+                cached is not None
+                and now - cached.time_s < self.period_s
+                and cached.buttons == (CLUTCH if fresh else 0)
+            ):
+                return cached  # silence shows at once, not a period later
             velocity = self._command[1] if fresh else np.zeros(3)
             if self._sample is not None:
                 self._position_mm = self._position_mm + self._sample.velocity_mm_s * (now - self._sample.time_s)
