@@ -186,8 +186,9 @@ class Recording:
 
 
 def read_recording(path) -> Recording:
-    """Every message of the MCAP file ``path`` (read sequentially, so a file without
-    its summary reads too); ValueError for a file that is not MCAP."""
+    """Every ROS 2 (CDR) message of the MCAP file ``path`` (read sequentially, so a file
+    without its summary reads too; channels of other encodings, such as the Foxglove
+    scene, are skipped); ValueError for a file that is not MCAP."""
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     messages: list[RecordedMessage] = []
@@ -205,6 +206,8 @@ def read_recording(path) -> Recording:
                     schema = schemas.get(channel.schema_id) if channel else None
                     if schema is None:
                         raise ValueError(f"{path}: a message refers to an unknown channel or schema")
+                    if channel.message_encoding != "cdr":
+                        continue
                     messages.append(
                         RecordedMessage(
                             channel.topic,

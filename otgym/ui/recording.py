@@ -24,7 +24,6 @@ from otgym.runtime.loop import DeviceBinding, TickRecord
 from otgym.runtime.task import InteractiveTask
 from otgym.teleop.device import Device, Sample
 
-
 SCENE_SOURCES = (msg.SESSION, msg.CHIP, msg.ROUTE, msg.TRAPS, msg.BODIES)
 """The topics the recorded scene is drawn from."""
 

@@ -169,44 +169,43 @@ def test_a_ros2_peer_sees_the_node_its_publishers_and_subscriptions_with_types_h
     sim = Node("sim", "sim", listen=[endpoint])
     peer = peer_session(endpoint)
     try:
-        if True:
-            graph = Graph(peer)
-            samples, sample_lock = [], threading.Lock()
+        graph = Graph(peer)
+        samples, sample_lock = [], threading.Lock()
 
-            def keep(sample):
-                with sample_lock:
-                    samples.append((str(sample.key_expr), sample.attachment.to_bytes(), sample.payload.to_bytes()))
-
-            peer.declare_subscriber("0/otgym/traps/**", keep)
-            sim.subscribe(msg.COMMAND, lambda *_: None)
-            traps = np.array([[1.0, 2.0], [3.0, 4.0]])
-            wait_until(lambda: (sim.publish(msg.TRAPS, msg.pose_array(traps, 5.0)), len(samples) >= 3)[1], 10.0)
-            sim.publish(msg.MODE, msg.string("shared"))
-            wait_until(lambda: graph.entities(kind="MP", topic=msg.MODE), 10.0)
-            (node,) = graph.entities(kind="NN")
-            assert node["node"] == "otgym_sim" and node["namespace"] == "/" and node["nid"] == node["id"] == "0"
-            (traps_pub,) = graph.entities(kind="MP", topic="/otgym/traps")
-            assert traps_pub["type"] == "geometry_msgs::msg::dds_::PoseArray_"
-            assert traps_pub["hash"] == TYPE_HASH[msg.POSE_ARRAY]
-            assert (traps_pub["reliability"], traps_pub["durability"], traps_pub["depth"]) == (1, 2, 1)
-            (mode_pub,) = graph.entities(kind="MP", topic=msg.MODE)  # latched: transient local, depth 1
-            assert (mode_pub["type"], mode_pub["durability"], mode_pub["depth"]) == (
-                "std_msgs::msg::dds_::String_",
-                1,
-                1,
-            )
-            (command_sub,) = graph.entities(kind="MS", topic=msg.COMMAND)  # every command matters: keep all
-            assert command_sub["history"] == 2 and command_sub["hash"] == TYPE_HASH[msg.STRING]
-            assert {e["zid"] for e in graph.entities()} == {sim.zid}
+        def keep(sample):
             with sample_lock:
-                received = list(samples)
-            token = next(t for t in graph.tokens if "/MP/" in t and "%otgym%traps/" in t)
-            for index, (key, attachment, payload) in enumerate(received[:3]):
-                assert key == f"0/otgym/traps/geometry_msgs::msg::dds_::PoseArray_/{TYPE_HASH[msg.POSE_ARRAY]}"
-                sequence, stamp_ns, length = struct.unpack_from("<qqB", attachment)
-                assert len(attachment) == 33 and length == 16 and attachment[17:] == ros_graph.gid_of(token)
-                assert sequence == index + 1 and abs(stamp_ns * 1e-9 - time.time()) < 60
-                np.testing.assert_array_equal(msg.xy_um(msg.decode(msg.TRAPS, payload)), traps)
+                samples.append((str(sample.key_expr), sample.attachment.to_bytes(), sample.payload.to_bytes()))
+
+        peer.declare_subscriber("0/otgym/traps/**", keep)
+        sim.subscribe(msg.COMMAND, lambda *_: None)
+        traps = np.array([[1.0, 2.0], [3.0, 4.0]])
+        wait_until(lambda: (sim.publish(msg.TRAPS, msg.pose_array(traps, 5.0)), len(samples) >= 3)[1], 10.0)
+        sim.publish(msg.MODE, msg.string("shared"))
+        wait_until(lambda: graph.entities(kind="MP", topic=msg.MODE), 10.0)
+        (node,) = graph.entities(kind="NN")
+        assert node["node"] == "otgym_sim" and node["namespace"] == "/" and node["nid"] == node["id"] == "0"
+        (traps_pub,) = graph.entities(kind="MP", topic="/otgym/traps")
+        assert traps_pub["type"] == "geometry_msgs::msg::dds_::PoseArray_"
+        assert traps_pub["hash"] == TYPE_HASH[msg.POSE_ARRAY]
+        assert (traps_pub["reliability"], traps_pub["durability"], traps_pub["depth"]) == (1, 2, 1)
+        (mode_pub,) = graph.entities(kind="MP", topic=msg.MODE)  # latched: transient local, depth 1
+        assert (mode_pub["type"], mode_pub["durability"], mode_pub["depth"]) == (
+            "std_msgs::msg::dds_::String_",
+            1,
+            1,
+        )
+        (command_sub,) = graph.entities(kind="MS", topic=msg.COMMAND)  # every command matters: keep all
+        assert command_sub["history"] == 2 and command_sub["hash"] == TYPE_HASH[msg.STRING]
+        assert {e["zid"] for e in graph.entities()} == {sim.zid}
+        with sample_lock:
+            received = list(samples)
+        token = next(t for t in graph.tokens if "/MP/" in t and "%otgym%traps/" in t)
+        for index, (key, attachment, payload) in enumerate(received[:3]):
+            assert key == f"0/otgym/traps/geometry_msgs::msg::dds_::PoseArray_/{TYPE_HASH[msg.POSE_ARRAY]}"
+            sequence, stamp_ns, length = struct.unpack_from("<qqB", attachment)
+            assert len(attachment) == 33 and length == 16 and attachment[17:] == ros_graph.gid_of(token)
+            assert sequence == index + 1 and abs(stamp_ns * 1e-9 - time.time()) < 60
+            np.testing.assert_array_equal(msg.xy_um(msg.decode(msg.TRAPS, payload)), traps)
         sim.close()
         wait_until(lambda: not graph.entities(), 5.0)  # the node closed: its tokens went
     finally:
@@ -358,3 +357,30 @@ def test_a_ros2_publisher_of_another_type_or_qos_is_reported_once():
             assert any("best effort" in r for r in sim.counts.reports)
         finally:
             peer.close()
+
+
+@pytest.mark.parametrize(
+    "args, env, message",
+    [
+        (["sim", "--namespace", "/1rig"], {}, "namespace"),
+        (["device", "--device", "twist", "--twist-topic", "cmd vel"], {}, "topic name"),
+        (["foxglove", "--port", "70000"], {}, "--port must lie in 0..65535"),
+        (["recorder", "--out", "x"], {"ROS_DOMAIN_ID": "999"}, "ROS_DOMAIN_ID"),
+    ],
+)
+def test_bad_ros2_options_end_in_one_error_line_and_exit_2(args, env, message, tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    run = subprocess.run(
+        [sys.executable, "-m", "otgym", "node", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+        env={**os.environ, **env},
+    )
+    lines = run.stderr.strip().splitlines()
+    assert run.returncode == 2 and len(lines) == 1 and lines[0].startswith("error:") and message in lines[0], run.stderr
+    assert not any(tmp_path.iterdir())  # nothing written
