@@ -82,6 +82,10 @@ NOT_TO_DROP = (msg.EVENTS, msg.COMMAND)
 """Topics whose every message matters (trial events carry the trials' rows, commands
 change the session): their publishers block when congested instead of dropping."""
 ROLES = ("sim", "device", "autonomy", "recorder", "ui", "foxglove")
+MISS_HEARTBEAT_S = 0.5
+"""A latched publisher's sporadic heartbeat (rmw_zenoh's for reliable, transient-local
+publishers: ``SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD``), so a ROS 2 subscriber's recovery
+of a missed last sample works as with a ROS 2 publisher."""
 LATCHED_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.TRANSIENT_LOCAL, ros_graph.KEEP_LAST, 1)
 ALL_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_ALL, ros_graph.DEFAULT_DEPTH)
 STREAM_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_LAST, 1)
@@ -235,6 +239,7 @@ class Node:
                     congestion_control=zenoh.CongestionControl.BLOCK,
                     cache=zenoh.ext.CacheConfig(1),
                     publisher_detection=True,
+                    sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=MISS_HEARTBEAT_S),
                 )
             elif topic in NOT_TO_DROP:
                 publisher = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
