@@ -18,8 +18,9 @@ against the in-process runtime measured in the same run.
   ``Device.set_force`` around one tick; no bus).
 * Liveliness: a light child node (no simulation) is started and SIGKILLed ``--kills``
   times; the time from the kill to this process's liveliness DELETE.
-* Rates: encoding, and decoding with the checks, per message type in this process;
-  and the messages per tick the simulator publishes.
+* Rates: encoding, and decoding with the checks, per message type in this process,
+  and the same with the ROS 2 layer's per-message work (rmw_zenoh's attachment built,
+  then ``otgym.bus.intake``'s checks of type, hash, attachment, sequence and size).
 
     python benchmarks/bus.py [--round-trips 1000] [--kills 5]
 """
@@ -213,12 +214,27 @@ def rates() -> None:
         "PoseArray, 4 traps": (msg.TRAPS, lambda: msg.pose_array(np.zeros((4, 2)), 1.0)),
         "PoseArray, 19 spheres": (msg.BODIES, lambda: msg.pose_array(np.zeros((19, 2)), 1.0)),
     }
+    from otgym.bus import ros_graph
+    from otgym.bus.intake import DDS_NAME, TYPE_HASH, Counts, Intake
+
     for name, (topic, make) in cases.items():
         data = make()
         n = 2000
         encode_s = timeit.timeit(make, number=n) / n
         decode_s = timeit.timeit(lambda: msg.decode(topic, data), number=n) / n
-        print(f"{name}: {len(data)} B, encode {1 / encode_s:,.0f}/s, decode+check {1 / decode_s:,.0f}/s")
+        type_name = msg.topic_type(topic)
+        intake, sequence, gid = Intake(Counts()), iter(range(1, 10**9)), bytes(16)
+
+        def receive():
+            attachment = ros_graph.attachment(next(sequence), time.time_ns(), gid)  # the sender's part
+            intake.check(topic, DDS_NAME[type_name], TYPE_HASH[type_name], attachment, data)
+
+        receive_s = timeit.timeit(receive, number=n) / n
+        print(
+            f"{name}: {len(data)} B, encode {1 / encode_s:,.0f}/s, decode+check {1 / decode_s:,.0f}/s, "
+            f"with rmw_zenoh's attachment and the intake checks {1 / receive_s:,.0f}/s "
+            f"({(receive_s - decode_s) * 1e6:.1f} us more)"
+        )
 
 
 def main() -> None:

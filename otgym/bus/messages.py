@@ -21,6 +21,11 @@ schema encodings)::
     /otgym/session                  std_msgs/msg/String           the session's description (JSON), latched
     /otgym/chip                     sensor_msgs/msg/CompressedImage the chip's image (PNG), latched
     /otgym/route                    nav_msgs/msg/Path             the planned route, um, chip frame, latched
+    /otgym/contact_force            geometry_msgs/msg/WrenchStamped the vision sensor's contact force on the handles, summed, N
+
+A device node driven from ROS 2 (``otgym.bus.twist_source``) also reads a
+``geometry_msgs/msg/Twist`` (``TWIST``) or ``TwistStamped`` from a topic of ROS 2's own
+(``/cmd_vel`` by default).
 
 Latched topics (``LATCHED``: the session, chip and route, sent once per session; the
 mode, sent at each trial's start and when it changes; the current trial, sent at each
@@ -97,6 +102,7 @@ JOY = "sensor_msgs/msg/Joy"
 FLOAT64 = "std_msgs/msg/Float64"
 STRING = "std_msgs/msg/String"
 PATH = "nav_msgs/msg/Path"
+TWIST = "geometry_msgs/msg/Twist"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 
 SCHEMAS: dict[str, str] = {
@@ -123,6 +129,7 @@ SCHEMAS: dict[str, str] = {
         _POSE,
     ),
     COMPRESSED_IMAGE: _schema("std_msgs/Header header\nstring format\nuint8[] data\n", _HEADER),
+    TWIST: _schema("Vector3 linear\nVector3 angular\n", _VECTOR3),
 }
 """ros2msg schema text per type (definitions of ROS 2 Humble's common_interfaces)."""
 
@@ -141,6 +148,7 @@ COMMAND = "/otgym/command"
 SESSION = "/otgym/session"
 CHIP = "/otgym/chip"
 ROUTE = "/otgym/route"
+CONTACT_FORCE = "/otgym/contact_force"
 _FIXED_TOPICS = {
     TRAPS: POSE_ARRAY,
     BODIES: POSE_ARRAY,
@@ -154,6 +162,7 @@ _FIXED_TOPICS = {
     SESSION: STRING,
     CHIP: COMPRESSED_IMAGE,
     ROUTE: PATH,
+    CONTACT_FORCE: WRENCH_STAMPED,
 }
 COMMANDS = ("mode", "pause", "resume", "reset", "next_trial", "quit")
 """What a ui node asks of the sim: switch the mode, pause or resume simulated time,
@@ -171,6 +180,11 @@ MAX_INCREMENT_UM = 100.0
 _NAME = r"[A-Za-z][A-Za-z0-9_]{0,63}"
 _DEVICE_TOPIC = re.compile(rf"/otgym/device/({_NAME})/(twist|buttons)")
 _FEEDBACK_TOPIC = re.compile(rf"/otgym/feedback/({_NAME})")
+
+
+def fixed_topics() -> tuple[str, ...]:
+    """otgym's topics whose names do not depend on a device."""
+    return tuple(_FIXED_TOPICS)
 
 
 def twist_topic(device: str) -> str:
@@ -339,7 +353,11 @@ def command(name: str, mode: str | None = None) -> bytes:
 def decode(topic: str, data: bytes):
     """The checked message on ``topic`` (an object with the type's fields, as
     mcap-ros2-support decodes it); MessageError with the reason otherwise."""
-    type_name = topic_type(topic)
+    return decode_as(topic_type(topic), data, topic)
+
+
+def decode_as(type_name: str, data: bytes, topic: str):
+    """``data`` decoded as ``type_name`` and checked as a message on ``topic``."""
     if len(data) < 4 or data[:2] != b"\x00\x01":
         raise MessageError(f"{topic}: not little-endian CDR (encapsulation {bytes(data[:4]).hex() or 'missing'})")
     try:
@@ -408,6 +426,11 @@ def _check_twist(message, topic: str) -> None:
     _check_header(message, topic)
     _check_finite_within(topic, "linear velocity (m/s)", _xyz(message.twist.linear), LIMITS.speed_m_s)
     _check_finite_within(topic, "angular velocity (rad/s)", _xyz(message.twist.angular), 1e3)
+
+
+def _check_plain_twist(message, topic: str) -> None:
+    _check_finite_within(topic, "linear velocity (m/s)", _xyz(message.linear), LIMITS.speed_m_s)
+    _check_finite_within(topic, "angular velocity (rad/s)", _xyz(message.angular), 1e3)
 
 
 def _check_wrench(message, topic: str) -> None:
@@ -502,6 +525,7 @@ _CHECKS = {
     STRING: _check_string,
     PATH: _check_path,
     COMPRESSED_IMAGE: _check_compressed_image,
+    TWIST: _check_plain_twist,
 }
 
 
@@ -551,7 +575,8 @@ def tick_messages(
     the mode only when ``mode`` is given (the caller gives it at a trial's first tick and
     when it changes: ``/otgym/mode`` is latched, not sent every tick), bodies (every
     sphere's centre; after the others, so that a subscriber that acts on it has seen the
-    tick's traps and phase, or at worst the previous tick's) and the feedback force for
+    tick's traps and phase, or at worst the previous tick's; the contact force the vision
+    sensor read, summed over the handles where valid (pN -> N), comes before it) and the feedback force for
     each device (``devices`` in the order of the record's ``feedback_n`` rows)."""
     messages = [
         (TRAPS, pose_array(record.trap_xy_um, stamp_s)),
@@ -559,6 +584,9 @@ def tick_messages(
         (ALPHA, float64(record.alpha)),
     ]
     messages += [] if mode is None else [(MODE, string(mode))]
+    sensed_pn = np.asarray(record.sensed_force_pn, float)[np.asarray(record.sensed_valid, bool)]
+    contact_n = np.append(np.nan_to_num(sensed_pn).sum(axis=0), 0.0) * 1e-12 if len(sensed_pn) else np.zeros(3)
+    messages += [(CONTACT_FORCE, wrench(contact_n, stamp_s, "chip"))]
     messages += [(BODIES, pose_array(sphere_xy_um, stamp_s))]
     messages += [
         (feedback_topic(name), wrench(force, stamp_s, name)) for name, force in zip(devices, record.feedback_n)
@@ -570,13 +598,15 @@ def session_description(task: InteractiveTask, devices: list[str]) -> dict:
     """The JSON object of ``/otgym/session`` for ``task``: ``chip`` (the sidecar's
     fields, ``Chip.metadata``, and ``content_hash``), ``goal_tolerance_um``, ``tick_s``,
     ``sphere_kind`` (one of ``SPHERE_KINDS`` per sphere, the order of ``/otgym/bodies``),
-    ``handle_spheres`` (the spheres the traps hold, in trap order) and ``devices``."""
+    ``sphere_radius_um`` (each sphere's radius), ``handle_spheres`` (the spheres the
+    traps hold, in trap order) and ``devices``."""
     model = task.scene.model
     return {
         "chip": {**task.chip.metadata(), "content_hash": task.chip.content_hash},
         "goal_tolerance_um": float(task.config.goal_tolerance_um),
         "tick_s": float(task.config.tick_s),
         "sphere_kind": [SPHERE_KINDS[int(model.body_kinds[b])] for b in model.sphere_body],
+        "sphere_radius_um": [float(r) for r in model.sphere_radius_um],
         "handle_spheres": [int(i) for i in task.trap_sphere],
         "devices": list(devices),
     }

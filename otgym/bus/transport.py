@@ -15,12 +15,19 @@ file sets (endpoints, multicast scouting) is kept unless ``--listen``/``--connec
 given; what it leaves out gets the loopback defaults above, never zenoh's own (which
 listen on every interface and scout by multicast).
 
-Keys. A ROS 2 topic ``/otgym/traps`` travels on the zenoh key ``otgym/traps`` (the
-leading slash dropped); payloads are the messages' CDR bytes. A node declares the
-liveliness token ``otgym/node/<role>/<name>``; zenoh withdraws it when the session
-closes or its link drops (a killed process's sockets close at once, so peers hear of
-it within milliseconds: ``benchmarks/bus.py`` measures it), which is how a simulator
-learns that a device node died.
+Keys and the ROS 2 graph (``otgym.bus.ros_graph``: rmw_zenoh's layout). A topic
+``/otgym/traps`` of a node in namespace ``/`` and domain ``ROS_DOMAIN_ID`` (0) travels on
+the key ``0/otgym/traps/geometry_msgs::msg::dds_::PoseArray_/RIHS01_...``; payloads are
+the messages' CDR bytes, each with rmw_zenoh's attachment (sequence number, source
+time, publisher GID). otgym's topics are relative to the node's namespace: with
+``--namespace /rig1`` they are ``/rig1/otgym/...``. Each node declares the liveliness
+tokens a ROS 2 node declares (``@ros2_lv/...``: the node, and each publisher and
+subscription with its type, type hash and QoS), so ``ros2 node list`` and ``ros2 topic
+list -t`` on a ROS 2 system with rmw_zenoh on the same zenoh network show it. A node
+also declares otgym's own token ``otgym/node/<role>/<name>``; zenoh withdraws both when
+the session closes or its link drops (a killed process's sockets close at once, so peers
+hear of it within milliseconds: ``benchmarks/bus.py`` measures it), which is how a
+simulator learns that a device node died.
 
 Latched topics (``messages.LATCHED``: the session's description, chip and route, and
 the mode) are published through zenoh-ext's ``AdvancedPublisher`` with a cache of the
@@ -36,22 +43,33 @@ and drops a message that waits longer than ``WAIT_BEFORE_DROP_US`` (one tick) fo
 trial events and commands (``NOT_TO_DROP``) and the latched topics block instead, so
 none of them is lost. A configuration file's own ``wait_before_drop`` is kept.
 
-Checks. ``subscribe`` decodes and checks each payload (``messages.decode``) before the
-callback sees it; a malformed one is dropped and counted in ``dropped`` (per topic),
-never passed on.
+QoS (what the tokens declare, as the publishers behave): latched topics reliable,
+transient local, depth 1; events and commands reliable, keep all (the publisher
+blocks); streams reliable, volatile, depth 1 (the publisher drops what waits longer
+than a tick). A ROS 2 publisher whose QoS cannot serve a subscription, or whose type
+differs, is reported once (``otgym.bus.intake``).
+
+Checks. ``subscribe`` checks each sample (``otgym.bus.intake``: type and type hash from
+its key, attachment and sequence number, size, then ``messages.decode_as``) before the
+callback sees it; one that fails is dropped and counted in ``dropped`` (per topic) and
+``drop_reasons`` (per topic and reason), never passed on.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import logging
 import threading
+import time
 from collections.abc import Callable
 
 import zenoh
 import zenoh.ext
 
 from otgym.bus import messages as msg
+from otgym.bus import ros_graph
+from otgym.bus.intake import DDS_NAME, TYPE_HASH, Counts, Intake, qos_problem
 
 SIM_ENDPOINT = "tcp/127.0.0.1:7447"
 EPHEMERAL_ENDPOINT = "tcp/127.0.0.1:0"
@@ -63,17 +81,27 @@ message later than a tick is stale anyway."""
 NOT_TO_DROP = (msg.EVENTS, msg.COMMAND)
 """Topics whose every message matters (trial events carry the trials' rows, commands
 change the session): their publishers block when congested instead of dropping."""
-ROLES = ("sim", "device", "autonomy", "recorder", "ui")
+ROLES = ("sim", "device", "autonomy", "recorder", "ui", "foxglove")
+MISS_HEARTBEAT_S = 0.5
+"""A latched publisher's sporadic heartbeat (rmw_zenoh's for reliable, transient-local
+publishers: ``SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD``), so a ROS 2 subscriber's recovery
+of a missed last sample works as with a ROS 2 publisher."""
+LATCHED_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.TRANSIENT_LOCAL, ros_graph.KEEP_LAST, 1)
+ALL_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_ALL, ros_graph.DEFAULT_DEPTH)
+STREAM_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_LAST, 1)
 log = logging.getLogger(__name__)
 
 
-def key_of(topic: str) -> str:
-    """The zenoh key of a ROS 2 topic name."""
-    return topic.lstrip("/")
+def qos_of(topic: str) -> ros_graph.Qos:
+    """The QoS an otgym topic is published and subscribed with (see the module's docstring)."""
+    if topic in msg.LATCHED:
+        return LATCHED_QOS
+    return ALL_QOS if topic in NOT_TO_DROP else STREAM_QOS
 
 
-def topic_of(key: str) -> str:
-    return "/" + key
+def ros_node_name(role: str, name: str) -> str:
+    """The ROS 2 name of an otgym node: ``otgym_<role>``, a device node ``otgym_device_<name>``."""
+    return f"otgym_device_{name}" if role == "device" else f"otgym_{role}"
 
 
 def zenoh_config(
@@ -103,9 +131,27 @@ def zenoh_config(
     return config
 
 
+class _Publisher:
+    """One topic's zenoh publisher, its liveliness token and GID; ``put`` attaches
+    rmw_zenoh's attachment with the next sequence number (numbered and sent under one
+    lock, so that messages from several threads leave in the order of their numbers)."""
+
+    def __init__(self, publisher, token, gid: bytes):
+        self.publisher, self.token, self.gid = publisher, token, gid
+        self._sequence = itertools.count(1)
+        self._lock = threading.Lock()
+
+    def put(self, data: bytes) -> None:
+        with self._lock:
+            self.publisher.put(data, attachment=ros_graph.attachment(next(self._sequence), time.time_ns(), self.gid))
+
+
 class Node:
     """A zenoh session for one node: ``publish``, checked ``subscribe``, its liveliness
-    token, and ``watch`` for other nodes' tokens. ``close`` withdraws everything."""
+    tokens (otgym's and the ROS 2 graph's), and ``watch`` for other nodes' tokens.
+    ``namespace``: the ROS 2 namespace of the node and of otgym's topics; ``domain``:
+    the ROS 2 domain id (default ``ROS_DOMAIN_ID``); ``ros_name``: its ROS 2 node name
+    (default ``ros_node_name``). ``close`` withdraws everything."""
 
     def __init__(
         self,
@@ -114,73 +160,215 @@ class Node:
         listen: list[str] | None = None,
         connect: list[str] | None = None,
         config_file: str | None = None,
+        *,
+        namespace: str = "/",
+        domain: int | None = None,
+        ros_name: str | None = None,
     ):
         msg.check_name(name)
         self.role, self.name = role, name
+        self.namespace = ros_graph.check_namespace(namespace)
+        self.domain = ros_graph.domain_id() if domain is None else int(domain)
+        self.ros_name = ros_graph.check_node_name(ros_name or ros_node_name(role, name))
         self.session = zenoh.open(zenoh_config(role, listen, connect, config_file))
+        self.zid = str(self.session.zid())
         self.token = self.session.liveliness().declare_token(f"otgym/node/{role}/{name}")
-        self._publishers: dict[str, zenoh.Publisher] = {}
+        self._entity_ids = itertools.count(1)
+        self.graph_tokens = [self._declare_graph_token(ros_graph.NODE, 0)]
+        self.counts = Counts()
+        self.dropped, self.received, self.drop_reasons = self.counts.dropped, self.counts.received, self.counts.reasons
+        """Messages dropped per topic, passed on per topic, dropped per (topic, reason)."""
+        self._publishers: dict[str, _Publisher] = {}
         self._handles: list = []
         self._lock = threading.Lock()
-        self.dropped: dict[str, int] = {}
-        """Malformed messages dropped, per topic."""
-        self.received: dict[str, int] = {}
-        """Checked messages passed on, per topic."""
+        self._subscribed: dict[str, tuple[set, ros_graph.Qos]] = {}
+        self._published: dict[str, tuple[tuple[str, str], ros_graph.Qos]] = {}
+        self._remote: list[ros_graph.Entity] = []
+        self._handles.append(
+            self.session.liveliness().declare_subscriber(
+                f"{ros_graph.ADMIN_SPACE}/{self.domain}/**", self._on_graph_token, history=True
+            )
+        )
 
+    # --- names ----------------------------------------------------------------------------
+    def fqn(self, topic: str) -> str:
+        """The fully qualified ROS 2 name of otgym's ``topic`` in this node's namespace."""
+        return ros_graph.resolve_topic(topic.lstrip("/"), self.namespace)
+
+    def _topic_of(self, parts: list[str]) -> str:
+        fqn = "/" + "/".join(parts[1:-2])
+        if self.namespace != "/" and fqn.startswith(self.namespace + "/"):
+            return fqn[len(self.namespace) :]
+        return fqn
+
+    def _declare_graph_token(self, kind: str, entity_id: int, fqn=None, type_name=None, qos=None):
+        key = ros_graph.entity_token(
+            self.domain,
+            self.zid,
+            0,
+            entity_id,
+            kind,
+            self.namespace,
+            self.ros_name,
+            fqn,
+            type_name,
+            None if type_name is None else TYPE_HASH[type_name],
+            qos,
+        )
+        return key, self.session.liveliness().declare_token(key)
+
+    # --- publishing ---------------------------------------------------------------------
     def publish(self, topic: str, data: bytes) -> None:
         """Send ``data`` on ``topic``; a latched topic's publisher keeps the last message
         for subscribers that join later (see the module's docstring)."""
         publisher = self._publishers.get(topic)
         if publisher is None:
+            publisher = self._declare_publisher(topic)
+        publisher.put(data)
+
+    def _declare_publisher(self, topic: str) -> _Publisher:
+        with self._lock:
+            if topic in self._publishers:
+                return self._publishers[topic]
+            type_name, fqn = msg.topic_type(topic), self.fqn(topic)
+            key = ros_graph.data_key(self.domain, fqn, type_name, TYPE_HASH[type_name])
             if topic in msg.LATCHED:
                 publisher = zenoh.ext.declare_advanced_publisher(  # rare and not to be lost: blocks when congested
                     self.session,
-                    key_of(topic),
+                    key,
                     congestion_control=zenoh.CongestionControl.BLOCK,
                     cache=zenoh.ext.CacheConfig(1),
                     publisher_detection=True,
+                    sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=MISS_HEARTBEAT_S),
                 )
             elif topic in NOT_TO_DROP:
-                publisher = self.session.declare_publisher(
-                    key_of(topic), congestion_control=zenoh.CongestionControl.BLOCK
-                )
+                publisher = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
             else:
                 publisher = self.session.declare_publisher(
-                    key_of(topic), congestion_control=zenoh.CongestionControl.DROP, express=True
+                    key, congestion_control=zenoh.CongestionControl.DROP, express=True
                 )
-            self._publishers[topic] = publisher
-        publisher.put(data)
+            qos = qos_of(topic)
+            token_key, token = self._declare_graph_token(
+                ros_graph.PUBLISHER, next(self._entity_ids), fqn, type_name, qos
+            )
+            self._publishers[topic] = _Publisher(publisher, token, ros_graph.gid_of(token_key))
+            self._published[fqn] = ((DDS_NAME[type_name], TYPE_HASH[type_name]), qos)
+            remote = list(self._remote)
+        for entity in remote:
+            self._check_entity(entity)
+        return self._publishers[topic]
 
+    # --- subscribing --------------------------------------------------------------------
     def subscribe(self, topic_pattern: str, callback: Callable[[str, object, bytes], None]) -> None:
         """Call ``callback(topic, message, data)`` for each checked message on topics
         matching ``topic_pattern`` (a topic, or a zenoh key expression with ``*``/``**``
-        written with the leading slash); malformed messages are dropped and counted. A
-        latched topic, or a pattern, also receives the latest message of each latched
-        publisher, however late either side joins."""
-
-        def on_sample(sample: zenoh.Sample) -> None:
-            topic = topic_of(str(sample.key_expr))
-            data = sample.payload.to_bytes()
-            try:
-                message = msg.decode(topic, data)
-            except msg.MessageError as error:
-                with self._lock:
-                    self.dropped[topic] = self.dropped.get(topic, 0) + 1
-                    if self.dropped[topic] <= 3:
-                        log.warning("dropped a malformed message: %s", error)
-                return
-            with self._lock:
-                self.received[topic] = self.received.get(topic, 0) + 1
-            callback(topic, message, data)
-
-        if topic_pattern in msg.LATCHED or "*" in topic_pattern:
-            history = zenoh.ext.HistoryConfig(detect_late_publishers=True)
-            self._handles.append(
-                zenoh.ext.declare_advanced_subscriber(self.session, key_of(topic_pattern), on_sample, history=history)
-            )
+        written with the leading slash); others are dropped and counted. A latched topic,
+        or a pattern, also receives the latest message of each latched publisher, however
+        late either side joins."""
+        pattern = "*" in topic_pattern
+        if pattern:
+            topics = [
+                t for t in msg.fixed_topics() if zenoh.KeyExpr(t.lstrip("/")).intersects(topic_pattern.lstrip("/"))
+            ]
         else:
-            self._handles.append(self.session.declare_subscriber(key_of(topic_pattern), on_sample))
+            topics = [topic_pattern]
+        for topic in topics:
+            type_name = msg.topic_type(topic)
+            self._register_subscription(self.fqn(topic), {(DDS_NAME[type_name], TYPE_HASH[type_name])}, qos_of(topic))
+        key = f"{self.domain}/{self.fqn(topic_pattern).strip('/')}" + ("" if pattern else "/*/*")
+        self._subscribe_key(key, Intake(self.counts), callback, history=pattern or topic_pattern in msg.LATCHED)
 
+    def subscribe_ros(
+        self, topic: str, type_names: tuple[str, ...], callback: Callable[[str, object, bytes], None]
+    ) -> str:
+        """Subscribe to a ROS 2 topic that is not otgym's (``topic`` resolved in this
+        node's namespace by ROS 2's rules) taking any of ``type_names``; the callback gets
+        the fully qualified topic. Returns that name."""
+        fqn = ros_graph.resolve_topic(topic, self.namespace)
+        accepted = {(DDS_NAME[t], TYPE_HASH[t]): t for t in type_names}
+        self._register_subscription(fqn, set(accepted), STREAM_QOS)
+        intake = Intake(self.counts, accepted)
+
+        def forward(_topic, message, data) -> None:
+            callback(fqn, message, data)
+
+        self._subscribe_key(f"{self.domain}/{fqn.strip('/')}/*/*", intake, forward, history=False, topic=fqn)
+        return fqn
+
+    def _register_subscription(self, fqn: str, accepted: set, qos: ros_graph.Qos) -> None:
+        with self._lock:
+            if fqn not in self._subscribed:
+                for dds_type, _hash in sorted(accepted):
+                    type_name = ros_graph.ros_type_name(dds_type)
+                    self.graph_tokens.append(
+                        self._declare_graph_token(ros_graph.SUBSCRIPTION, next(self._entity_ids), fqn, type_name, qos)
+                    )
+            known = self._subscribed.get(fqn, (set(), qos))[0]
+            self._subscribed[fqn] = (known | accepted, qos)
+            remote = list(self._remote)
+        for entity in remote:
+            self._check_entity(entity)
+
+    def _subscribe_key(self, key: str, intake: Intake, callback, history: bool, topic: str | None = None) -> None:
+        def on_sample(sample: zenoh.Sample) -> None:
+            parts = str(sample.key_expr).split("/")
+            if len(parts) < 4:
+                return
+            name = topic or self._topic_of(parts)
+            data = sample.payload.to_bytes()
+            attachment = sample.attachment
+            message = intake.check(
+                name, parts[-2], parts[-1], None if attachment is None else attachment.to_bytes(), data
+            )
+            if message is not None:
+                callback(name, message, data)
+
+        if history:
+            config = zenoh.ext.HistoryConfig(detect_late_publishers=True)
+            self._handles.append(zenoh.ext.declare_advanced_subscriber(self.session, key, on_sample, history=config))
+        else:
+            self._handles.append(self.session.declare_subscriber(key, on_sample))
+
+    # --- the ROS 2 graph ----------------------------------------------------------------------
+    def _on_graph_token(self, sample: zenoh.Sample) -> None:
+        if sample.kind != zenoh.SampleKind.PUT:
+            return
+        entity = ros_graph.parse_entity(str(sample.key_expr))
+        if entity is None or entity.zid == self.zid:
+            return
+        with self._lock:
+            self._remote.append(entity)
+        self._check_entity(entity)
+
+    def _check_entity(self, entity: ros_graph.Entity) -> None:
+        """Report once a remote publisher or subscription on one of this node's topics
+        whose type or QoS does not match (``intake.qos_problem``)."""
+        offered = (entity.dds_type, entity.type_hash)
+        who = f"ROS 2 node {entity.namespace.rstrip('/')}/{entity.node_name}"
+        if entity.kind == ros_graph.PUBLISHER and entity.topic in self._subscribed:
+            accepted, qos = self._subscribed[entity.topic]
+            if offered not in accepted:
+                self.counts.report(
+                    ("graph-type", entity.topic, offered),
+                    f"{who} publishes {entity.dds_type} ({entity.type_hash}) on {entity.topic}, which takes "
+                    + ", ".join(f"{t} ({h})" for t, h in sorted(accepted)),
+                )
+            problem = qos_problem(entity.qos, qos)
+            if problem:
+                self.counts.report(("graph-qos", entity.topic, entity.qos), f"{who} on {entity.topic}: {problem}")
+        if entity.kind == ros_graph.SUBSCRIPTION and entity.topic in self._published:
+            published, qos = self._published[entity.topic]
+            if offered != published:
+                self.counts.report(
+                    ("graph-type", entity.topic, offered),
+                    f"{who} subscribes to {entity.topic} as {entity.dds_type} ({entity.type_hash}); "
+                    f"it carries {published[0]} ({published[1]})",
+                )
+            problem = qos_problem(qos, entity.qos)
+            if problem:
+                self.counts.report(("graph-qos", entity.topic, entity.qos), f"{who} on {entity.topic}: {problem}")
+
+    # --- otgym's own liveliness ---------------------------------------------------------------
     def watch(self, role: str, on_change: Callable[[str, bool], None]) -> None:
         """``on_change(name, alive)`` whenever a node of ``role`` appears or goes away
         (those alive now are reported at once)."""

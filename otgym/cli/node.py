@@ -5,7 +5,11 @@ ticks in a worker process), ``device`` (a local device published as ``--name``),
 navigator's dP_r for a simulator started with ``--autonomy remote``; without it,
 shared control runs as manual), ``ui`` (the window: draws from the sim's topics, sends
 the keyboard, gamepad or mouse as devices ui0, ui1 and the keys as commands; trials.csv
-and questionnaires.csv into ``--out``). Loopback only unless ``--listen``/``--connect``
+and questionnaires.csv into ``--out``), ``foxglove`` (the running session served to
+Foxglove over a WebSocket, ``--host``/``--port``, ``otgym.cli.node_foxglove``). Every
+node is a ROS 2 node to rmw_zenoh (``otgym.bus.ros_graph``): ``--namespace`` and
+``ROS_DOMAIN_ID`` place it; a device node with ``--device twist`` is driven by
+``geometry_msgs/Twist`` on ``--twist-topic``. Loopback only unless ``--listen``/``--connect``
 name other endpoints. Prints one ``ready`` line once on the bus; SIGTERM or Ctrl-C ends it
 cleanly (devices at zero force, the recording closed)."""
 
@@ -19,14 +23,14 @@ from pathlib import Path
 
 import typer
 
-BUILT = ("sim", "device", "recorder", "autonomy", "ui")
+BUILT = ("sim", "device", "recorder", "autonomy", "ui", "foxglove")
 NAVIGATORS = ("route", "mpc")
 
 
 def register(app: typer.Typer) -> None:
     @app.command("node")
     def node(
-        role: str = typer.Argument(..., help="sim, device, recorder, autonomy or ui."),
+        role: str = typer.Argument(..., help="sim, device, recorder, autonomy, ui or foxglove."),
         name: str = typer.Option(
             "device0",
             "--name",
@@ -38,7 +42,7 @@ def register(app: typer.Typer) -> None:
         device: str = typer.Option(
             None,
             "--device",
-            help="device node: its driver (keyboard, gamepad, touch, simulated, replay; "
+            help="device node: its driver (keyboard, gamepad, touch, simulated, replay, twist; "
             "default simulated); ui node: what the window sends as ui0, ui1 "
             "(keyboard, gamepad, mouse; default keyboard).",
         ),
@@ -81,6 +85,14 @@ def register(app: typer.Typer) -> None:
             help="recorder node: folder for session.mcap; ui node: for trials.csv and questionnaires.csv.",
         ),
         no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="ui node: no questionnaires."),
+        namespace: str = typer.Option(
+            "/", "--namespace", help="the ROS 2 namespace of the node and of otgym's topics (e.g. /rig1)."
+        ),
+        twist_topic: str = typer.Option(
+            "/cmd_vel", "--twist-topic", help="device node with --device twist: the ROS 2 topic of its Twist commands."
+        ),
+        host: str = typer.Option("127.0.0.1", "--host", help="foxglove node: the address its WebSocket listens on."),
+        port: int = typer.Option(8765, "--port", help="foxglove node: the WebSocket's port (0: any free port)."),
         navigator: str = typer.Option(
             "route",
             "--navigator",
@@ -89,6 +101,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Run one node of the distributed runtime until stopped."""
         from otgym.bus import messages as msg
+        from otgym.bus import ros_graph
         from otgym.shared import MODES
 
         if role not in BUILT:
@@ -105,6 +118,12 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--autonomy must be local or remote, got {autonomy!r}")
         if navigator not in NAVIGATORS:
             raise ValueError(f"--navigator must be one of {', '.join(NAVIGATORS)}, got {navigator!r}")
+        namespace = ros_graph.check_namespace(namespace)
+        ros_graph.domain_id()  # a bad ROS_DOMAIN_ID is an error line before anything starts
+        if role == "device" and device == "twist":
+            ros_graph.check_topic_name(twist_topic)
+        if not 0 <= port <= 65535:
+            raise ValueError(f"--port must lie in 0..65535, got {port}")
         if role in ("recorder", "ui") and out is None:
             raise ValueError(f"the {role} node needs --out")
         device = device or {"device": "simulated", "ui": "keyboard"}.get(role)
@@ -117,7 +136,13 @@ def register(app: typer.Typer) -> None:
             listen=list(listen or []),
             connect=list(connect or []),
             config_file=str(zenoh_config) if zenoh_config else None,
+            namespace=namespace,
         )
+        if role == "foxglove":
+            from otgym.cli.node_foxglove import foxglove_node
+
+            foxglove_node(stop, endpoints, host=host, port=port)
+            return
         {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy, "ui": _ui}[role](
             stop,
             endpoints,
@@ -137,6 +162,7 @@ def register(app: typer.Typer) -> None:
             device_name=device_name,
             questionnaire=not no_questionnaire,
             navigator=navigator,
+            twist_topic=twist_topic,
         )
 
 
@@ -144,10 +170,27 @@ def _ready(text: str) -> None:
     print(f"ready: {text}", flush=True)
 
 
-def _device(stop, endpoints, *, name, device, replay, device_name, **_):
+def _device(stop, endpoints, *, name, device, replay, device_name, twist_topic, **_):
     from otgym.bus.nodes import run_device_node
     from otgym.bus.transport import Node
     from otgym.teleop.device import DeviceError, open_device
+
+    if device == "twist":
+        from otgym.bus import twist_source
+        from otgym.teleop.twist import TwistDevice
+
+        driver = TwistDevice()
+        with Node("device", name, **endpoints) as node:
+            topic = twist_source.attach(node, driver, twist_topic)
+            _ready(f"device {name} ({driver.caps.name} from {topic})")
+            published = run_device_node(node, driver, name, stop)
+        print(
+            f"device {name}: {published} samples published; {driver.received} commands applied, "
+            f"{driver.dropped_nonfinite} non-finite dropped, {driver.clamped} clamped; "
+            f"{sum(node.dropped.values())} messages dropped by the bus checks",
+            flush=True,
+        )
+        return
 
     options = {"path": replay, "loop": True} if device == "replay" else {}
     if device == "touch" and device_name:
@@ -170,21 +213,23 @@ SESSION_END_RECORDED = "recorded: session_end"
 
 def _recorder(stop, endpoints, *, out, **_):
     from otgym.bus import messages as msg
-    from otgym.bus.nodes import record_all
+    from otgym.bus.foxglove_scene import SceneRecording
     from otgym.bus.transport import Node
     from otgym.experiments.output_folder import check_out_dir
     from otgym.record.mcap_file import McapRecorder, session_path
 
     path = session_path(check_out_dir(out))
     with McapRecorder(path) as recorder, Node("recorder", "recorder", **endpoints) as node:
+        scene = SceneRecording(recorder.write_encoded)
 
-        def sink(topic: str, data: bytes) -> None:
+        def sink(topic: str, message, data: bytes) -> None:
             type_name = msg.topic_type(topic)
             recorder.write(topic, type_name, msg.SCHEMAS[type_name], data)
-            if topic == msg.EVENTS and msg.event_fields(msg.decode(topic, data)).get("event") == "session_end":
+            scene.take(topic, message)
+            if topic == msg.EVENTS and msg.event_fields(message).get("event") == "session_end":
                 print(SESSION_END_RECORDED, flush=True)  # what otgym play --distributed waits for
 
-        record_all(node, sink)
+        node.subscribe("/otgym/**", sink)
         _ready(f"recorder into {path}")
         while not stop.wait(0.25):
             recorder.flush()

@@ -6,7 +6,10 @@ record per ROS 2 type (encoding ``ros2msg``, its concatenated ``.msg`` text), on
 channel per topic (message encoding ``cdr``), messages with their CDR bytes, log time
 (when recorded) and publish time (the sender's header stamp where it has one, else the
 log time), in nanoseconds of UNIX time. Messages go into zstd-compressed chunks; the
-summary (statistics, chunk and message indexes) is written by ``close``.
+summary (statistics, chunk and message indexes) is written by ``close``. A recording
+also carries Foxglove's 3D scene (``write_encoded``: channel ``/otgym/scene``, schema
+``foxglove.SceneUpdate`` in protobuf), which ROS 2 tools that expect CDR only skip or
+refuse; Foxglove replays it.
 
 Crash safety: a chunk is closed and written out, and the file flushed, whenever a
 message arrives ``flush_period_s`` (1 s) or more after the previous flush, or the chunk
@@ -107,6 +110,25 @@ class McapRecorder:
             if now_s - self._last_flush_s >= self.flush_period_s:
                 self._flush(now_s)
 
+    def write_encoded(
+        self, topic: str, schema: tuple[str, str, bytes], message_encoding: str, data: bytes, log_time_ns: int
+    ) -> None:
+        """Record ``data`` on ``topic`` in another encoding than CDR: ``schema`` is
+        (name, schema encoding, schema data), e.g. Foxglove's protobuf scene."""
+        name, schema_encoding, schema_data = schema
+        with self._lock:
+            if self.closed:
+                raise ValueError(f"recording {self.path} is closed")
+            schema_id = self._schemas.get(name)
+            if schema_id is None:
+                schema_id = self._schemas[name] = self._writer.register_schema(name, schema_encoding, schema_data)
+            channel_id = self._channels.get(topic)
+            if channel_id is None:
+                channel_id = self._channels[topic] = self._writer.register_channel(topic, message_encoding, schema_id)
+            sequence = self.counts.get(topic, 0)
+            self._writer.add_message(channel_id, log_time_ns, data, log_time_ns, sequence)
+            self.counts[topic] = sequence + 1
+
     def _flush(self, now_s: float) -> None:
         self._writer.flush()
         self._last_flush_s = now_s
@@ -164,8 +186,9 @@ class Recording:
 
 
 def read_recording(path) -> Recording:
-    """Every message of the MCAP file ``path`` (read sequentially, so a file without
-    its summary reads too); ValueError for a file that is not MCAP."""
+    """Every ROS 2 (CDR) message of the MCAP file ``path`` (read sequentially, so a file
+    without its summary reads too; channels of other encodings, such as the Foxglove
+    scene, are skipped); ValueError for a file that is not MCAP."""
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     messages: list[RecordedMessage] = []
@@ -183,6 +206,8 @@ def read_recording(path) -> Recording:
                     schema = schemas.get(channel.schema_id) if channel else None
                     if schema is None:
                         raise ValueError(f"{path}: a message refers to an unknown channel or schema")
+                    if channel.message_encoding != "cdr":
+                        continue
                     messages.append(
                         RecordedMessage(
                             channel.topic,

@@ -18,10 +18,14 @@ import time
 from pathlib import Path
 
 from otgym.bus import messages as msg
+from otgym.bus.foxglove_scene import SceneRecording
 from otgym.record.mcap_file import McapRecorder
 from otgym.runtime.loop import DeviceBinding, TickRecord
 from otgym.runtime.task import InteractiveTask
 from otgym.teleop.device import Device, Sample
+
+SCENE_SOURCES = (msg.SESSION, msg.CHIP, msg.ROUTE, msg.TRAPS, msg.BODIES)
+"""The topics the recorded scene is drawn from."""
 
 
 class SessionRecording:
@@ -36,11 +40,15 @@ class SessionRecording:
         self.active = False
         """False until the first event: samples read before it (the warm-up's) are not recorded."""
         self._mode_written: str | None = None
+        self.scene = SceneRecording(self.recorder.write_encoded)
+        """Foxglove's 3D scene, recorded beside the messages it is drawn from."""
 
     def write(self, topic: str, data: bytes, stamp_s: float | None = None) -> None:
         stamp_s = self.clock_s() if stamp_s is None else stamp_s
         type_name = msg.topic_type(topic)
         self.recorder.write(topic, type_name, msg.SCHEMAS[type_name], data, log_time_ns=int(stamp_s * 1e9))
+        if topic in SCENE_SOURCES:
+            self.scene.take(topic, msg.decode(topic, data))
 
     def wrap(self, bindings: list[DeviceBinding]) -> list[DeviceBinding]:
         """The bindings with each device wrapped so its samples are recorded."""

@@ -104,7 +104,9 @@ def stand_in_task():
     from otgym.physics.bodies import BodyKind
     from otgym.sim.chip import load_chip
 
-    model = types.SimpleNamespace(sphere_body=[0, 0, 1], body_kinds=[BodyKind.ROBOT, BodyKind.CELL])
+    model = types.SimpleNamespace(
+        sphere_body=[0, 0, 1], body_kinds=[BodyKind.ROBOT, BodyKind.CELL], sphere_radius_um=[1.5, 1.5, 4.0]
+    )
     return types.SimpleNamespace(
         chip=load_chip("default"),
         scene=types.SimpleNamespace(model=model),
@@ -142,8 +144,19 @@ def test_the_session_description_chip_and_route_decode_with_rosbags():
 
 
 def test_tick_messages_carry_the_mode_only_when_given():
-    record = types.SimpleNamespace(trap_xy_um=np.zeros((2, 2)), phase=0, alpha=0.5, feedback_n=np.zeros((1, 3)))
-    assert m.MODE not in dict(m.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S))
+    record = types.SimpleNamespace(
+        trap_xy_um=np.zeros((2, 2)),
+        phase=0,
+        alpha=0.5,
+        feedback_n=np.zeros((1, 3)),
+        sensed_force_pn=np.array([[1.0, -2.0], [np.nan, np.nan]]),
+        sensed_valid=np.array([True, False]),
+    )
+    without_mode = dict(m.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S))
+    assert m.MODE not in without_mode
+    # the contact force: the valid handle's reading only, pN -> N (a NaN or an invalid one would spoil it)
+    contact = m.decode(m.CONTACT_FORCE, without_mode[m.CONTACT_FORCE])
+    np.testing.assert_allclose(m.force_n(contact), [1e-12, -2e-12, 0.0])
     with_mode = m.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S, "shared")
     assert m.decode(m.MODE, dict(with_mode)[m.MODE]).data == "shared"
     assert [topic for topic, _ in with_mode][-2:] == [m.BODIES, m.feedback_topic("device0")]

@@ -36,7 +36,9 @@ TRAP_UM = [40.0, 165.0]
 def stand_in_task(chip):
     """What ``messages.session_messages`` reads of a task, for four spheres on ``chip``."""
     model = types.SimpleNamespace(
-        sphere_body=[0, 0, 1, 2], body_kinds=[BodyKind.ROBOT, BodyKind.CELL, BodyKind.OBSTACLE]
+        sphere_body=[0, 0, 1, 2],
+        body_kinds=[BodyKind.ROBOT, BodyKind.CELL, BodyKind.OBSTACLE],
+        sphere_radius_um=RADII_UM,
     )
     return types.SimpleNamespace(
         chip=chip,
