@@ -226,6 +226,21 @@ class Node:
             publisher = self._declare_publisher(topic)
         publisher.put(data)
 
+    def wait_for_subscribers(self, topic: str, timeout_s: float = 60.0) -> None:
+        """Block until a subscriber elsewhere on the bus matches this node's publisher of
+        ``topic`` (zenoh's matching status: the link is up and the subscriber declared),
+        so that what is published next reaches it; TimeoutError after ``timeout_s``.
+        For a stream or an event topic (a latched topic's late subscribers get its
+        history instead)."""
+        if topic in msg.LATCHED:
+            raise ValueError(f"{topic} is latched: a late subscriber gets its last message anyway")
+        publisher = self._publishers.get(topic) or self._declare_publisher(topic)
+        deadline = time.monotonic() + timeout_s
+        while not publisher.publisher.matching_status.matching:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"no subscriber of {topic} within {timeout_s:g} s")
+            time.sleep(0.005)
+
     def _declare_publisher(self, topic: str) -> _Publisher:
         with self._lock:
             if topic in self._publishers:

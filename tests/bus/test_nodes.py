@@ -4,12 +4,14 @@ at once and the traps hold; the simulator killed -> a device node zeros its forc
 and finds the restarted simulator by itself; a recorder killed with SIGKILL -> its
 file keeps all but the last moments; a malformed message is dropped and counted.
 
-Timing goals (loss seen within 100 ms) are measured by ``benchmarks/bus.py``; here
-the bounds are generous (1 s) so a loaded machine does not fail them. The task is
-built once (``tests.runtime.shared_task``) for the one test that ticks a loop."""
+How fast a loss is seen (the goal: within 100 ms) is measured by ``benchmarks/bus.py``;
+these tests wait for each event (a ``ready`` line, a liveliness token, a message) with
+a deadline that only guards against a hang, and assert what happens, not how fast.
+The task is built once (``tests.runtime.shared_task``) for the tests that tick it."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import signal
 import socket
@@ -32,7 +34,8 @@ from otgym.teleop.replay import record_samples
 
 ROOT = Path(__file__).resolve().parents[2]
 STARTUP_S = 90.0
-DETECTION_BOUND_S = 1.0
+DEADLINE_S = 60.0
+"""How long a test waits for an event before it calls it lost (a guard against hangs)."""
 
 
 def free_endpoint() -> str:
@@ -71,6 +74,16 @@ def wait_until(condition, timeout_s: float) -> float:
             raise AssertionError(f"not within {timeout_s} s")
         time.sleep(0.001)
     return time.monotonic() - start
+
+
+def poll_until(condition, timeout_s: float) -> bool:
+    """Whether ``condition()`` held within ``timeout_s`` (polled every millisecond)."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.001)
+    return True
 
 
 def kill(child: subprocess.Popen) -> float:
@@ -124,9 +137,8 @@ def test_device_node_killed_its_input_is_zero_at_once_and_the_traps_hold(tmp_pat
         wait_until(lambda: remote.alive and remote.read() is not None, 30.0)
         driven = [loop.tick() for _ in range(30)]
         assert max(np.abs(r.human_um).max() for r in driven) > 0.01  # the device node drives robot 0
-        killed_at = kill(children[0])
-        wait_until(lambda: remote.losses == 1, DETECTION_BOUND_S)
-        detected_s = time.monotonic() - killed_at
+        kill(children[0])
+        wait_until(lambda: remote.losses == 1, DEADLINE_S)
         assert not remote.alive and remote.read().buttons == 0
         np.testing.assert_array_equal(remote.read().velocity_mm_s, 0.0)
         after = loop.run(0.4, realtime=True)  # 20 ticks over 0.4 s of wall time: the rest sample ages into silence
@@ -134,7 +146,7 @@ def test_device_node_killed_its_input_is_zero_at_once_and_the_traps_hold(tmp_pat
             np.testing.assert_array_equal(record.human_um, 0.0)
             np.testing.assert_array_equal(record.shared_um, 0.0)
             np.testing.assert_array_equal(record.trap_xy_um, after[0].trap_xy_um)
-        assert not after[-1].device_live[0] and detected_s < DETECTION_BOUND_S
+        assert not after[-1].device_live[0]
 
 
 SIM_STAND_IN = """
@@ -189,7 +201,7 @@ def test_sim_killed_the_device_force_is_zeroed_and_the_restarted_sim_is_found(ch
             wait_for_line(children[-1], "twists")
             wait_until(lambda: spy.forces and spy.forces[-1][0] == 0.5, 10.0)
             kill(children[-1])
-            assert wait_until(lambda: spy.forces[-1][0] == 0.0, DETECTION_BOUND_S) < DETECTION_BOUND_S
+            wait_until(lambda: spy.forces[-1][0] == 0.0, DEADLINE_S)
             children.append(spawn("-c", SIM_STAND_IN, endpoint))  # the same endpoint, a new process
             wait_for_line(children[-1], "ready")
             wait_for_line(children[-1], "twists", 30.0)  # the device node reconnected by itself
@@ -201,23 +213,27 @@ def test_sim_killed_the_device_force_is_zeroed_and_the_restarted_sim_is_found(ch
 
 
 def test_recorder_node_killed_with_sigkill_keeps_all_but_its_last_moments(tmp_path, children):
+    """Messages at 50 Hz until the recorder's file on disk holds 50 of them (its chunks
+    are flushed as it goes), then SIGKILL: the file reads as incomplete and holds an
+    unbroken prefix of what was sent, in order. How much a kill loses is set by the
+    flush rule, tested on a fake clock in tests/record/test_mcap_file.py."""
     endpoint = free_endpoint()
     children.append(spawn("-m", "otgym", "node", "recorder", "--out", str(tmp_path), "--listen", endpoint))
     wait_for_line(children[0], "ready")
-    sent_ns = []
+    path, sent = tmp_path / "session.mcap", 0
     with Node("device", "device0", connect=[endpoint]) as node:
-        time.sleep(1.0)  # the link comes up
-        for i in range(150):  # 3 s at 50 Hz
-            node.publish(msg.ALPHA, msg.float64(i / 1000))
-            sent_ns.append(time.time_ns())
-            time.sleep(0.02)
+        node.wait_for_subscribers(msg.ALPHA)
+        deadline = time.monotonic() + STARTUP_S
+        while sent % 10 or not path.is_file() or len(read_recording(path).messages) < 50:
+            assert time.monotonic() < deadline, "the recorder flushed nothing"
+            node.publish(msg.ALPHA, msg.float64(sent / 1000))
+            sent += 1
+            time.sleep(0.02)  # 50 Hz, the rate of a session's ticks
         kill(children[0])
-    recording = read_recording(tmp_path / "session.mcap")
+    recording = read_recording(path)
     values = [msg.decode(msg.ALPHA, m.data).data for m in recording.messages]
-    assert not recording.complete and len(values) >= 50
+    assert not recording.complete and 50 <= len(values) <= sent
     assert values == [i / 1000 for i in range(len(values))], values[:8]  # in order, none missing
-    lost_s = (sent_ns[-1] - recording.messages[-1].log_time_ns) * 1e-9
-    assert lost_s <= 1.5
 
 
 def test_recorder_node_says_when_the_session_end_is_in_its_file(tmp_path, children):
@@ -231,7 +247,7 @@ def test_recorder_node_says_when_the_session_end_is_in_its_file(tmp_path, childr
     children.append(spawn("-m", "otgym", "node", "recorder", "--out", str(tmp_path), "--listen", endpoint))
     wait_for_line(children[0], "ready")
     with Node("sim", "sim", connect=[endpoint]) as node:
-        time.sleep(1.0)  # the link comes up
+        node.wait_for_subscribers(msg.EVENTS)
         node.publish(msg.EVENTS, msg.event("trial_end", trial=1))
         node.publish(msg.EVENTS, msg.event("session_end", trials=1))
         lines = [wait_for_line(children[0], "recorded:", 10.0)]
@@ -264,13 +280,22 @@ def test_malformed_messages_are_dropped_and_counted_never_applied():
             return table.get(msg.twist_topic("device0"), 0)
 
         wait_until(lambda: (device.publish(msg.twist_topic("device0"), good), count(sim.received))[1] > 0, 10.0)
-        time.sleep(0.5)  # good ones still in flight arrive
+        # one publisher's messages arrive in order: once the last one sent is in, nothing
+        # sent before it is still on the way (each try is marked by its own z velocity)
+        tries = 0
+        while True:
+            tries += 1
+            marked = Sample(0, 0, np.zeros(3), (1.0, 0.0, tries / 8), 1)
+            device.publish(msg.twist_topic("device0"), msg.twist(marked, time.time(), "device0"))
+            if poll_until(lambda: remote.read().velocity_mm_s[2] == tries / 8, 5.0):
+                break
+            assert tries < 20, "no marked twist arrived"
         received = count(sim.received)
         for data in bad:
             device.publish(msg.twist_topic("device0"), data)
         wait_until(lambda: count(sim.dropped) == 3, 5.0)
         assert count(sim.received) == received
-        np.testing.assert_allclose(remote.read().velocity_mm_s, [1.0, 0.0, 0.0])
+        np.testing.assert_allclose(remote.read().velocity_mm_s, [1.0, 0.0, tries / 8])  # the last good one
 
 
 def test_sim_node_publishes_every_tick_and_the_trial_events():
@@ -281,9 +306,10 @@ def test_sim_node_publishes_every_tick_and_the_trial_events():
     seen: dict[str, list] = {}
     with Node("sim", "sim", listen=[endpoint]) as sim, Node("recorder", "recorder", connect=[endpoint]) as listener:
         listener.subscribe("/otgym/**", lambda topic, message, data: seen.setdefault(topic, []).append(message))
-        time.sleep(1.0)  # the link comes up
+        sim.wait_for_subscribers(msg.TRAPS)  # the listener's pattern covers every topic
         ticks = run_sim_node(sim, shared_task(), ["device0"], "manual", 0, threading.Event(), duration_s=1.0)
-        time.sleep(0.5)
+        wait_until(lambda: len(seen.get(msg.EVENTS, [])) == 3, 30.0)  # session_end: the sim's last message
+        wait_until(lambda: all(len(seen.get(t, [])) >= ticks for t in (msg.TRAPS, msg.BODIES, msg.ALPHA)), 30.0)
     assert ticks == 50
     for topic in (msg.TRAPS, msg.BODIES, msg.ALPHA):
         assert len(seen[topic]) == ticks, topic
@@ -308,9 +334,11 @@ def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_
     seen: dict[str, list] = {}
     lock = threading.Lock()
 
-    def remember(topic, message, data):
+    arrivals = itertools.count()
+
+    def remember(topic, message, data):  # each message with its place in the order of arrival
         with lock:
-            seen.setdefault(topic, []).append((time.monotonic(), message))
+            seen.setdefault(topic, []).append((next(arrivals), message))
 
     stop = threading.Event()
     with Node("sim", "sim", listen=[endpoint]) as sim, Node("recorder", "recorder", connect=[endpoint]) as listener:
@@ -333,17 +361,18 @@ def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_
                 traps = [msg.xy_um(m) for _, m in seen[msg.TRAPS]]
             moved_um = np.linalg.norm(traps[-1] - traps[0], axis=-1)
             assert moved_um.min() > 0.5  # the autonomy alone (no device) moved every trap
-            killed_at = kill(children[0])
-            wait_until(lambda: any(t > killed_at and m.data == "manual" for t, m in seen[msg.MODE]), DETECTION_BOUND_S)
-            wait_until(lambda: sum(t > killed_at for t, _ in seen[msg.TRAPS]) >= 30, 5.0)
+            with lock:
+                killed_at = len(seen[msg.TRAPS]) and seen[msg.TRAPS][-1][0]
+            kill(children[0])
+            wait_until(lambda: any(t > killed_at and m.data == "manual" for t, m in seen[msg.MODE]), DEADLINE_S)
+            wait_until(lambda: sum(t > killed_at for t, _ in seen[msg.TRAPS]) >= 40, DEADLINE_S)
         finally:
             stop.set()
             worker.join(10.0)
     with lock:
-        fallback_s = min(t for t, m in seen[msg.MODE] if t > killed_at and m.data == "manual") - killed_at
+        fallback = min(t for t, m in seen[msg.MODE] if t > killed_at and m.data == "manual")
         events = [msg.event_fields(m) for _, m in seen[msg.EVENTS]]
-        late_traps = [msg.xy_um(m) for t, m in seen[msg.TRAPS] if t > killed_at + fallback_s + 0.1]
-    assert fallback_s < DETECTION_BOUND_S
+        late_traps = [msg.xy_um(m) for t, m in seen[msg.TRAPS] if t > fallback][5:]  # 0.1 s of ticks on
     lost = [e for e in events if e["event"] == "autonomy_lost"]
     assert lost and lost[-1]["mode"] == "manual"
     np.testing.assert_array_equal(late_traps[-1], late_traps[0])  # manual with no hand: the traps hold
@@ -408,7 +437,7 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
             )
             answer = next(a for a in answers if msg.stamp_s(a) == stamp)
         # the device node closed while the sim still listens: its rest sample arrives
-        wait_until(lambda: not samples[-1].velocity_mm_s.any(), DETECTION_BOUND_S)
+        wait_until(lambda: not samples[-1].velocity_mm_s.any(), DEADLINE_S)
     assert msg.force_n(answer)[0] == 0.25
     assert samples[0].velocity_mm_s[0] == pytest.approx(1.0)
 

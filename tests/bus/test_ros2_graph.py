@@ -20,7 +20,7 @@ from otgym.bus import ros_graph
 from otgym.bus.intake import TYPE_HASH, Counts, Intake
 from otgym.bus.transport import Node
 from otgym.bus.type_hash import rihs01
-from tests.bus.test_nodes import free_endpoint, wait_until
+from tests.bus.test_nodes import free_endpoint, poll_until, wait_until
 
 RULE = "=" * 80
 VECTOR3 = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
@@ -179,7 +179,10 @@ def test_a_ros2_peer_sees_the_node_its_publishers_and_subscriptions_with_types_h
         peer.declare_subscriber("0/otgym/traps/**", keep)
         sim.subscribe(msg.COMMAND, lambda *_: None)
         traps = np.array([[1.0, 2.0], [3.0, 4.0]])
-        wait_until(lambda: (sim.publish(msg.TRAPS, msg.pose_array(traps, 5.0)), len(samples) >= 3)[1], 10.0)
+        sim.wait_for_subscribers(msg.TRAPS)  # numbered from 1: nothing published before the peer listens
+        for _ in range(3):
+            sim.publish(msg.TRAPS, msg.pose_array(traps, 5.0))
+        wait_until(lambda: len(samples) >= 3, 10.0)
         sim.publish(msg.MODE, msg.string("shared"))
         wait_until(lambda: graph.entities(kind="MP", topic=msg.MODE), 10.0)
         (node,) = graph.entities(kind="NN")
@@ -318,18 +321,22 @@ def test_bad_messages_over_the_wire_are_dropped_counted_and_never_applied():
                 )[1],
                 10.0,
             )
-            time.sleep(0.3)  # good ones in flight arrive
+            # a peer's puts arrive in order: once the last one put is in, nothing put
+            # before it is still on the way (each try marked by its own speed)
+            for tries in range(1, 21):
+                last = next(counter)
+                peer.put(good_key, _twist_stamped(0.002 * tries), attachment=_attachment(last))
+                if poll_until(lambda: remote.read().velocity_mm_s[0] == pytest.approx(2.0 * tries), 5.0):
+                    break
             applied = sim.received[TWIST_TOPIC]
-            last = next(counter)
-            peer.put(good_key, _twist_stamped(0.002), attachment=_attachment(last))
-            wait_until(lambda: sim.received[TWIST_TOPIC] == applied + 1, 5.0)
+            assert not sim.dropped.get(TWIST_TOPIC, 0)
             for _ in range(3):
                 peer.put(wrong_key, _twist_stamped(0.005), attachment=_attachment(next(counter)))
             peer.put(good_key, _twist_stamped(0.005), attachment=_attachment(last))  # replayed number
             peer.put(good_key, _twist_stamped(0.005))  # no attachment
             wait_until(lambda: sim.dropped.get(TWIST_TOPIC, 0) == 5, 5.0)
-            assert sim.received[TWIST_TOPIC] == applied + 1
-            np.testing.assert_allclose(remote.read().velocity_mm_s, [2.0, 0.0, 0.0])  # the last good one
+            assert sim.received[TWIST_TOPIC] == applied
+            np.testing.assert_allclose(remote.read().velocity_mm_s, [2.0 * tries, 0.0, 0.0])  # the last good one
             reasons = {reason: n for (topic, reason), n in sim.drop_reasons.items() if topic == TWIST_TOPIC}
             assert reasons == {"hash": 3, "stale": 1, "attachment": 1}
             assert sum("dropping messages" in r for r in sim.counts.reports) == 1
@@ -351,8 +358,12 @@ def test_a_ros2_publisher_of_another_type_or_qos_is_reported_once():
             tokens = [peer.liveliness().declare_token(wrong)]
             wait_until(lambda: len(sim.counts.reports) == 2, 10.0)
             tokens.append(peer.liveliness().declare_token(wrong.replace("/0/1/MP/", "/0/2/MP/")))  # same offence again
-            time.sleep(0.5)
-            assert len(sim.counts.reports) == 2
+            # tokens arrive in order: once a third publisher's new offence is reported, the
+            # repeated one has been seen, and must have added no report
+            other = wrong.replace("/0/1/MP/", "/0/3/MP/").replace("RIHS01_" + "2" * 64, "RIHS01_" + "3" * 64)
+            tokens.append(peer.liveliness().declare_token(other))
+            wait_until(lambda: any("RIHS01_3333" in r for r in sim.counts.reports), 10.0)
+            assert len(sim.counts.reports) == 3
             assert any("RIHS01_2222" in r for r in sim.counts.reports)
             assert any("best effort" in r for r in sim.counts.reports)
         finally:

@@ -23,10 +23,9 @@ from otgym.bus.transport import EPHEMERAL_ENDPOINT, WAIT_BEFORE_DROP_US, Node, z
 from otgym.teleop.device import Sample
 from tests.bus.test_nodes import free_endpoint, wait_until
 
-LINK_UP_S = 1.5
-"""Time for links (and their TLS or password handshakes) to come up on a loaded machine."""
 QUIET_S = 1.0
-"""How long a refused peer is watched for messages that must not come."""
+"""How long a refused peer is watched for messages that must not come (the trusted link
+is up by then: waited for)."""
 
 
 class Inbox:
@@ -50,7 +49,7 @@ def test_latched_topics_reach_a_late_subscriber_once_with_the_latest_message():
     endpoint = free_endpoint()
     with Node("sim", "sim", listen=[endpoint]) as sim, Node("recorder", "early", connect=[endpoint]) as early_node:
         early = Inbox(early_node, "/otgym/**")
-        time.sleep(LINK_UP_S)
+        sim.wait_for_subscribers(msg.ALPHA)  # the link is up and the early pattern known
         sim.publish(msg.SESSION, msg.string(json.dumps(msg.session_description(_task(), []))))
         for mode in ("shared", "autonomous"):
             sim.publish(msg.MODE, msg.string(mode))
@@ -62,11 +61,12 @@ def test_latched_topics_reach_a_late_subscriber_once_with_the_latest_message():
             wait_until(lambda: late.get(msg.SESSION) and late.get(msg.MODE) and late_mode.get(msg.MODE), 10.0)
             sim.publish(msg.MODE, msg.string("manual"))
             wait_until(lambda: len(late.get(msg.MODE)) == 2 and len(late_mode.get(msg.MODE)) == 2, 5.0)
-            time.sleep(0.5)  # anything duplicated would arrive by now
-            assert [m.data for m in late.get(msg.MODE)] == ["autonomous", "manual"]
-            assert [m.data for m in late_mode.get(msg.MODE)] == ["autonomous", "manual"]
+            sim.publish(msg.MODE, msg.string("shared"))  # arrives after any duplicate of the ones before
+            wait_until(lambda: len(late.get(msg.MODE)) >= 3 and len(late_mode.get(msg.MODE)) >= 3, 5.0)
+            assert [m.data for m in late.get(msg.MODE)] == ["autonomous", "manual", "shared"]
+            assert [m.data for m in late_mode.get(msg.MODE)] == ["autonomous", "manual", "shared"]
             assert len(late.get(msg.SESSION)) == 1 and not late.get(msg.ALPHA)
-    assert [m.data for m in early.get(msg.MODE)] == ["shared", "autonomous", "manual"]  # no copies from the cache
+    assert [m.data for m in early.get(msg.MODE)] == ["shared", "autonomous", "manual", "shared"]  # no cache copies
     assert len(early.get(msg.SESSION)) == 1 and len(early.get(msg.ALPHA)) == 1
 
 
@@ -163,7 +163,6 @@ def test_tls_carries_messages_and_refuses_an_untrusted_certificate_or_plain_tcp(
     ):
         received = Inbox(sim, msg.twist_topic("device0"))
         stolen = [Inbox(untrusted, "/otgym/**"), Inbox(plain, "/otgym/**")]
-        time.sleep(LINK_UP_S)
         twist = msg.twist(Sample(0.0, 1, (0.0, 0.0, 0.0), (1.0, 2.0, 3.0), 1), time.time(), "device0")
         wait_until(
             lambda: (device.publish(msg.twist_topic("device0"), twist), received.get(msg.twist_topic("device0")))[1],
@@ -197,7 +196,7 @@ def test_a_peer_with_the_wrong_password_gets_nothing(tmp_path):
         Node("device", "guess", connect=[endpoint], config_file=config("guess", "device0", "wrong")) as guess,
     ):
         good, bad = Inbox(device, "/otgym/**"), Inbox(guess, "/otgym/**")
-        time.sleep(LINK_UP_S)
+        sim.wait_for_subscribers(msg.ALPHA)  # the good peer's link is up
         for _ in range(int(QUIET_S / 0.05)):
             sim.publish(msg.ALPHA, msg.float64(0.25))
             time.sleep(0.05)
@@ -230,7 +229,7 @@ def test_no_trial_event_is_lost_to_a_slow_subscriber():
             received.append(msg.event_fields(message)["n"])
 
         slow.subscribe(msg.EVENTS, keep)
-        time.sleep(LINK_UP_S)
+        sim.wait_for_subscribers(msg.EVENTS)
         for n in range(count):
             sim.publish(msg.EVENTS, msg.event("tick_probe", n=n))
         wait_until(lambda: len(received) == count, 30.0)
