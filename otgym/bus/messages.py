@@ -72,7 +72,7 @@ from otgym.teleop.device import Sample
 
 if TYPE_CHECKING:  # the loop imports JAX; a device node need not
     from otgym.runtime.loop import TickRecord
-    from otgym.runtime.task import InteractiveTask
+    from otgym.task.task import InteractiveTask
 
 _RULE = "=" * 80
 _HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
@@ -165,7 +165,7 @@ SPHERE_KINDS = ("robot", "cell", "obstacle", "bead")
 """Names of ``otgym.physics.bodies.BodyKind`` by value, as the session description gives them."""
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 PHASES = ("approach", "carry", "done")
-"""The task's phases by their number (``otgym.runtime.task``'s APPROACH, CARRY, DONE)."""
+"""The task's phases by their number (``otgym.task.task``'s APPROACH, CARRY, DONE)."""
 MAX_INCREMENT_UM = 100.0
 """The largest trap increment an autonomy message may carry (a tick at 20 um/s moves 0.4 um)."""
 _NAME = r"[A-Za-z][A-Za-z0-9_]{0,63}"

@@ -33,11 +33,11 @@ from collections.abc import Callable
 
 import numpy as np
 
+from otgym.autonomy.navigator import RouteNavigator
 from otgym.bus import messages as msg
 from otgym.bus.transport import Node
-from otgym.runtime.layout import layout_of, observation_from_spheres
-from otgym.runtime.navigator import RouteNavigator
-from otgym.runtime.task import InteractiveTask
+from otgym.task.layout import layout_of, observation_from_spheres
+from otgym.task.task import InteractiveTask
 from otgym.teleop.device import Device, DeviceCaps, Sample
 
 AUTONOMY_TIMEOUT_S = 0.25
@@ -199,13 +199,13 @@ def run_autonomy_node(
 ) -> int:
     """An autonomy as a node: on each ``/otgym/bodies`` from the simulator, the task's
     observation rebuilt from the latest bodies, traps and phase
-    (``otgym.runtime.layout.observation_from_spheres``; time from the bodies' stamps
+    (``otgym.task.layout.observation_from_spheres``; time from the bodies' stamps
     since the trial began), and the navigator's dP_r published on
     ``/otgym/autonomy/increments`` with the bodies' stamp; the navigator is reset at
     each ``trial_start``. ``navigator``: anything with ``reset(n_env)`` and
     ``increments(observation) -> (1, T, 2)`` um, by default the route navigator
-    (``otgym.runtime.navigator``); the model-predictive one
-    (``otgym.runtime.mpc_navigator.MPCNavigator``) answers a replan tick late, the others
+    (``otgym.autonomy.navigator``); the model-predictive one
+    (``otgym.autonomy.mpc_navigator.MPCNavigator``) answers a replan tick late, the others
     at once. A navigator slower than the ticks answers the newest bodies only. Until
     ``stop`` is set; returns the answers published."""
     if navigator is None:

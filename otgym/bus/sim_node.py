@@ -125,8 +125,8 @@ def follow_commands(node: Node, session, on_quit: Callable[[], None]) -> None:
 
 def build_task(chip: str = "default"):
     """The interactive task on ``chip`` (a name or a PNG)."""
-    from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
     from otgym.sim.chip import load_chip
+    from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
 
     return InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=load_chip(chip))))
 

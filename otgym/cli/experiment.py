@@ -40,6 +40,7 @@ def register(app: typer.Typer) -> None:
         """Manual, autonomous, shared and model-predictive control on the same seeded
         scenarios: success (obstacles avoided / encountered) and completion time per
         mode (Fig. 8 a, b)."""
+        from otgym.autonomy.mpc import MPCConfig
         from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.shared_control import (
             check_arguments,
@@ -48,8 +49,7 @@ def register(app: typer.Typer) -> None:
             run_experiment,
             write_experiment,
         )
-        from otgym.runtime.mpc import MPCConfig
-        from otgym.runtime.task import InteractiveConfig
+        from otgym.task.task import InteractiveConfig
 
         chosen = parse_modes(modes)
         check_arguments(participants, trials, seed)

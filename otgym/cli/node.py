@@ -198,7 +198,7 @@ def _ui(stop, endpoints, *, names, device, chip, out, questionnaire, **_):
     from otgym.bus.sim_node import build_task
     from otgym.bus.transport import Node
     from otgym.experiments.output_folder import check_out_dir
-    from otgym.runtime.layout import layout_of
+    from otgym.task.layout import layout_of
     from otgym.teleop.device import DeviceError
     from otgym.ui.node import WINDOW_KINDS, run_window
 
@@ -227,7 +227,7 @@ def _autonomy(stop, endpoints, *, chip, navigator, **_):
     task = build_task(chip)
     planner = None
     if navigator == "mpc":
-        from otgym.runtime.mpc_navigator import MPCNavigator
+        from otgym.autonomy.mpc_navigator import MPCNavigator
 
         print(
             "building the model-predictive navigator (its model, grip calibration and first compile take about "

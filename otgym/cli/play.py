@@ -273,8 +273,8 @@ def run_distributed(
     from otgym.bus.sim_node import build_task
     from otgym.cli.launch import NodeProcesses, free_loopback_endpoint
     from otgym.experiments.output_folder import check_out_dir
-    from otgym.runtime.layout import layout_of
     from otgym.sim.chip import load_chip
+    from otgym.task.layout import layout_of
     from otgym.teleop.device import DeviceError
     from otgym.ui.bindings import robot_primaries, window_devices
 

@@ -68,13 +68,13 @@ import jax
 import numpy as np
 
 from otgym import physics as ph
-from otgym.runtime.navigator import RouteNavigator, cap_speed
-from otgym.runtime.scenario import Scenario
-from otgym.runtime.task import DONE, InteractiveTask, Observation
+from otgym.autonomy.navigator import RouteNavigator, cap_speed
 from otgym.runtime.trials import TASK_RETARGET
 from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.sensor import VisionForceSensor
+from otgym.task.scenario import Scenario
+from otgym.task.task import DONE, InteractiveTask, Observation
 from otgym.teleop.device import Device, DeviceError, start_devices
 from otgym.teleop.feedback import FeedbackConfig, FeedbackLaw, newtons_per_pn_for
 from otgym.teleop.retarget import RetargetConfig, Retargeter

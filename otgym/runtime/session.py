@@ -51,8 +51,8 @@ from collections.abc import Callable
 import numpy as np
 
 from otgym.runtime.loop import DeviceBinding, InteractiveLoop, TickRecord
-from otgym.runtime.task import InteractiveTask, Observation
 from otgym.shared import MODES
+from otgym.task.task import InteractiveTask, Observation
 from otgym.teleop.device import Sample, start_devices
 from otgym.teleop.forwarded import ForwardedDevice
 from otgym.teleop.mouse_drag import MouseDragDevice
@@ -158,7 +158,7 @@ class Session:
     def layout(self):
         """The task's ``TaskLayout`` (what a view draws it with), built on first use."""
         if self._layout is None:
-            from otgym.runtime.layout import layout_of
+            from otgym.task.layout import layout_of
 
             self._layout = layout_of(self.task)
         return self._layout

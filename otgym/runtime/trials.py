@@ -25,13 +25,13 @@ from collections.abc import Callable
 import jax
 import numpy as np
 
-from otgym.planning.human import HumanParams
-from otgym.runtime.mpc import MPCConfig, MPCCosts
-from otgym.runtime.mpc_navigator import MPCNavigator, observation_rows
-from otgym.runtime.navigator import RouteNavigator, cap_speed
-from otgym.runtime.participants import ParticipantTask, SimulatedParticipants
-from otgym.runtime.task import InteractiveTask
+from otgym.autonomy.mpc import MPCConfig, MPCCosts
+from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
+from otgym.autonomy.navigator import RouteNavigator, cap_speed
+from otgym.human.motor import HumanParams
+from otgym.human.participants import ParticipantTask, SimulatedParticipants
 from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
+from otgym.task.task import InteractiveTask
 from otgym.teleop.feedback import FeedbackConfig, stable_newtons_per_pn
 from otgym.teleop.retarget import RetargetConfig
 
@@ -46,7 +46,7 @@ CRUISE_SPEED_UM_S = 5.0
 
 TRIAL_MODES = MODES + ("mpc",)
 """The arbitration modes, and ``mpc``: autonomous (alpha 0) with the model-predictive
-navigator's dP_r (``otgym.runtime.mpc``) instead of the route navigator's."""
+navigator's dP_r (``otgym.autonomy.mpc``) instead of the route navigator's."""
 AUTONOMIES = ("route", "mpc")
 
 
@@ -137,7 +137,7 @@ def run_trials(
     ``shared_autonomy="mpc"``, to shared ones; ``mpc_stats`` (a dict) receives its
     replan count and wall times; ``mpc_navigator`` (default ``MPCNavigator``) builds
     the navigator from ``(task, config, costs, seed=...)``, e.g. a recording or
-    distilled one (``otgym.runtime.mpc_policy``)."""
+    distilled one (``otgym.autonomy.mpc_policy``)."""
     if not specs:
         raise ValueError("no trials to run")
     if shared_autonomy not in AUTONOMIES:

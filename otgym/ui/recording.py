@@ -20,7 +20,7 @@ from pathlib import Path
 from otgym.bus import messages as msg
 from otgym.record.mcap_file import McapRecorder
 from otgym.runtime.loop import DeviceBinding, TickRecord
-from otgym.runtime.task import InteractiveTask
+from otgym.task.task import InteractiveTask
 from otgym.teleop.device import Device, Sample
 
 

@@ -111,7 +111,7 @@ def device_node(endpoint: str, csv: Path) -> subprocess.Popen:
 
 
 def test_device_node_killed_its_input_is_zero_at_once_and_the_traps_hold(tmp_path, children):
-    from tests.runtime import fast_scenario, shared_task
+    from tests.task import fast_scenario, shared_task
 
     task = shared_task()
     endpoint = free_endpoint()
@@ -275,7 +275,7 @@ def test_malformed_messages_are_dropped_and_counted_never_applied():
 
 def test_sim_node_publishes_every_tick_and_the_trial_events():
     from otgym.bus.sim_node import run_sim_node
-    from tests.runtime import shared_task
+    from tests.task import shared_task
 
     endpoint = free_endpoint()
     seen: dict[str, list] = {}
@@ -302,7 +302,7 @@ def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_
     pid, the sim runs as manual (mode message and an ``autonomy_lost`` event) within the
     detection bound, and with no device the traps then hold."""
     from otgym.bus.sim_node import run_sim_node
-    from tests.runtime import shared_task
+    from tests.task import shared_task
 
     endpoint = free_endpoint()
     seen: dict[str, list] = {}

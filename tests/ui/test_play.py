@@ -25,7 +25,7 @@ from otgym.teleop.device import Device, DeviceCaps, Sample  # noqa: E402
 from otgym.ui.app import PlayApp  # noqa: E402
 from otgym.ui.bindings import play_bindings  # noqa: E402
 from otgym.ui.views import ROUTE_RGB  # noqa: E402
-from tests.runtime import shared_task  # noqa: E402
+from tests.task import shared_task  # noqa: E402
 
 
 class SpyStylus(Device):

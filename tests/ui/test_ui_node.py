@@ -32,9 +32,9 @@ def wait_until(condition, timeout_s: float = 10.0) -> None:
 
 @pytest.fixture(scope="module")
 def layout_and_loop():
-    from otgym.runtime.layout import layout_of
     from otgym.runtime.loop import InteractiveLoop
-    from tests.runtime import fast_scenario, shared_task
+    from otgym.task.layout import layout_of
+    from tests.task import fast_scenario, shared_task
 
     task = shared_task()
     loop = InteractiveLoop(task, [], fast_scenario(7), "shared")

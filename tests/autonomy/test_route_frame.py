@@ -1,9 +1,9 @@
-"""The model-predictive navigator's route frame (``otgym.runtime.route_frame``)."""
+"""The model-predictive navigator's route frame (``otgym.autonomy.route_frame``)."""
 
 import jax.numpy as jnp
 import numpy as np
 
-from otgym.runtime import route_frame as rf
+from otgym.autonomy import route_frame as rf
 
 OFFSETS_UM = np.array([[-3.5, -6.5], [3.5, -6.5], [3.5, 6.5], [-3.5, 6.5]])
 

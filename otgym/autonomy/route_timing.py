@@ -29,7 +29,7 @@ import dataclasses
 
 import numpy as np
 
-from otgym.runtime.scenario import Scenario
+from otgym.task.scenario import Scenario
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,7 +47,7 @@ def task_assembly_shape(task) -> AssemblyShape:
     import jax
 
     from otgym import physics as ph
-    from otgym.control import formation as fm
+    from otgym.planning import formation as fm
     from otgym.sim import scene as sc
 
     heading = float(fm.heading_at(task.route, 0.0))

@@ -29,11 +29,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from otgym import physics as ph
-from otgym.control import formation as fm
+from otgym.planning import formation as fm
 from otgym.planning import plan_path
-from otgym.runtime.scenario import Scenario, ScenarioConfig, make_scenario, propulsion_um_s, stack_tracks
 from otgym.sim import scene as sc
 from otgym.sim.chip import Chip, load_chip
+from otgym.task.scenario import Scenario, ScenarioConfig, make_scenario, propulsion_um_s, stack_tracks
 
 APPROACH, CARRY, DONE = 0, 1, 2
 ALPHA_BANDS = (("autonomous", 0.0, 0.2), ("balanced", 0.2, 0.4), ("fine_tune", 0.4, 1.0 + 1e-9))

@@ -1,12 +1,12 @@
-"""The route navigator's dP_r (``otgym.runtime.navigator``) on a straight route along x,
+"""The route navigator's dP_r (``otgym.autonomy.navigator``) on a straight route along x,
 numpy only: how hard the autonomy pushes against an assembly that a person holds back,
 backs off or steps aside, and that it still restores the formation's shape."""
 
 import numpy as np
 
-from otgym.runtime.navigator import RouteNavigator
-from otgym.runtime.task import CARRY
-from tests.runtime.test_participants import OFFSETS_UM, TICK_S, scene
+from otgym.autonomy.navigator import RouteNavigator
+from otgym.task.task import CARRY
+from tests.human.test_participants import OFFSETS_UM, TICK_S, scene
 
 GAIN_PER_S, LEAD_UM, CRUISE_UM_S = 3.0, 1.0, 5.0
 

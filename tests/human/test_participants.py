@@ -1,4 +1,4 @@
-"""The simulated participants (``otgym.runtime.participants``) on synthetic scenes: a
+"""The simulated participants (``otgym.human.participants``) on synthetic scenes: a
 straight route along x, two robots of two traps each, no physics (the observation is
 held or moved by hand), so each test isolates one decision of the model.
 
@@ -9,11 +9,11 @@ intention through its delays, lags and the retargeting filter, deterministic."""
 import numpy as np
 import pytest
 
-from otgym.planning.human import HumanParams, sample_population
-from otgym.runtime.navigator import RouteNavigator
-from otgym.runtime.participants import ParticipantTask, SimulatedParticipants, choose_velocity, miss_um
-from otgym.runtime.task import APPROACH, CARRY, Observation
+from otgym.autonomy.navigator import RouteNavigator
+from otgym.human.motor import HumanParams, sample_population
+from otgym.human.participants import ParticipantTask, SimulatedParticipants, choose_velocity, miss_um
 from otgym.runtime.trials import TASK_RETARGET
+from otgym.task.task import APPROACH, CARRY, Observation
 from otgym.teleop.feedback import FeedbackConfig
 
 TICK_S = 0.02
@@ -320,7 +320,7 @@ def test_the_person_steps_aside_from_an_obstacle_coming_down_the_route(monkeypat
     assembly's 8.7 um radius plus the obstacle's 3 um apart) and no trap comes within
     the wall clearance. The same participant without side-steps (``SIDE_STEP_DEG``
     emptied) is hit."""
-    import otgym.runtime.participants as participants_module
+    import otgym.human.participants as participants_module
 
     touch_um = 8.7 + 3.0
     closest_um, wall_um = carry_past_an_oncoming_obstacle(people([STEADY], wall_distance_um=wall_below(-10.0)), -10.0)
@@ -337,7 +337,7 @@ def test_shared_mode_paces_side_steps_at_most_at_the_cruise_speed(monkeypatch):
     toward its commanded place); at 3 um/s it is 3 um/s. Every option the person weighs
     (here the pace of what they intend) is then at most that fast: side-steps at the
     pull's speed carried handles into walls."""
-    import otgym.runtime.participants as participants_module
+    import otgym.human.participants as participants_module
 
     seen = []
 
@@ -376,9 +376,9 @@ def test_grip_heading_is_the_robots_own_turn_not_the_tilt_of_a_shear_between_the
     """Each robot's turn comes from its own two traps: a formation turned by 0.4 rad reads
     0.4 rad, and shifting robot B 1.5 um along the route (a shear, which tilts the line
     between the robots by about 0.11 rad) does not change it."""
-    from otgym.runtime.navigator import rotate
-    from otgym.runtime.participants import robots_heading
-    from tests.runtime import shared_task
+    from otgym.autonomy.navigator import rotate
+    from otgym.human.participants import robots_heading
+    from tests.task import shared_task
 
     task = shared_task()
     offsets, trap_robot = np.asarray(task.offsets_um), task.trap_robot

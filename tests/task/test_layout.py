@@ -1,13 +1,13 @@
 """The observation a node rebuilds from what a simulator publishes
-(``otgym.runtime.layout.observation_from_spheres``) against the task's own."""
+(``otgym.task.layout.observation_from_spheres``) against the task's own."""
 
 import jax
 import numpy as np
 
 from otgym import physics as ph
-from otgym.runtime.layout import layout_of, observation_from_spheres
-from otgym.runtime.navigator import RouteNavigator
-from tests.runtime import fast_scenario, shared_task
+from otgym.autonomy.navigator import RouteNavigator
+from otgym.task.layout import layout_of, observation_from_spheres
+from tests.task import fast_scenario, shared_task
 
 
 def test_rebuilt_observation_matches_the_tasks_own():

@@ -1,11 +1,11 @@
-"""The earliest passage along a route among moving obstacles (``otgym.runtime.route_timing``),
+"""The earliest passage along a route among moving obstacles (``otgym.autonomy.route_timing``),
 on straight routes and hand-made tracks whose answers are known in closed form."""
 
 import numpy as np
 import pytest
 
-from otgym.runtime.route_timing import AssemblyShape, earliest_passage
-from otgym.runtime.scenario import Scenario
+from otgym.autonomy.route_timing import AssemblyShape, earliest_passage
+from otgym.task.scenario import Scenario
 
 LENGTH_UM, SPEED_UM_S = 100.0, 5.0
 ARC_STEP_UM = 0.25
@@ -97,8 +97,8 @@ def test_the_tasks_assembly_is_taken_whole_and_across_the_route():
     straddles the route, as the task grips, each robot's handles in a line along it),
     and its reach the scene's assembly radius. Fails if a body is left out or the frame
     is turned the wrong way."""
-    from otgym.runtime.route_timing import task_assembly_shape
-    from tests.runtime import shared_task
+    from otgym.autonomy.route_timing import task_assembly_shape
+    from tests.task import shared_task
 
     task = shared_task()
     shape = task_assembly_shape(task)

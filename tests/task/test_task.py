@@ -1,4 +1,4 @@
-"""Tests of the interactive task (``otgym.runtime.task``): reset, the autonomous carry
+"""Tests of the interactive task (``otgym.task.task``): reset, the autonomous carry
 with ``RouteNavigator``, held traps, obstacle tracks, metrics and input checks.
 
 The task is built once (``tests.runtime.shared_task``) and every run ticks the same 4
@@ -13,11 +13,11 @@ import jax
 import numpy as np
 import pytest
 
-from otgym.control import formation as fm
-from otgym.runtime.navigator import RouteNavigator
-from otgym.runtime.task import ALPHA_BANDS, APPROACH, CARRY, DONE, TrialMetrics
+from otgym.autonomy.navigator import RouteNavigator
+from otgym.planning import formation as fm
 from otgym.sim import scene as sc
-from tests.runtime import fast_scenario, shared_task
+from otgym.task.task import ALPHA_BANDS, APPROACH, CARRY, DONE, TrialMetrics
+from tests.task import fast_scenario, shared_task
 
 SEEDS = (7, 14, 21, 0)
 E = len(SEEDS)

@@ -1,4 +1,4 @@
-"""The model-predictive navigator (``otgym.runtime.mpc``, ``otgym.runtime.mpc_navigator``).
+"""The model-predictive navigator (``otgym.autonomy.mpc``, ``otgym.autonomy.mpc_navigator``).
 
 One task and one small controller (16 rollouts, a 0.9 s horizon) serve every test, so
 the planner compiles once; cost weights are arrays, so changing them does not
@@ -14,12 +14,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from otgym.runtime import mpc
-from otgym.runtime.mpc import MPCConfig, MPCCosts
-from otgym.runtime.mpc_navigator import MPCNavigator
-from otgym.runtime.navigator import RouteNavigator, route_point
-from otgym.runtime.scenario import Scenario
-from otgym.runtime.task import CARRY, InteractiveTask
+from otgym.autonomy import mpc
+from otgym.autonomy.mpc import MPCConfig, MPCCosts
+from otgym.autonomy.mpc_navigator import MPCNavigator
+from otgym.autonomy.navigator import RouteNavigator, route_point
+from otgym.task.scenario import Scenario
+from otgym.task.task import CARRY, InteractiveTask
 
 SMALL = MPCConfig(n_rollouts=16, plan_steps=8, knot_steps=4)
 STEP_S = SMALL.step_s
@@ -394,9 +394,9 @@ def test_shared_control_takes_the_mpc_as_its_autonomy():
     MPC (it is among the environments replanned, and its row says so) beside an mpc
     trial, while an autonomous trial keeps the route navigator. 2 s trials, two
     replanned environments once both carry; fails if shared control ignores the flag."""
-    from otgym.planning.human import sample_population
-    from otgym.runtime.task import InteractiveConfig
+    from otgym.human.motor import sample_population
     from otgym.runtime.trials import TrialSpec, run_trials
+    from otgym.task.task import InteractiveConfig
 
     short = InteractiveTask(InteractiveConfig(time_limit_s=2.0))
     specs = [TrialSpec(0, mode, 0, scenario=900000) for mode in ("shared", "mpc", "autonomous")]
@@ -416,13 +416,13 @@ def test_shared_control_takes_the_mpc_as_its_autonomy():
 
 def test_warm_up_leaves_it_fresh_and_it_plans_alike_from_a_rebuilt_observation(task, navigator, gripped):
     """An autonomy node drives the MPC with the observation it rebuilds from the
-    simulator's published spheres (``otgym.runtime.layout.observation_from_spheres``).
+    simulator's published spheres (``otgym.task.layout.observation_from_spheres``).
     After ``warm_up`` (compiles, then resets), the dP_r of the first two replan periods
     from the rebuilt observation equals that from the task's own to 1e-4 um, and moves
     the traps. Fails if warm_up leaves a replan count behind (the replan key changes),
     or if the rebuilt observation misplaces the cell, a handle or an obstacle."""
     from otgym import physics as ph
-    from otgym.runtime.layout import layout_of, observation_from_spheres
+    from otgym.task.layout import layout_of, observation_from_spheres
 
     state, obs = gripped
     spheres = np.asarray(ph.sphere_positions_um(task.scene.model, state.scene.physics.pose[0]), float)

@@ -12,8 +12,8 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-from otgym.runtime.task import ROUTE_SEARCH_POINTS, InteractiveTask, Observation
 from otgym.sim.chip import Chip
+from otgym.task.task import ROUTE_SEARCH_POINTS, InteractiveTask, Observation
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -1,5 +1,5 @@
 """The model-predictive navigator: dP_r of the interactive task from
-``otgym.runtime.mpc``, with the route navigator's interface (``reset(n_env)``,
+``otgym.autonomy.mpc``, with the route navigator's interface (``reset(n_env)``,
 ``increments(observation)``), so that trials and shared control take either.
 
 Per tick, from the task's ``Observation`` only:
@@ -31,7 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from otgym import physics as ph
-from otgym.runtime.mpc import (
+from otgym.autonomy.mpc import (
     MPCConfig,
     MPCCosts,
     cap_rigid,
@@ -40,12 +40,12 @@ from otgym.runtime.mpc import (
     model_scene_config,
     squeezed_offsets_um,
 )
-from otgym.runtime.navigator import RouteNavigator, cap_speed
-from otgym.runtime.obstacle_prediction import ObstacleTracker
-from otgym.runtime.route_frame import clip_lateral, formation_places, formation_pose, route_data
-from otgym.runtime.scenario import Scenario
-from otgym.runtime.task import CARRY, InteractiveTask, Observation
+from otgym.autonomy.navigator import RouteNavigator, cap_speed
+from otgym.autonomy.obstacle_prediction import ObstacleTracker
+from otgym.autonomy.route_frame import clip_lateral, formation_places, formation_pose, route_data
 from otgym.sim import scene as sc
+from otgym.task.scenario import Scenario
+from otgym.task.task import CARRY, InteractiveTask, Observation
 
 TRACKER_WINDOW_S = 1.0
 

@@ -4,7 +4,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from otgym.control import formation
+from otgym.planning import formation
 
 
 def test_formation_velocity_moves_the_traps_rigidly_along_a_circle():

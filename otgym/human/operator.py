@@ -8,7 +8,7 @@ trapped robot follows the trap:
 * **Route.** People keep away from walls: the intended route is the least-cost path
   (scikit-image ``MCP_Geometric``) through the dilated free map with cost
   1 / (distance to the nearest wall), which follows the channels' centre lines.
-* **The person** is otgym's one human motor model, ``otgym.planning.human``
+* **The person** is otgym's one human motor model, ``otgym.human.motor``
   (``HumanMotor`` with one participant, ``params.human``; sources there): the operator
   sees the robot's position a reaction time ago, and at each corrective sub-movement
   (every ~0.4 s, none during a lapse of responsiveness) aims at the route point
@@ -55,14 +55,14 @@ import numpy as np
 from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
+from otgym.human.motor import HumanMotor, HumanParams
 from otgym.planning.collision import _segment_free
-from otgym.planning.human import HumanMotor, HumanParams
 
 
 @dataclasses.dataclass(frozen=True)
 class OperatorParams:
     """Parameters of the simulated operator; sources in the module docstring and, for
-    ``human``, in ``otgym.planning.human``."""
+    ``human``, in ``otgym.human.motor``."""
 
     speed_um_per_s: float = 3.0
     human: HumanParams = HumanParams()

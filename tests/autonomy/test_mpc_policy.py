@@ -4,9 +4,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from otgym.control import formation as fm
-from otgym.runtime.mpc_policy import ClonedPolicy, dagger, dagger_step, route_features, train
-from otgym.runtime.route_frame import RouteData
+from otgym.autonomy.mpc_policy import ClonedPolicy, dagger, dagger_step, route_features, train
+from otgym.autonomy.route_frame import RouteData
+from otgym.planning import formation as fm
 
 
 def _route(points):

@@ -1,6 +1,6 @@
 """Simulated participants: a closed-loop model of a person driving the interactive task
 with two haptic styluses (bimanual: hand 0 moves robot A's traps, hand 1 robot B's),
-vectorised over E environments. The hand itself is ``otgym.planning.human``'s motor
+vectorised over E environments. The hand itself is ``otgym.human.motor``'s motor
 model (reaction delay, intermittent sub-movements with Fitts timing, neuromuscular lag,
 speed-dependent noise, tremor, yielding to the stylus force); this module is the task
 level: where the person wants each robot to be when a sub-movement ends.
@@ -122,9 +122,9 @@ import dataclasses
 
 import numpy as np
 
-from otgym.planning.human import HumanMotor, HumanParams
-from otgym.runtime.navigator import rotate
-from otgym.runtime.task import APPROACH, CARRY
+from otgym.human.motor import HumanMotor, HumanParams
+from otgym.task.geometry import rotate
+from otgym.task.task import APPROACH, CARRY
 from otgym.teleop.feedback import FeedbackConfig, chip_force_n
 from otgym.teleop.retarget import BatchRetargeter, RetargetConfig
 

@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from otgym.runtime.task import APPROACH, CARRY, Observation
+from otgym.task.geometry import rotate
+from otgym.task.task import APPROACH, CARRY, Observation
 
 HEADING_LOOKAROUND_UM = 2.0
 
@@ -52,14 +53,6 @@ def route_heading(route_um, route_arc_um, arc_um):
         route_um, route_arc_um, arc_um - HEADING_LOOKAROUND_UM
     )
     return np.arctan2(delta[..., 1], delta[..., 0])
-
-
-def rotate(vectors, angle):
-    """Rotate (..., T, 2) vectors by ``angle`` (...,) rad."""
-    cos, sin = np.cos(angle)[..., None], np.sin(angle)[..., None]
-    return np.stack(
-        [cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]], axis=-1
-    )
 
 
 def cap_speed(increment_um, max_step_um: float):

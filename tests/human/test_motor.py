@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import signal, stats
 
-from otgym.planning.human import (
+from otgym.human.motor import (
     POPULATION_CV,
     TREMOR_WARMUP_S,
     HumanMotor,

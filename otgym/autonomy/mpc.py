@@ -33,7 +33,7 @@ The model (``model_scene_config``): the task's scene with
 * the model's control step is the replan period ``step_s`` (0.1 s: 50 physics steps
   of 2 ms); 8x fewer physics steps per simulated second than the task's 0.25 ms.
 Obstacles move in the model by the task's bounded propulsion along tracks predicted
-from their observed motion (``otgym.runtime.obstacle_prediction``), never along the
+from their observed motion (``otgym.autonomy.obstacle_prediction``), never along the
 scenario's own tracks.
 
 Costs per rollout (``MPCCosts``; summed over the steps of the horizon): the cell's
@@ -63,9 +63,9 @@ import numpy as np
 from flax import struct
 
 from otgym import physics as ph
-from otgym.runtime.route_frame import RouteData, cell_arc_um, clip_lateral, formation_places
-from otgym.runtime.scenario import ScenarioConfig, propulsion_um_s
+from otgym.autonomy.route_frame import RouteData, cell_arc_um, clip_lateral, formation_places
 from otgym.sim import scene as sc
+from otgym.task.scenario import ScenarioConfig, propulsion_um_s
 
 PASS_OFFSETS_UM = (-6.0, -3.0, 3.0, 6.0)
 """Lateral offsets of the passing manoeuvres (cruise beside the route)."""

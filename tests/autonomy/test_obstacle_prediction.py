@@ -1,9 +1,9 @@
-"""The obstacle tracker's constant-velocity fit (``otgym.runtime.obstacle_prediction``)."""
+"""The obstacle tracker's constant-velocity fit (``otgym.autonomy.obstacle_prediction``)."""
 
 import numpy as np
 import pytest
 
-from otgym.runtime.obstacle_prediction import ObstacleTracker
+from otgym.autonomy.obstacle_prediction import ObstacleTracker
 
 TICK_S = 0.02
 

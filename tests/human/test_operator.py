@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from scipy import signal
 
+from otgym.human.motor import HumanParams
+from otgym.human.operator import OperatorParams, simulate_operator
 from otgym.planning.collision import segments_free
-from otgym.planning.human import HumanParams
 from otgym.planning.occupancy import build_occupancy
-from otgym.planning.operator import OperatorParams, simulate_operator
 
 START, GOAL = (8.0, 10.0), (70.0, 34.0)
 

@@ -31,8 +31,8 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from otgym.runtime.mpc_navigator import MPCNavigator
-from otgym.runtime.route_frame import route_frame
+from otgym.autonomy.mpc_navigator import MPCNavigator
+from otgym.autonomy.route_frame import route_frame
 
 
 def route_features(

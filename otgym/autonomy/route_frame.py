@@ -15,7 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from otgym.control import formation as fm
+from otgym.planning import formation as fm
 
 PROJECTION_PASSES = 2
 """Projections on the tangent: each shrinks the arc error by lateral offset / radius of

@@ -1,0 +1,8 @@
+"""Simulated people: otgym's one human motor model (``motor``: a hand at a stylus, in
+mm) and its two task-level users, the planner's simulated manual operator
+(``operator``: the manual row of Table I) and the simulated study participants
+(``participants``: two hands driving the interactive task closed loop)."""
+
+from otgym.human.motor import POPULATION_CV, HumanMotor, HumanParams, sample_population
+
+__all__ = ["POPULATION_CV", "HumanMotor", "HumanParams", "sample_population"]
