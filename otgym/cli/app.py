@@ -1,12 +1,14 @@
 """The ``otgym`` command. Each sub-command lives in its own module and registers
-itself here; user errors (ValueError, missing files) end as one clear line on
-stderr and exit code 2, never a traceback."""
+itself here; user errors (ValueError, missing files: ``otgym.cli.errors``) end as one
+clear line on stderr and exit code 2, never a traceback."""
 
 from __future__ import annotations
 
 import sys
 
 import typer
+
+from otgym.cli.errors import USER_ERRORS
 
 app = typer.Typer(
     name="otgym",
@@ -20,19 +22,6 @@ app = typer.Typer(
 @app.callback()
 def _root() -> None:
     """otgym: optical-tweezer microrobotics simulator, planner and learning gym."""
-
-
-USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
-
-
-def report_worker_error(error: Exception) -> None:
-    """A process of otgym's own failed (no user error): its traceback, if any, then one
-    ``error:`` line last, exit code 1."""
-    lines = str(error).splitlines() or [type(error).__name__]
-    if len(lines) > 1:
-        print("\n".join(lines[1:]), file=sys.stderr)
-    print(f"error: {lines[0]}", file=sys.stderr)
-    raise SystemExit(1)
 
 
 def _register_commands() -> None:

@@ -247,7 +247,7 @@ def _autonomy(stop, endpoints, *, chip, navigator, **_):
 def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, takeover, participant, hold, chip, **_):
     from otgym.bus.sim_node import serve_sim_node
     from otgym.bus.transport import Node
-    from otgym.cli.app import report_worker_error
+    from otgym.cli.errors import report_worker_error
     from otgym.runtime.worker import WorkerError
     from otgym.sim.chip import load_chip
     from otgym.teleop.device import DeviceError

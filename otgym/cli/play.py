@@ -96,7 +96,7 @@ def run_play(
     """The window in this process, the session in its own (``otgym.runtime.worker``)."""
     import functools
 
-    from otgym.cli.app import report_worker_error
+    from otgym.cli.errors import report_worker_error
     from otgym.experiments.output_folder import check_out_dir
     from otgym.record.mcap_file import session_path
     from otgym.runtime.worker import SessionProcess, WorkerError, WorkerSpec
