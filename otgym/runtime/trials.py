@@ -5,9 +5,8 @@ participant, a mode, a scenario), all stepped together tick by tick:
                                                          navigator, or the model-predictive
                                                          one in mode ``mpc`` and, with
                                                          ``shared_autonomy="mpc"``, in shared mode)
-    alpha = law(mode, gap to the nearest obstacle)      (otgym.shared)
-    dP_h = participants(what they saw, alpha, dP_r)     (two hands, um)
-    dP_s = alpha dP_h + (1 - alpha) dP_r, clamped to the trap-speed limit
+    alpha, dP_h, dP_s = control_tick(...)               (otgym.runtime.tick: the law, the
+                                                         participants' two hands, the blend)
     observation = task.step(dP_s)
 
 Each hand feels the feedback of its robot's handles. In batched trials the handle
@@ -27,10 +26,11 @@ import numpy as np
 
 from otgym.autonomy.mpc import MPCConfig, MPCCosts
 from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
-from otgym.autonomy.navigator import RouteNavigator, cap_speed
+from otgym.autonomy.navigator import RouteNavigator
 from otgym.human.motor import HumanParams
 from otgym.human.participants import ParticipantTask, SimulatedParticipants
-from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
+from otgym.runtime.tick import control_tick
+from otgym.shared import MODES, ArbitrationConfig
 from otgym.task.task import InteractiveTask
 from otgym.teleop.feedback import FeedbackConfig, stable_newtons_per_pn
 from otgym.teleop.retarget import RetargetConfig
@@ -92,27 +92,10 @@ def task_feedback(trap_law, retarget: RetargetConfig, handles_per_robot: int) ->
     return FeedbackConfig(newtons_per_pn=scale, contact_gain_n=scale * contact_limit_pn)
 
 
-def arbitration_modes(modes) -> np.ndarray:
-    """Each trial's arbitration mode: ``mpc`` trials are autonomous."""
-    modes = np.asarray(modes)
-    return np.where(modes == "mpc", "autonomous", modes)
-
-
 def stylus_feedback(task) -> FeedbackConfig:
     """``task_feedback`` for a person's styluses on ``task`` (``TASK_RETARGET``, the
     task's handles per robot): what ``otgym play`` and the sim node give each device."""
     return task_feedback(task.config.scene.trap_law, TASK_RETARGET, int(np.sum(task.trap_robot == task.trap_robot[0])))
-
-
-def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig) -> np.ndarray:
-    """alpha (E,) for each environment's mode at its obstacle gap (``mpc``: autonomous)."""
-    modes = arbitration_modes(modes)
-    alpha = np.zeros(len(modes))
-    for mode in MODES:
-        chosen = modes == mode
-        if chosen.any():
-            alpha[chosen] = alpha_for_mode(mode, gap_um[chosen], config)
-    return alpha
 
 
 def run_trials(
@@ -182,12 +165,17 @@ def run_trials(
         robot = navigator.increments(obs)
         if mpc is not None:
             robot[mpc_rows] = mpc.increments(observation_rows(obs, mpc_rows))
-        alpha = mode_alpha(modes, obs.nearest_obstacle_gap_um, arbitration)
-        human = people.intend(obs, arbitration_modes(modes), alpha, robot, task.trap_robot)[:, task.trap_robot]
-        command = cap_speed(blend(human, robot, alpha[:, None, None], arbitration.tau), max_step)
+        command = control_tick(
+            obs,
+            modes,
+            robot,
+            lambda modes, alpha: people.intend(obs, modes, alpha, robot, task.trap_robot)[:, task.trap_robot],
+            arbitration,
+            max_step,
+        )
         key, step_key = jax.random.split(key)
-        obs = task.step(state, command, step_key, alpha)
-        people.moved(command, arbitration.tau * alpha, task.trap_robot)
+        obs = task.step(state, command.shared_um, step_key, command.alpha)
+        people.moved(command.shared_um, arbitration.tau * command.alpha, task.trap_robot)
         people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
         if progress is not None and index % 50 == 0:
             progress(float(state.metrics.done.mean()))
