@@ -34,6 +34,7 @@ from collections.abc import Callable
 import numpy as np
 
 from otgym.autonomy.navigator import RouteNavigator
+from otgym.autonomy.protocol import Navigator
 from otgym.bus import messages as msg
 from otgym.bus.transport import Node
 from otgym.task.layout import layout_of, observation_from_spheres
@@ -195,7 +196,7 @@ def run_autonomy_node(
     stop: threading.Event,
     cruise_speed_um_s: float = 5.0,
     max_speed_um_s: float = 20.0,
-    navigator=None,
+    navigator: Navigator | None = None,
 ) -> int:
     """An autonomy as a node: on each ``/otgym/bodies`` from the simulator, the task's
     observation rebuilt from the latest bodies, traps and phase

@@ -69,6 +69,7 @@ import numpy as np
 
 from otgym import physics as ph
 from otgym.autonomy.navigator import RouteNavigator
+from otgym.autonomy.protocol import Autonomy
 from otgym.runtime.tick import control_tick
 from otgym.runtime.trials import TASK_RETARGET
 from otgym.shared import MODES, ArbitrationConfig
@@ -190,7 +191,7 @@ class InteractiveLoop:
         microscope: MicroscopeParams = MicroscopeParams(),
         crop_px: int = 48,
         clock: Callable[[], float] = time.monotonic,
-        autonomy: Callable[[Observation], np.ndarray | None] | None = None,
+        autonomy: Autonomy | None = None,
     ):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")

@@ -27,6 +27,7 @@ import numpy as np
 from otgym.autonomy.mpc import MPCConfig, MPCCosts
 from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
 from otgym.autonomy.navigator import RouteNavigator
+from otgym.autonomy.protocol import Navigator
 from otgym.human.motor import HumanParams
 from otgym.human.participants import ParticipantTask, SimulatedParticipants
 from otgym.runtime.tick import control_tick
@@ -112,7 +113,7 @@ def run_trials(
     mpc_config: MPCConfig = MPCConfig(),
     mpc_costs: MPCCosts = MPCCosts(),
     mpc_stats: dict | None = None,
-    mpc_navigator: Callable | None = None,
+    mpc_navigator: Callable[..., Navigator] | None = None,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The

@@ -44,6 +44,8 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import functools
+import inspect
 import multiprocessing
 import os
 import pickle
@@ -55,6 +57,7 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
+from otgym.runtime.protocols import SessionCommands, Sink, protocol_methods
 from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 
 SNAPSHOT_BYTES = 1 << 17
@@ -112,8 +115,8 @@ class WorkerParts:
 
     task: Any
     bindings: list
-    sink: Any = None
-    autonomy: Any = None
+    sink: Sink | None = None
+    autonomy: ForwardedAutonomy | None = None
     on_failure: Callable[[], None] | None = None
     """Called when the session cannot start (e.g. remove a recording just created)."""
 
@@ -169,7 +172,8 @@ class ForwardedAutonomy:
         return self._latest[1]
 
 
-_SESSION_COMMANDS = ("set_mode", "toggle_pause", "set_paused", "reset", "next_trial", "lose", "drag", "release_drag")
+SESSION_COMMANDS = protocol_methods(SessionCommands)
+"""The commands the parent forwards to the worker's ``Session``: ``SessionCommands``' methods."""
 
 
 def pack_sample(sample: Sample) -> bytes:
@@ -275,7 +279,7 @@ def _worker_main(
                 if name == "quit":
                     quit_asked = True
                     break
-                if name in _SESSION_COMMANDS:
+                if name in SESSION_COMMANDS:
                     getattr(session, name)(*arguments)
                 elif name == "autonomy":
                     parts.autonomy.update(*arguments)
@@ -307,14 +311,14 @@ def _worker_main(
         send(("closed", {"ticks": session.ticks, "late_ticks": session.late_ticks, "trials": session.trial}))
 
 
-class SessionProcess:
-    """The parent's side of a worker running ``spec``: start it, read its latest
-    ``snapshot``, send it commands (the ``Session`` 's: ``set_mode``,
-    ``toggle_pause``, ``reset``, ``next_trial``, ``feed``, ``lose``, ``drag``,
-    ``release_drag``; and ``autonomy``, ``autonomy_alive``), take the rows of finished
-    trials, ``finish`` it. ``on_publish(payload)`` and ``on_force(index, force_n)`` get
-    the worker's ``publish`` and ``force`` events (from ``poll``, or from the thread
-    of ``serve_events``)."""
+class SessionProcess(SessionCommands):
+    """The parent's side of a worker running ``spec`` (a ``SessionControl``): start it,
+    read its latest ``snapshot``, send it commands (``SessionCommands``' methods,
+    forwarded as they are: generated below from the protocol; ``feed`` through a
+    shared-memory block; and ``autonomy``, ``autonomy_alive``), take the rows of
+    finished trials, ``finish`` it. ``on_publish(payload)`` and ``on_force(index,
+    force_n)`` get the worker's ``publish`` and ``force`` events (from ``poll``, or from
+    the thread of ``serve_events``)."""
 
     def __init__(
         self,
@@ -426,33 +430,9 @@ class SessionProcess:
             except (BrokenPipeError, OSError):
                 pass  # the worker is gone: poll reports it
 
-    def set_mode(self, mode: str) -> None:
-        self.send("set_mode", mode)
-
-    def toggle_pause(self) -> None:
-        self.send("toggle_pause")
-
-    def set_paused(self, paused: bool) -> None:
-        self.send("set_paused", paused)
-
-    def reset(self) -> None:
-        self.send("reset")
-
-    def next_trial(self) -> None:
-        self.send("next_trial")
-
     def feed(self, index: int, sample: Sample) -> None:
         """The latest sample of forwarded device ``index`` (never blocks; one writer per device)."""
         self._device_blocks[index].write(pack_sample(sample))
-
-    def lose(self, index: int, reason: str) -> None:
-        self.send("lose", index, reason)
-
-    def drag(self, robot: int, pointer_um, traps_um) -> None:
-        self.send("drag", robot, pointer_um, traps_um)
-
-    def release_drag(self) -> None:
-        self.send("release_drag")
 
     def autonomy(self, arrival_s: float, increments) -> None:
         self.send("autonomy", arrival_s, increments)
@@ -522,3 +502,20 @@ class SessionProcess:
     @property
     def running(self) -> bool:
         return self.process is not None and self.stats is None and self.process.is_alive()
+
+
+def _forwarder(name: str):
+    """``SessionProcess.<name>``: send the command and its arguments (bound to the
+    protocol method's signature, so a wrong call fails here, not in the worker)."""
+    declared = getattr(SessionCommands, name)
+    signature = inspect.signature(declared)
+
+    def forward(self, *arguments, **keywords) -> None:
+        bound = signature.bind(self, *arguments, **keywords)
+        self.send(name, *bound.args[1:])
+
+    return functools.update_wrapper(forward, declared)
+
+
+for _name in SESSION_COMMANDS:
+    setattr(SessionProcess, _name, _forwarder(_name))

@@ -4,7 +4,7 @@ session of the interactive task (``otgym.runtime.session``).
 
 Processes. The window only draws and forwards input; the session (its ticks, the
 devices' retargeting and feedback, the recording) runs elsewhere, behind a driver with
-one interface: a ``SessionProcess`` (``otgym.runtime.worker``: its own process, what
+one interface, ``otgym.runtime.protocols.SessionControl``: a ``SessionProcess`` (``otgym.runtime.worker``: its own process, what
 ``otgym play`` runs), a ``BusSession`` (``otgym.ui.node``: a sim node on the bus, what
 ``otgym play --distributed`` and ``otgym node ui`` run), or a ``Session`` in this
 process (tests step it frame by frame; ``benchmarks/ui_fps.py`` also ticks it in a
@@ -61,6 +61,7 @@ default renders each present with Mesa's software GL, about 3.5 ms of CPU whatev
 the size of the rectangles (measured under Xvfb: 0.01 ms with this setting)."""
 import pygame  # noqa: E402
 
+from otgym.runtime.protocols import SessionControl  # noqa: E402
 from otgym.teleop.device import DeviceError  # noqa: E402
 from otgym.teleop.pygame_devices import KEYBOARD_EVENTS  # noqa: E402
 from otgym.ui import cues, views  # noqa: E402
@@ -98,7 +99,7 @@ class PlayApp:
 
     def __init__(
         self,
-        session,
+        session: SessionControl,
         out_dir: Path,
         *,
         window_devices=(),
@@ -215,9 +216,7 @@ class PlayApp:
         self._forward_window_devices()
         if self.step:
             self.session.advance()
-        poll = getattr(self.session, "poll", None)
-        if poll is not None:
-            poll()
+        self.session.poll()
         self._finish_trials()
         if self.session.over and self.running:
             self.running = False

@@ -32,7 +32,7 @@ import math
 import numpy as np
 import pygame
 
-from otgym.runtime.session import Snapshot
+from otgym.runtime.snapshot import Snapshot
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.task.layout import TaskLayout
 from otgym.ui import cues
