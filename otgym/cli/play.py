@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from otgym.cli import checks
+
 
 def register(app: typer.Typer) -> None:
     @app.command("play")
@@ -44,22 +46,16 @@ def register(app: typer.Typer) -> None:
         for the mode, space to pause, R to reset, H for help, Esc to quit; trials.csv and
         the session's MCAP recording (session.mcap). The simulation runs in a process of
         its own (with --distributed: as nodes on the bus)."""
-        from otgym.shared import MODES
         from otgym.ui.bindings import check_device_name
 
-        if mode not in MODES:
-            raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+        checks.check_mode(mode)
         check_device_name(device)
-        if duration is not None and not 0 < duration <= 24 * 3600:
-            raise ValueError(f"--duration must lie in (0, 86400] seconds, got {duration}")
-        if not 0 <= seed < 2**32 // 10_000:
-            raise ValueError(f"--seed must lie in [0, {2**32 // 10_000}), got {seed}")
+        checks.check_duration(duration)
+        checks.check_seed(seed)
         if screenshot is not None and screenshot.suffix.lower() != ".png":
             raise ValueError(f"--screenshot must name a .png file, got {screenshot}")
-        if not participant.strip() or "," in participant:
-            raise ValueError(f"--participant must be a non-empty ID without commas, got {participant!r}")
-        if navigator not in ("route", "mpc"):
-            raise ValueError(f"--navigator must be route or mpc, got {navigator!r}")
+        participant = checks.check_participant(participant)
+        checks.check_navigator(navigator)
         if navigator == "mpc" and not distributed:
             raise ValueError(
                 "--navigator mpc needs --distributed: its replans (about 74 ms each) run in the "
@@ -68,7 +64,7 @@ def register(app: typer.Typer) -> None:
         if headless:
             os.environ["SDL_VIDEODRIVER"] = "dummy"
             os.environ["SDL_AUDIODRIVER"] = "dummy"
-        arguments = (chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
+        arguments = (chip, mode, device, participant, seed, duration, not no_questionnaire, screenshot, out)
         if distributed:
             run_distributed(*arguments, navigator=navigator)
         else:

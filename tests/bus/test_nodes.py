@@ -417,10 +417,29 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
     "args, message",
     [
         (["autonomy", "--navigator", "astar"], "--navigator must be one of route, mpc"),
-        (["pilot"], "unknown or unbuilt node 'pilot'"),
         (["sim", "--autonomy", "cloud"], "--autonomy must be local or remote"),
+        (["sim", "--mode", "telepathic"], "unknown mode 'telepathic'"),
+        (["sim", "--participant", "P1,P2"], "--participant must be a non-empty ID without commas"),
+        (["sim", "--takeover", "ui0,,ui1"], "device name must be a letter"),
+        (["device", "--device", "replay"], "--device replay needs --replay FILE"),
     ],
 )
 def test_bad_node_arguments_end_in_one_line_and_exit_2(args, message):
+    run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert run.stderr.strip().splitlines() == [f"error: {run.stderr.strip().removeprefix('error: ')}"]
+    assert message in run.stderr
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["pilot"], "No such command 'pilot'"),
+        (["device", "--navigator", "mpc"], "No such option: --navigator"),  # each role takes only its own options
+        (["autonomy", "--out", "x"], "No such option: --out"),
+        (["recorder"], "Missing option '--out'"),
+    ],
+)
+def test_a_role_takes_only_its_own_options(args, message):
     run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr
