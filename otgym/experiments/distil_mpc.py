@@ -36,7 +36,7 @@ from otgym.autonomy.mpc_policy import (
     dagger,
     train,
 )
-from otgym.human.motor import sample_population
+from otgym.human.params import sample_population
 from otgym.runtime.trials import TrialSpec, run_trials
 from otgym.study.summary import summarize
 from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from otgym.autonomy.mpc import MPCConfig
-from otgym.human.motor import sample_population
+from otgym.human.params import sample_population
 from otgym.runtime.trials import AUTONOMIES, TRIAL_COLUMNS, TRIAL_MODES, TrialSpec, run_trials
 from otgym.study import plot_fig8, write_summary
 from otgym.study.summary import json_safe

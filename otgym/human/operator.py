@@ -55,14 +55,15 @@ import numpy as np
 from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
-from otgym.human.motor import HumanMotor, HumanParams
+from otgym.human.motor import HumanMotor
+from otgym.human.params import HumanParams
 from otgym.planning.collision import _segment_free
 
 
 @dataclasses.dataclass(frozen=True)
 class OperatorParams:
     """Parameters of the simulated operator; sources in the module docstring and, for
-    ``human``, in ``otgym.human.motor``."""
+    ``human``, in ``otgym.human.params``."""
 
     speed_um_per_s: float = 3.0
     human: HumanParams = HumanParams()

@@ -28,8 +28,9 @@ from otgym.autonomy.mpc import MPCConfig, MPCCosts
 from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
 from otgym.autonomy.navigator import RouteNavigator
 from otgym.autonomy.protocol import Navigator
-from otgym.human.motor import HumanParams
-from otgym.human.participants import ParticipantTask, SimulatedParticipants
+from otgym.human.params import HumanParams
+from otgym.human.participant_task import ParticipantTask
+from otgym.human.participants import SimulatedParticipants
 from otgym.runtime.tick import control_tick
 from otgym.shared import MODES, ArbitrationConfig
 from otgym.task.task import InteractiveTask

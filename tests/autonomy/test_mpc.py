@@ -394,7 +394,7 @@ def test_shared_control_takes_the_mpc_as_its_autonomy():
     MPC (it is among the environments replanned, and its row says so) beside an mpc
     trial, while an autonomous trial keeps the route navigator. 2 s trials, two
     replanned environments once both carry; fails if shared control ignores the flag."""
-    from otgym.human.motor import sample_population
+    from otgym.human.params import sample_population
     from otgym.runtime.trials import TrialSpec, run_trials
     from otgym.task.task import InteractiveConfig
 

@@ -12,14 +12,8 @@ import numpy as np
 import pytest
 from scipy import signal, stats
 
-from otgym.human.motor import (
-    POPULATION_CV,
-    TREMOR_WARMUP_S,
-    HumanMotor,
-    HumanParams,
-    _tremor_filter,
-    sample_population,
-)
+from otgym.human.motor import TREMOR_WARMUP_S, HumanMotor, _tremor_filter
+from otgym.human.params import POPULATION_CV, HumanParams, sample_population
 
 # A hand without randomness: no tremor, motor noise, movement errors, jitter or lapses.
 STILL = HumanParams(

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from otgym.human.motor import HumanParams
 from otgym.human.operator import OperatorParams, simulate_operator
+from otgym.human.params import HumanParams
 from otgym.planning.collision import segments_free
 from otgym.planning.occupancy import build_occupancy
 

@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from otgym.autonomy.navigator import RouteNavigator
-from otgym.human.motor import HumanParams, sample_population
-from otgym.human.participants import ParticipantTask, SimulatedParticipants, choose_velocity, miss_um
+from otgym.human.avoidance import choose_velocity, miss_um
+from otgym.human.params import HumanParams, sample_population
+from otgym.human.participant_task import ParticipantTask
+from otgym.human.participants import SimulatedParticipants
 from otgym.runtime.trials import TASK_RETARGET
 from otgym.task.task import APPROACH, CARRY, Observation
 from otgym.teleop.feedback import FeedbackConfig
@@ -320,13 +322,13 @@ def test_the_person_steps_aside_from_an_obstacle_coming_down_the_route(monkeypat
     assembly's 8.7 um radius plus the obstacle's 3 um apart) and no trap comes within
     the wall clearance. The same participant without side-steps (``SIDE_STEP_DEG``
     emptied) is hit."""
-    import otgym.human.participants as participants_module
+    import otgym.human.avoidance as avoidance_module
 
     touch_um = 8.7 + 3.0
     closest_um, wall_um = carry_past_an_oncoming_obstacle(people([STEADY], wall_distance_um=wall_below(-10.0)), -10.0)
     assert closest_um > touch_um, closest_um
     assert wall_um > TASK.wall_clearance_um - 0.3, wall_um
-    monkeypatch.setattr(participants_module, "SIDE_STEP_DEG", ())
+    monkeypatch.setattr(avoidance_module, "SIDE_STEP_DEG", ())
     closest_um, _ = carry_past_an_oncoming_obstacle(people([STEADY], wall_distance_um=wall_below(-10.0)), -10.0)
     assert closest_um < touch_um, closest_um
 
