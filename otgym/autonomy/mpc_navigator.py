@@ -31,15 +31,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from otgym import physics as ph
-from otgym.autonomy.mpc import (
-    MPCConfig,
-    MPCCosts,
-    cap_rigid,
-    grip_squeeze_um,
-    make_replan,
-    model_scene_config,
-    squeezed_offsets_um,
-)
+from otgym.autonomy.grip_calibration import grip_squeeze_um, squeezed_offsets_um
+from otgym.autonomy.mpc import MPCConfig, MPCCosts, cap_rigid, make_replan, model_scene_config
 from otgym.autonomy.navigator import RouteNavigator, cap_speed
 from otgym.autonomy.obstacle_prediction import ObstacleTracker
 from otgym.autonomy.route_frame import clip_lateral, formation_places, formation_pose, route_data

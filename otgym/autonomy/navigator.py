@@ -1,32 +1,26 @@
 """The autonomous command dP_r of the interactive task: the formation of four traps
-follows the planned route (the paper's "progressive" autonomy, section II-C).
+follows the planned route (the paper's "progressive" autonomy, section II-C). Numpy,
+batched over E environments; increments (E, T, 2) um per tick.
 
 * APPROACH: the formation is centred on the cell as the camera sees it now, facing
   along the route, so the robots close in and grip it (the free cell drifts with the
   flow; the formation chases it).
 * CARRY: a commanded arc advances at ``cruise_speed_um_s`` but never runs more than
-  ``lead_um`` ahead of the cell's own progress, also when the cell goes back (a cell
-  held back or backed off by an obstacle, a wall or a person is not left behind). The
+  ``lead_um`` ahead of the cell's own progress, also when the cell goes back. The
   command is a rate, as the paper's speed control along the path: the motion of the
-  formation's places as the arc advances (feed-forward; an arc pulled back with the cell
-  moves nothing) plus ``carry_gain_per_s``
-  times each trap's offset from its place (a correction that removes drift in
-  1 / gain), the formation's common drift capped at ``carry_gain_per_s * lead_um``
-  (3 um/s) and its shape (the robots' places relative to each other, which hold the
-  cell) corrected in full. So a person sharing control who holds the assembly back,
-  backs it away from a threat or
-  steps it aside is opposed by at most 3 um/s, not by a position servo whose pull
-  grows with the distance. (Before the cap the commanded arc never went back and the
-  correction grew without bound: a person backing away from an obstacle at alpha 0.5
-  got about 0.5 um/s of the 4 um/s they commanded, and on development scenario 900003
-  seven of eight simulated participants were hit while backing off.)
-Each trap's increment is capped at ``max_speed_um_s`` times the tick. Numpy, batched
-over environments.
+  formation's places as the arc advances (feed-forward; an arc pulled back with the
+  cell moves nothing) plus ``carry_gain_per_s`` times each trap's offset from its place
+  (drift removed in 1 / gain), the formation's common drift capped at
+  ``carry_gain_per_s * lead_um`` (3 um/s) and its shape (the robots' places relative to
+  each other, which hold the cell) corrected in full. So a person sharing control who
+  holds the assembly back or steps it aside is opposed by at most 3 um/s, not by a
+  position servo (docs/decisions/0006-route-navigator-capped-correction.md).
+Each trap's increment is capped at ``max_speed_um_s`` times the tick.
 
 The speed is a constant cruise speed, not the shipped DQN speed policy: that policy
 was trained on the ``paper`` preset (the paper's weak trap law, 0.27-0.51 um/s in
 water at 20 C), whose speeds and observations do not carry over to this task's
-literature traps in water, where obstacles, not trap loss, set the danger.
+literature traps, where obstacles, not trap loss, set the danger.
 """
 
 from __future__ import annotations
@@ -62,6 +56,10 @@ def cap_speed(increment_um, max_step_um: float):
 
 
 class RouteNavigator:
+    """The route navigator (module docstring); offers ``otgym.autonomy.protocol.Navigator``.
+    ``route_um`` (M, 2) and ``route_arc_um`` (M,): the planned route and its arc length;
+    ``offsets_um`` (T, 2): each trap's place in the formation's frame (x along the route)."""
+
     def __init__(
         self,
         route_um,

@@ -1,10 +1,10 @@
-"""The runtime's parts as bus nodes (DESIGN.md, "The human half"): a device node
+"""The runtime's parts as bus nodes: a device node
 publishes its device's samples and applies the feedback it receives; the simulator
 node (``otgym.bus.sim_node``) runs a session on ``RemoteDevice`` s and publishes every
 tick; a recorder node passes every checked message to a sink (``otgym.cli.node``
 gives it an MCAP file); the autonomy node answers each tick with dP_r.
 
-Faults (DESIGN.md, "safety first"):
+Faults (safety first):
 - a device node dies: its liveliness token goes; the simulator's ``RemoteDevice``
   then reads as one sample at rest with every button released (the retargeter's
   clutch zeroes dP_h at once) that then ages into silence, so the traps hold; the

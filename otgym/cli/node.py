@@ -190,6 +190,7 @@ def recorder(
     """Every message on the bus into one MCAP file."""
     from otgym.bus import messages as msg
     from otgym.bus.nodes import record_all
+    from otgym.bus.schemas import SCHEMAS
     from otgym.bus.transport import Node
     from otgym.experiments.output_folder import check_out_dir
     from otgym.record.mcap_file import McapRecorder, session_path
@@ -200,7 +201,7 @@ def recorder(
 
         def sink(topic: str, data: bytes) -> None:
             type_name = msg.topic_type(topic)
-            recording.write(topic, type_name, msg.SCHEMAS[type_name], data)
+            recording.write(topic, type_name, SCHEMAS[type_name], data)
             if topic == msg.EVENTS and msg.event_fields(msg.decode(topic, data)).get("event") == "session_end":
                 print(SESSION_END_RECORDED, flush=True)  # what otgym play --distributed waits for
 

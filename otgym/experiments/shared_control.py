@@ -26,7 +26,7 @@ from otgym.study.summary import json_safe
 from otgym.task.task import InteractiveConfig, InteractiveTask
 
 MPC_ACCEPTANCE_RATE = 0.99
-"""Issue 13: the MPC avoids at least this share of the obstacles it meets and reaches
+"""The MPC's acceptance: it avoids at least this share of the obstacles it meets and reaches
 the goal in at least this share of its trials."""
 
 
@@ -121,8 +121,8 @@ def run_experiment(
 
 
 def acceptance(summary: pd.DataFrame) -> dict:
-    """The issue's criteria on the paper's ordering, where the modes are present, and
-    issue 13's on the MPC: obstacles avoided and goals reached (pooled over trials)
+    """The acceptance criteria on the paper's ordering, where the modes are present, and
+    the MPC's: obstacles avoided and goals reached (pooled over trials)
     at least ``MPC_ACCEPTANCE_RATE``, no trap loss, and its mean completion time no
     longer than shared control's (where shared control ran)."""
     by_mode = summary.set_index("mode")

@@ -1,5 +1,5 @@
 """The real-time interactive loop for one environment of the interactive task
-(DESIGN.md, "The human half"; paper sections II-D and II-E, Fig. 2's closed loop).
+(paper sections II-D and II-E, Fig. 2's closed loop).
 
 One tick (50 Hz by default; ``InteractiveTask``'s control period), in this order:
 
@@ -42,7 +42,7 @@ knows: where it put its traps, the handles' radius, the pixel size. The handle o
 fed to the feedback law is trap minus sensed handle. The robot-cell contact force of
 the feedback's contact cue is the simulator's report (no camera measures it).
 
-Safety (DESIGN.md, "safety first"): a device whose latest sample is non-finite or
+Safety first: a device whose latest sample is non-finite or
 older than the retargeter's ``silence_timeout_s`` (100 ms) gives dP_h = 0 (the
 ``Retargeter`` drops NaN samples and holds nothing stale) and is sent zero force (its
 feedback filter is cleared, so the force ramps up again through the low-pass when it

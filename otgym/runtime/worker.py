@@ -5,16 +5,13 @@ lock with the ticks: each process has a core of its own on a 2-core machine.
 
 Processes: ``SessionProcess(spec).start()`` spawns the worker (``multiprocessing``'s
 spawn context; nothing but pipes and shared-memory blocks: no socket) with the BLAS
-and OpenMP libraries limited to ``spec.threads`` threads, so that they do not spin on
-the window's core. XLA's CPU client keeps its own pool of a thread per core whatever
-``XLA_FLAGS`` says (``--xla_cpu_multi_thread_eigen=false`` and
-``intra_op_parallelism_threads=1`` changed neither the pool nor the CPU time with
-jaxlib 0.10.2); it runs the tick's compiled programs one at a time, so the worker uses
-about a third of one core (benchmarks/README.md). The worker pins itself to one core
-(``pin_to_one_core``), so that the pool's threads never take the other core from the
-window or the sim node's bus side. The worker calls ``spec.setup`` (a picklable callable: the task, the bindings, the sink,
-the autonomy), starts the session and paces it by the wall clock until it is asked to
-quit, its parent dies, or (without ``hold_between_trials``) its duration is spent.
+and OpenMP libraries limited to ``spec.threads`` threads, and the worker pins itself
+to one core (``pin_to_one_core``), so that neither they nor XLA's own thread pool take
+the other core from the window or the sim node's bus side
+(docs/decisions/0007-session-in-its-own-process.md). The worker calls ``spec.setup``
+(a picklable callable: the task, the bindings, the sink, the autonomy), starts the
+session and paces it by the wall clock until it is asked to quit, its parent dies, or
+(without ``hold_between_trials``) its duration is spent.
 
 Channels:
 - parent -> worker, a pipe of commands (``("set_mode", "manual")``, ``("drag",
@@ -50,63 +47,22 @@ import multiprocessing
 import os
 import pickle
 import signal
-import struct
 import threading
 import time
 import traceback
 from collections.abc import Callable
 from typing import Any
 
+from otgym.runtime.latest_bytes import SAMPLE_BYTES, LatestBytes, pack_sample, unpack_sample
 from otgym.runtime.protocols import SessionCommands, Sink, protocol_methods
 from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 
 SNAPSHOT_BYTES = 1 << 17
 """Room for one pickled snapshot (about 5 kB for the interactive task's 19 spheres)."""
-_SEQLOCK_TRIES = 256
-_SAMPLE = struct.Struct("<dq3d3dq")
-"""A device sample in a block: time_s, sequence, position_mm, velocity_mm_s, buttons."""
 
 
 class WorkerError(RuntimeError):
     """The worker process failed or ended unasked; ``str()`` says how."""
-
-
-class LatestBytes:
-    """The latest byte string written by one process, read by others without locks:
-    a sequence counter that is odd while the single writer writes (a seqlock, as
-    ``otgym.teleop.servo``'s blocks), then the length and the bytes."""
-
-    def __init__(self, capacity: int, context=None):
-        context = context or multiprocessing.get_context("spawn")
-        self._header = context.RawArray("q", 2)  # [sequence, length]
-        self._data = context.RawArray("B", capacity)
-
-    @property
-    def capacity(self) -> int:
-        return len(self._data)
-
-    def write(self, payload: bytes) -> None:
-        size = len(payload)
-        if size > len(self._data):
-            raise ValueError(f"{size} bytes do not fit in {len(self._data)}")
-        header = self._header
-        header[0] += 1
-        memoryview(self._data).cast("B")[:size] = payload
-        header[1] = size
-        header[0] += 1
-
-    def read(self) -> tuple[int, bytes] | None:
-        """(writes so far, the latest bytes), or None before the first write or when
-        every try met a write in progress."""
-        header, view = self._header, memoryview(self._data).cast("B")
-        for _ in range(_SEQLOCK_TRIES):
-            before = header[0]
-            if before % 2:
-                continue
-            payload = bytes(view[: header[1]])
-            if header[0] == before:
-                return (before // 2, payload) if before else None
-        return None
 
 
 @dataclasses.dataclass
@@ -176,15 +132,6 @@ SESSION_COMMANDS = protocol_methods(SessionCommands)
 """The commands the parent forwards to the worker's ``Session``: ``SessionCommands``' methods."""
 
 
-def pack_sample(sample: Sample) -> bytes:
-    return _SAMPLE.pack(sample.time_s, sample.sequence, *sample.position_mm, *sample.velocity_mm_s, sample.buttons)
-
-
-def unpack_sample(data: bytes) -> Sample:
-    values = _SAMPLE.unpack(data)
-    return Sample(values[0], values[1], values[2:5], values[5:8], values[8])
-
-
 def _exit_on_sigterm(signum, frame):
     raise SystemExit(0)
 
@@ -194,9 +141,7 @@ def pin_to_one_core() -> None:
     it may use. One environment's tick is latency-bound (XLA's pool of a thread per core
     gains it little), and the other cores stay free for the window, the sim node's
     answers to the devices and the haptic servo (which widens its own affinity again:
-    ``otgym.teleop.servo``). Measured on the quiet 2-core machine
-    (``benchmarks/bus.py``): the device -> sim node -> feedback round trip's p99 went
-    from 2.25 to 1.6-1.7 ms; the window's frame rate and real-time factor unchanged."""
+    ``otgym.teleop.servo``). Linux only; elsewhere nothing (docs/decisions/0007)."""
     if not hasattr(os, "sched_setaffinity"):
         return
     cores = sorted(os.sched_getaffinity(0))
@@ -342,7 +287,7 @@ class SessionProcess(SessionCommands):
         self.process = None
         self._context = multiprocessing.get_context("spawn")
         self._snapshots = LatestBytes(SNAPSHOT_BYTES, self._context) if spec.snapshots else None
-        self._device_blocks = [LatestBytes(_SAMPLE.size, self._context) for _ in spec.forwarded_caps]
+        self._device_blocks = [LatestBytes(SAMPLE_BYTES, self._context) for _ in spec.forwarded_caps]
         self._snapshot = None
         self._snapshot_sequence = 0
         self._finished: collections.deque = collections.deque()

@@ -18,19 +18,14 @@ moves along it at ``obstacle_speed_um_s`` so as to cross on time, then stays at 
 track's end; both ends keep ``park_clearance_um`` from every point of the route (the
 assembly's half-width 8.7 um plus the obstacle's 3 um plus 1.5 um), so an obstacle
 that waits or has parked never stands in the assembly's corridor: only its crossing
-does. (Before this rule the approach was 6 um along the track and the run-out 14 um
-along it, which at up to 60 degrees off the normal left half of the waiting obstacles
-and a fifth of the parked ones inside the corridor, standing on the route: on 64
-development scenarios, 900000-900063, the median waiting obstacle stood 11.9 um from
-the route.) The scene applies the track through a bounded propulsion
-(``propulsion_um_s``): walls and bodies still stop it, and flow is compensated.
+does (docs/decisions/0009-scenario-park-clearance.md). The scene applies the track
+through a bounded propulsion (``propulsion_um_s``): walls and bodies still stop it, and
+flow is compensated.
 
-Calibration of ``timing_jitter_s``: the spread sets how many obstacles a route
-follower that ignores them meets. It was chosen so that the task's autonomous mode
-(the route navigator at 5 um/s) avoids about the paper's 59 %: on 64 development
-scenarios (900000-900063, one trial each) sigma = 4 s gave 12 %, 8 s 37 %, 14 s 57 %,
-15 s 58 % (140 of 242 encountered) and 20 s 65 %. Every other figure is measured on
-other seeds.
+``timing_jitter_s`` (15 s) sets how many obstacles a route follower that ignores them
+meets: it is calibrated so that the task's autonomous mode (the route navigator at
+5 um/s) avoids about the paper's 59 % on development scenarios 900000-900063, never on
+the seeds that figures are measured on (docs/decisions/0010-scenario-timing-jitter.md).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Teleoperation: input devices, retargeting to trap increments, haptic feedback
-(paper sections II-D and II-E; DESIGN.md, "The human half").
+(paper sections II-D and II-E).
 
 Modules, each with one job: ``device`` (the protocol every device speaks,
 ``open_device``), ``retarget`` (samples -> the human's trap increment dP_h),

@@ -18,6 +18,8 @@ import time
 from pathlib import Path
 
 from otgym.bus import messages as msg
+from otgym.bus import task_messages
+from otgym.bus.schemas import SCHEMAS
 from otgym.record.mcap_file import McapRecorder
 from otgym.runtime.loop import DeviceBinding, TickRecord
 from otgym.task.task import InteractiveTask
@@ -40,7 +42,7 @@ class SessionRecording:
     def write(self, topic: str, data: bytes, stamp_s: float | None = None) -> None:
         stamp_s = self.clock_s() if stamp_s is None else stamp_s
         type_name = msg.topic_type(topic)
-        self.recorder.write(topic, type_name, msg.SCHEMAS[type_name], data, log_time_ns=int(stamp_s * 1e9))
+        self.recorder.write(topic, type_name, SCHEMAS[type_name], data, log_time_ns=int(stamp_s * 1e9))
 
     def wrap(self, bindings: list[DeviceBinding]) -> list[DeviceBinding]:
         """The bindings with each device wrapped so its samples are recorded."""
@@ -53,14 +55,14 @@ class SessionRecording:
 
     def describe(self, task: InteractiveTask) -> None:
         """Record the session's description, chip image and route (once, at its start)."""
-        for topic, data in msg.session_messages(task, self.devices, self.clock_s()):
+        for topic, data in task_messages.session_messages(task, self.devices, self.clock_s()):
             self.write(topic, data)
 
     def tick(self, record: TickRecord, sphere_xy_um, mode: str) -> None:
         stamp_s = self.clock_s()
         changed = mode if mode != self._mode_written else None  # the mode at a trial's first tick and on change
         self._mode_written = mode
-        for topic, data in msg.tick_messages(record, self.devices, sphere_xy_um, stamp_s, changed):
+        for topic, data in task_messages.tick_messages(record, self.devices, sphere_xy_um, stamp_s, changed):
             self.write(topic, data, stamp_s)
 
     def event(self, name: str, **fields) -> None:

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from otgym.autonomy import mpc
+from otgym.autonomy import grip_calibration, mpc
 from otgym.autonomy.mpc import MPCConfig, MPCCosts
 from otgym.autonomy.mpc_navigator import MPCNavigator
 from otgym.autonomy.navigator import RouteNavigator, route_point
@@ -137,8 +137,10 @@ def test_calibrated_squeeze_grips_as_hard_as_the_real_traps(task, navigator):
     slips out within a second); with it, within 5 % of the real force."""
     start = task.route_um[0]
     heading = float(np.arctan2(*(task.route_um[8] - task.route_um[0])[::-1]))
-    real = mpc.settled_contact_force_pn(task.scene, start, heading, np.zeros(1))[0]
-    model = mpc.settled_contact_force_pn(navigator.model, start, heading, np.array([0.0, navigator.extra_squeeze_um]))
+    real = grip_calibration.settled_contact_force_pn(task.scene, start, heading, np.zeros(1))[0]
+    model = grip_calibration.settled_contact_force_pn(
+        navigator.model, start, heading, np.array([0.0, navigator.extra_squeeze_um])
+    )
     assert model[0] < 0.6 * real
     assert model[1] == pytest.approx(real, rel=0.05)
 

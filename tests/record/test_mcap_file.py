@@ -15,6 +15,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from otgym.bus import messages as m
+from otgym.bus import schemas
 from otgym.record.mcap_file import McapRecorder, read_recording
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -22,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def write(recorder: McapRecorder, topic: str, data: bytes, **times) -> None:
     type_name = m.topic_type(topic)
-    recorder.write(topic, type_name, m.SCHEMAS[type_name], data, **times)
+    recorder.write(topic, type_name, schemas.SCHEMAS[type_name], data, **times)
 
 
 def session(recorder: McapRecorder, ticks: int) -> dict[str, list[bytes]]:
@@ -90,12 +91,13 @@ def test_chunks_reach_the_file_once_a_second_has_passed(tmp_path):
 WRITER = """
 import sys, time
 from otgym.bus import messages as m
+from otgym.bus import schemas
 from otgym.record.mcap_file import McapRecorder
 recorder = McapRecorder(sys.argv[1])
 start = time.monotonic()
 for i in range(10**6):
     now_ns = time.time_ns()
-    recorder.write(m.ALPHA, m.FLOAT64, m.SCHEMAS[m.FLOAT64], m.float64(i / 10**6), log_time_ns=now_ns)
+    recorder.write(m.ALPHA, m.FLOAT64, schemas.SCHEMAS[m.FLOAT64], m.float64(i / 10**6), log_time_ns=now_ns)
     print(i, now_ns, flush=True)
     time.sleep(max(0.0, start + 0.02 * (i + 1) - time.monotonic()))
 """

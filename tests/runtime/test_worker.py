@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from otgym.runtime.worker import LatestBytes
+from otgym.runtime.latest_bytes import LatestBytes
 
 ROOT = Path(__file__).resolve().parents[2]
 WRITES = 20_000

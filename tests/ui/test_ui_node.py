@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from otgym.bus import messages as msg
+from otgym.bus import task_messages
 from otgym.bus.transport import Node
 from otgym.ui import cues
 
@@ -55,7 +56,9 @@ def test_the_window_on_the_bus_draws_what_the_sim_sees_and_sends_checked_command
         sim.publish(msg.EVENTS, msg.event("trial_start", trial=4, scenario=7, mode="shared", participant="P9"))
 
         def publish_tick(record) -> None:
-            for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), mode="shared", stamp_s=time.time()):
+            for topic, data in task_messages.tick_messages(
+                record, [], loop.sphere_xy_um(), mode="shared", stamp_s=time.time()
+            ):
                 sim.publish(topic, data)
             time.sleep(0.02)
 
