@@ -56,7 +56,7 @@ with Node("sim", "sim", listen=[sys.argv[1]]) as node:
     node.subscribe(m.twist_topic("device0"), echo)
     if load:
         from otgym.runtime.loop import InteractiveLoop
-        from otgym.runtime.task import InteractiveTask
+        from otgym.task.task import InteractiveTask
         task = InteractiveTask()
         loop = InteractiveLoop(task, [], task.scenario(7), "shared")
         for _ in range(5):
@@ -151,7 +151,7 @@ def round_trip(n: int, side: str) -> None:
 
 def in_process_reference(n: int) -> None:
     from otgym.runtime.loop import DeviceBinding, InteractiveLoop
-    from otgym.runtime.task import InteractiveTask
+    from otgym.task.task import InteractiveTask
     from otgym.teleop.device import Device, DeviceCaps
 
     class Stylus(Device):

@@ -42,7 +42,7 @@ import jax
 import numpy as np
 
 from otgym.runtime.loop import DeviceBinding, InteractiveLoop
-from otgym.runtime.task import InteractiveTask
+from otgym.task.task import InteractiveTask
 from otgym.teleop.servo import SIMULATED_HAPTIC_CAPS, ServoDevice, SimulatedHapticBackend, SteadyHand
 
 WARM_UP_TICKS = 25

@@ -33,13 +33,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from otgym.runtime import mpc
-from otgym.runtime.mpc import MPCConfig, MPCCosts
-from otgym.runtime.mpc_navigator import MPCNavigator
-from otgym.runtime.navigator import RouteNavigator, route_point
-from otgym.runtime.scenario import Scenario
-from otgym.runtime.task import CARRY, InteractiveTask
+from otgym.autonomy import mpc
+from otgym.autonomy.mpc import MPCConfig, MPCCosts
+from otgym.autonomy.mpc_navigator import MPCNavigator
+from otgym.autonomy.navigator import RouteNavigator, route_point
 from otgym.sim import scene as sc
+from otgym.task.scenario import Scenario
+from otgym.task.task import CARRY, InteractiveTask
 
 SIZES = ((16, 24), (24, 24), (32, 12), (32, 24), (64, 24))
 """(rollouts, plan steps) timed; the default is (32, 24)."""

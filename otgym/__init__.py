@@ -1,7 +1,10 @@
 """otgym: an open platform for optical-tweezer (OT) driven microrobotics.
 
-Layers (data flows downward only, see ../shared/DESIGN.md):
-``cli`` -> ``envs``/``rl``/``control`` -> ``planning`` -> ``sim`` -> ``physics``.
+Packages in layers, each importing only lower ones (``[tool.importlinter]`` in
+pyproject.toml enforces it; docs/architecture.md explains it), high to low: ``cli``;
+``experiments``; ``ui``; ``bus`` | ``record``; ``runtime``; ``autonomy`` | ``human``;
+``task``; ``teleop`` | ``shared`` | ``study``; ``envs``; ``sim``; ``physics`` |
+``planning`` | ``rl``.
 Units everywhere: micrometre (um), second (s), piconewton (pN), kelvin (K).
 
 ``import otgym`` registers the Gymnasium environments ``otgym/SpeedControl-v0`` and

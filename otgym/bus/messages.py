@@ -2,9 +2,7 @@
 and to otgym's objects, and the checks every received message passes.
 
 Types (ROS 2 common_interfaces, Humble; the ``.msg`` definitions are copied into
-``SCHEMAS`` in MCAP's ``ros2msg`` schema encoding: the type's own definition, then each
-dependency after a line of 80 ``=`` and ``MSG: pkg/Type``, per the MCAP well-known
-schema encodings)::
+``otgym.bus.schemas.SCHEMAS`` in MCAP's ``ros2msg`` schema encoding)::
 
     /otgym/traps                    geometry_msgs/msg/PoseArray   trap centres, um, chip frame
     /otgym/bodies                   geometry_msgs/msg/PoseArray   sphere centres, um, chip frame
@@ -31,7 +29,8 @@ Latched topics (``LATCHED``: the session, chip and route, sent once per session;
 mode, sent at each trial's start and when it changes; the current trial, sent at each
 trial's start: a window that joins mid-trial knows which trial it shows) are kept by their
 publisher for subscribers that join later, as ROS 2's transient-local durability does
-(``otgym.bus.transport``). ``session_messages`` builds the first three from the task:
+(``otgym.bus.transport``). ``otgym.bus.task_messages.session_messages`` builds the
+first three from the task:
 the description holds the chip's name, content hash (``Chip.content_hash``) and JSON
 sidecar, the destination's tolerance, the tick, each sphere's kind and which spheres
 are trap handles; with the chip's image and the route, a recording can draw the global
@@ -61,80 +60,28 @@ that fails raises ``MessageError`` with the reason; a subscriber drops and count
 from __future__ import annotations
 
 import dataclasses
-import io
 import json
 import math
 import re
 import struct
-from typing import TYPE_CHECKING
 
 import numpy as np
-from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
-from PIL import Image
 
+from otgym.bus.schemas import (
+    COMPRESSED_IMAGE,
+    DECODERS,
+    ENCODERS,
+    FLOAT64,
+    JOY,
+    PATH,
+    POSE_ARRAY,
+    STRING,
+    TWIST,
+    TWIST_STAMPED,
+    WRENCH_STAMPED,
+)
 from otgym.shared import MODES
 from otgym.teleop.device import Sample
-
-if TYPE_CHECKING:  # the loop imports JAX; a device node need not
-    from otgym.runtime.loop import TickRecord
-    from otgym.runtime.task import InteractiveTask
-
-_RULE = "=" * 80
-_HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
-_VECTOR3 = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
-_POSE = (
-    "MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientation\n"
-    + _RULE
-    + "\nMSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n"
-    + _RULE
-    + "\nMSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n"
-)
-
-
-def _schema(body: str, *dependencies: str) -> str:
-    return "\n".join([body, *(f"{_RULE}\n{d}" for d in dependencies)])
-
-
-POSE_ARRAY = "geometry_msgs/msg/PoseArray"
-TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
-WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
-JOY = "sensor_msgs/msg/Joy"
-FLOAT64 = "std_msgs/msg/Float64"
-STRING = "std_msgs/msg/String"
-PATH = "nav_msgs/msg/Path"
-TWIST = "geometry_msgs/msg/Twist"
-COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
-
-SCHEMAS: dict[str, str] = {
-    POSE_ARRAY: _schema("std_msgs/Header header\ngeometry_msgs/Pose[] poses\n", _HEADER, _POSE),
-    TWIST_STAMPED: _schema(
-        "std_msgs/Header header\nTwist twist\n",
-        _HEADER,
-        "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n",
-        _VECTOR3,
-    ),
-    WRENCH_STAMPED: _schema(
-        "std_msgs/Header header\nWrench wrench\n",
-        _HEADER,
-        "MSG: geometry_msgs/Wrench\nVector3 force\nVector3 torque\n",
-        _VECTOR3,
-    ),
-    JOY: _schema("std_msgs/Header header\nfloat32[] axes\nint32[] buttons\n", _HEADER),
-    FLOAT64: "float64 data\n",
-    STRING: "string data\n",
-    PATH: _schema(
-        "std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n",
-        _HEADER,
-        "MSG: geometry_msgs/PoseStamped\nstd_msgs/Header header\nPose pose\n",
-        _POSE,
-    ),
-    COMPRESSED_IMAGE: _schema("std_msgs/Header header\nstring format\nuint8[] data\n", _HEADER),
-    TWIST: _schema("Vector3 linear\nVector3 angular\n", _VECTOR3),
-}
-"""ros2msg schema text per type (definitions of ROS 2 Humble's common_interfaces)."""
-
-_ENCODERS = {name: serialize_dynamic(name, text)[name] for name, text in SCHEMAS.items()}
-_DECODERS = {name: generate_dynamic(name, text)[name] for name, text in SCHEMAS.items()}
 
 TRAPS = "/otgym/traps"
 BODIES = "/otgym/bodies"
@@ -174,7 +121,7 @@ SPHERE_KINDS = ("robot", "cell", "obstacle", "bead")
 """Names of ``otgym.physics.bodies.BodyKind`` by value, as the session description gives them."""
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 PHASES = ("approach", "carry", "done")
-"""The task's phases by their number (``otgym.runtime.task``'s APPROACH, CARRY, DONE)."""
+"""The task's phases by their number (``otgym.task.task``'s APPROACH, CARRY, DONE)."""
 MAX_INCREMENT_UM = 100.0
 """The largest trap increment an autonomy message may carry (a tick at 20 um/s moves 0.4 um)."""
 _NAME = r"[A-Za-z][A-Za-z0-9_]{0,63}"
@@ -265,7 +212,7 @@ def _vector(values) -> dict:
 
 def encode(type_name: str, message) -> bytes:
     """CDR bytes of ``message`` (a dict or object with the type's fields)."""
-    return bytes(_ENCODERS[type_name](message))
+    return bytes(ENCODERS[type_name](message))
 
 
 def pose_array(xy_um, stamp_s: float, frame_id: str = "chip") -> bytes:
@@ -361,7 +308,7 @@ def decode_as(type_name: str, data: bytes, topic: str):
     if len(data) < 4 or data[:2] != b"\x00\x01":
         raise MessageError(f"{topic}: not little-endian CDR (encapsulation {bytes(data[:4]).hex() or 'missing'})")
     try:
-        message = _DECODERS[type_name](bytes(data))
+        message = DECODERS[type_name](bytes(data))
     except (struct.error, UnicodeDecodeError, ValueError, IndexError, OverflowError, MemoryError) as error:
         raise MessageError(f"{topic}: does not decode as {type_name} ({type(error).__name__})") from None
     _CHECKS[type_name](message, topic)
@@ -566,65 +513,3 @@ def sample_from(twist_message, buttons: int, time_s: float, sequence: int) -> Sa
     machine's). The position is not sent (retargeting uses only velocity and buttons):
     it reads as zeros."""
     return Sample(time_s, sequence, np.zeros(3), velocity_mm_s(twist_message), buttons)
-
-
-def tick_messages(
-    record: TickRecord, devices: list[str], sphere_xy_um, stamp_s: float, mode: str | None = None
-) -> list[tuple[str, bytes]]:
-    """(topic, CDR) of what the simulator publishes after one tick: traps, phase, alpha,
-    the mode only when ``mode`` is given (the caller gives it at a trial's first tick and
-    when it changes: ``/otgym/mode`` is latched, not sent every tick), bodies (every
-    sphere's centre; after the others, so that a subscriber that acts on it has seen the
-    tick's traps and phase, or at worst the previous tick's; the contact force the vision
-    sensor read, summed over the handles where valid (pN -> N), comes before it) and the feedback force for
-    each device (``devices`` in the order of the record's ``feedback_n`` rows)."""
-    messages = [
-        (TRAPS, pose_array(record.trap_xy_um, stamp_s)),
-        (PHASE, string(PHASES[record.phase])),
-        (ALPHA, float64(record.alpha)),
-    ]
-    messages += [] if mode is None else [(MODE, string(mode))]
-    sensed_pn = np.asarray(record.sensed_force_pn, float)[np.asarray(record.sensed_valid, bool)]
-    contact_n = np.append(np.nan_to_num(sensed_pn).sum(axis=0), 0.0) * 1e-12 if len(sensed_pn) else np.zeros(3)
-    messages += [(CONTACT_FORCE, wrench(contact_n, stamp_s, "chip"))]
-    messages += [(BODIES, pose_array(sphere_xy_um, stamp_s))]
-    messages += [
-        (feedback_topic(name), wrench(force, stamp_s, name)) for name, force in zip(devices, record.feedback_n)
-    ]
-    return messages
-
-
-def session_description(task: InteractiveTask, devices: list[str]) -> dict:
-    """The JSON object of ``/otgym/session`` for ``task``: ``chip`` (the sidecar's
-    fields, ``Chip.metadata``, and ``content_hash``), ``goal_tolerance_um``, ``tick_s``,
-    ``sphere_kind`` (one of ``SPHERE_KINDS`` per sphere, the order of ``/otgym/bodies``),
-    ``sphere_radius_um`` (each sphere's radius), ``handle_spheres`` (the spheres the
-    traps hold, in trap order) and ``devices``."""
-    model = task.scene.model
-    return {
-        "chip": {**task.chip.metadata(), "content_hash": task.chip.content_hash},
-        "goal_tolerance_um": float(task.config.goal_tolerance_um),
-        "tick_s": float(task.config.tick_s),
-        "sphere_kind": [SPHERE_KINDS[int(model.body_kinds[b])] for b in model.sphere_body],
-        "sphere_radius_um": [float(r) for r in model.sphere_radius_um],
-        "handle_spheres": [int(i) for i in task.trap_sphere],
-        "devices": list(devices),
-    }
-
-
-def chip_png(chip) -> bytes:
-    """The chip's image as an 8-bit gray PNG (``otgym.sim.chip.save_chip``'s encoding)."""
-    buffer = io.BytesIO()
-    Image.fromarray(np.round(np.asarray(chip.image) * 255).astype(np.uint8), mode="L").save(buffer, format="PNG")
-    return buffer.getvalue()
-
-
-def session_messages(task: InteractiveTask, devices: list[str], stamp_s: float) -> list[tuple[str, bytes]]:
-    """(topic, CDR) of what describes a session, sent once at its start (latched):
-    ``/otgym/session`` (``session_description``), ``/otgym/chip`` (``chip_png``) and
-    ``/otgym/route`` (the planned route, um)."""
-    return [
-        (SESSION, string(json.dumps(session_description(task, devices), sort_keys=True))),
-        (CHIP, compressed_png(chip_png(task.chip), stamp_s)),
-        (ROUTE, path(task.route_um, stamp_s)),
-    ]

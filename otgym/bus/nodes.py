@@ -1,10 +1,10 @@
-"""The runtime's parts as bus nodes (DESIGN.md, "The human half"): a device node
+"""The runtime's parts as bus nodes: a device node
 publishes its device's samples and applies the feedback it receives; the simulator
 node (``otgym.bus.sim_node``) runs a session on ``RemoteDevice`` s and publishes every
 tick; a recorder node passes every checked message to a sink (``otgym.cli.node``
 gives it an MCAP file); the autonomy node answers each tick with dP_r.
 
-Faults (DESIGN.md, "safety first"):
+Faults (safety first):
 - a device node dies: its liveliness token goes; the simulator's ``RemoteDevice``
   then reads as one sample at rest with every button released (the retargeter's
   clutch zeroes dP_h at once) that then ages into silence, so the traps hold; the
@@ -33,11 +33,12 @@ from collections.abc import Callable
 
 import numpy as np
 
+from otgym.autonomy.navigator import RouteNavigator
+from otgym.autonomy.protocol import Navigator
 from otgym.bus import messages as msg
 from otgym.bus.transport import Node
-from otgym.runtime.layout import layout_of, observation_from_spheres
-from otgym.runtime.navigator import RouteNavigator
-from otgym.runtime.task import InteractiveTask
+from otgym.task.layout import layout_of, observation_from_spheres
+from otgym.task.task import InteractiveTask
 from otgym.teleop.device import Device, DeviceCaps, Sample
 
 AUTONOMY_TIMEOUT_S = 0.25
@@ -195,17 +196,17 @@ def run_autonomy_node(
     stop: threading.Event,
     cruise_speed_um_s: float = 5.0,
     max_speed_um_s: float = 20.0,
-    navigator=None,
+    navigator: Navigator | None = None,
 ) -> int:
     """An autonomy as a node: on each ``/otgym/bodies`` from the simulator, the task's
     observation rebuilt from the latest bodies, traps and phase
-    (``otgym.runtime.layout.observation_from_spheres``; time from the bodies' stamps
+    (``otgym.task.layout.observation_from_spheres``; time from the bodies' stamps
     since the trial began), and the navigator's dP_r published on
     ``/otgym/autonomy/increments`` with the bodies' stamp; the navigator is reset at
     each ``trial_start``. ``navigator``: anything with ``reset(n_env)`` and
     ``increments(observation) -> (1, T, 2)`` um, by default the route navigator
-    (``otgym.runtime.navigator``); the model-predictive one
-    (``otgym.runtime.mpc_navigator.MPCNavigator``) answers a replan tick late, the others
+    (``otgym.autonomy.navigator``); the model-predictive one
+    (``otgym.autonomy.mpc_navigator.MPCNavigator``) answers a replan tick late, the others
     at once. A navigator slower than the ticks answers the newest bodies only. Until
     ``stop`` is set; returns the answers published."""
     if navigator is None:

@@ -31,6 +31,7 @@ import time
 from collections.abc import Callable
 
 from otgym.bus import messages as msg
+from otgym.bus import task_messages
 from otgym.bus.nodes import AUTONOMY_TIMEOUT_S, RemoteAutonomy, RemoteDevice
 from otgym.bus.transport import Node
 from otgym.runtime.loop import DeviceBinding
@@ -52,12 +53,12 @@ class BusSink:
         self._mode_sent: str | None = None
 
     def describe(self, task) -> None:
-        self.send(msg.session_messages(task, [], time.time()))
+        self.send(task_messages.session_messages(task, [], time.time()))
 
     def tick(self, record, sphere_xy_um, mode: str) -> None:
         changed = mode if mode != self._mode_sent else None
         self._mode_sent = mode
-        self.send(msg.tick_messages(record, [], sphere_xy_um, stamp_s=time.time(), mode=changed))
+        self.send(task_messages.tick_messages(record, [], sphere_xy_um, stamp_s=time.time(), mode=changed))
 
     def event(self, name: str, **fields) -> None:
         data = msg.event(name, **fields)
@@ -125,8 +126,8 @@ def follow_commands(node: Node, session, on_quit: Callable[[], None]) -> None:
 
 def build_task(chip: str = "default"):
     """The interactive task on ``chip`` (a name or a PNG)."""
-    from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
     from otgym.sim.chip import load_chip
+    from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
 
     return InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=load_chip(chip))))
 

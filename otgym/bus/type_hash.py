@@ -16,7 +16,7 @@ way ``rosidl_generator_type_description`` does it (``calculate_type_hash`` in ro
 - JSON with ``", "`` and ``": "`` separators, keys in that order, ASCII only; the hash
   string is ``RIHS01_`` and the 64 lowercase hex digits.
 
-The ``.msg`` text is read in MCAP's ``ros2msg`` form (``otgym.bus.messages.SCHEMAS``:
+The ``.msg`` text is read in MCAP's ``ros2msg`` form (``otgym.bus.schemas.SCHEMAS``:
 the type's own fields, then each dependency after a line of ``=`` and ``MSG:
 pkg/Name``). ``builtin_interfaces/Time`` and ``Duration`` need no block. .msg types map
 to IDL types as rosidl maps them: ``byte`` is an octet, ``char`` a uint8, ``float32``

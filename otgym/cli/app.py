@@ -7,13 +7,14 @@ from __future__ import annotations
 import sys
 
 import typer
-
 from typer import Abort
 
 try:  # typer 0.2x carries its own copy of click
     from typer._click.exceptions import ClickException, NoArgsIsHelpError
 except ImportError:  # older typer runs on click itself
     from click.exceptions import ClickException, NoArgsIsHelpError
+
+from otgym.cli.errors import USER_ERRORS
 
 app = typer.Typer(
     name="otgym",
@@ -27,19 +28,6 @@ app = typer.Typer(
 @app.callback()
 def _root() -> None:
     """otgym: optical-tweezer microrobotics simulator, planner and learning gym."""
-
-
-USER_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)
-
-
-def report_worker_error(error: Exception) -> None:
-    """A process of otgym's own failed (no user error): its traceback, if any, then one
-    ``error:`` line last, exit code 1."""
-    lines = str(error).splitlines() or [type(error).__name__]
-    if len(lines) > 1:
-        print("\n".join(lines[1:]), file=sys.stderr)
-    print(f"error: {lines[0]}", file=sys.stderr)
-    raise SystemExit(1)
 
 
 def register_commands() -> None:

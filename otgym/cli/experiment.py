@@ -86,6 +86,7 @@ def register(app: typer.Typer) -> None:
 
         Example: otgym experiment shared-control --participants 8 --trials 8 --seed 0 --out results/fig8
         """
+        from otgym.autonomy.mpc import MPCConfig
         from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.shared_control import (
             check_arguments,
@@ -94,8 +95,7 @@ def register(app: typer.Typer) -> None:
             run_experiment,
             write_experiment,
         )
-        from otgym.runtime.mpc import MPCConfig
-        from otgym.runtime.task import InteractiveConfig
+        from otgym.task.task import InteractiveConfig
 
         chosen = parse_modes(modes)
         check_arguments(participants, trials, seed)

@@ -1,17 +1,23 @@
-"""``otgym node ROLE``: one part of the runtime as a process on the bus
-(``otgym.bus``): ``sim`` (the simulator, listening on tcp/127.0.0.1:7447; its session
-ticks in a worker process), ``device`` (a local device published as ``--name``),
-``recorder`` (every message into ``--out``/session.mcap), ``autonomy`` (the route
-navigator's dP_r for a simulator started with ``--autonomy remote``; without it,
-shared control runs as manual), ``ui`` (the window: draws from the sim's topics, sends
-the keyboard, gamepad or mouse as devices ui0, ui1 and the keys as commands; trials.csv
-and questionnaires.csv into ``--out``), ``foxglove`` (the running session served to
-Foxglove over a WebSocket, ``--host``/``--port``, ``otgym.cli.node_foxglove``). Every
-node is a ROS 2 node to rmw_zenoh (``otgym.bus.ros_graph``): ``--namespace`` and
-``ROS_DOMAIN_ID`` place it; a device node with ``--device twist`` is driven by
-``geometry_msgs/Twist`` on ``--twist-topic``. Loopback only unless ``--listen``/``--connect``
-name other endpoints. Prints one ``ready`` line once on the bus; SIGTERM or Ctrl-C ends it
-cleanly (devices at zero force, the recording closed)."""
+"""``otgym node ROLE``: one part of the runtime as a process on the bus (``otgym.bus``),
+one sub-command per role, each with only its own options:
+
+- ``sim``: the simulator, its session ticking in a worker process;
+- ``device``: a local device published under ``--name``;
+- ``recorder``: every message into ``--out``/session.mcap;
+- ``autonomy``: the navigator's dP_r for a sim started with ``--autonomy remote``
+  (without it, shared control runs as manual);
+- ``ui``: the window: draws from the sim's topics, sends the keyboard, gamepad or mouse
+  as devices ui0, ui1 and the keys as commands; trials.csv and questionnaires.csv into
+  ``--out``;
+- ``foxglove``: the running session served to Foxglove over a WebSocket
+  (``otgym.cli.node_foxglove``).
+
+Every role takes the bus options (``--listen``, ``--connect``, ``--zenoh-config``;
+loopback only unless they name other endpoints) and ``--namespace``: every node is a
+ROS 2 node to rmw_zenoh (``otgym.bus.ros_graph``), placed by ``--namespace`` and
+``ROS_DOMAIN_ID``. Each prints what it is doing while it starts, one ``ready`` line
+once it is on the bus and ready to work, and ends cleanly on SIGTERM or Ctrl-C
+(devices at zero force, the recording closed)."""
 
 from __future__ import annotations
 
@@ -20,185 +26,227 @@ import signal
 import sys
 import threading
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
-BUILT = ("sim", "device", "recorder", "autonomy", "ui", "foxglove")
-NAVIGATORS = ("route", "mpc")
+from otgym.cli import checks, options
+from otgym.teleop.device import DEVICE_NAMES
+
+DEVICE_DRIVERS = (*DEVICE_NAMES, "twist")
+"""A device node's drivers: the local devices, and ``twist`` (ROS 2 Twist commands from the bus)."""
+SESSION_END_RECORDED = "recorded: session_end"
+"""The recorder node's line once the simulator's ``session_end`` event is in its file."""
+
+node_app = typer.Typer(
+    name="node",
+    help="Run one node of the distributed runtime (sim, device, recorder, autonomy, ui, foxglove) until stopped.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+
+Listen = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--listen",
+        metavar="ENDPOINT",
+        callback=options.check_endpoints,
+        help="zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable).",
+    ),
+]
+Connect = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--connect",
+        metavar="ENDPOINT",
+        callback=options.check_endpoints,
+        help="zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable).",
+    ),
+]
+ZenohConfig = Annotated[
+    Path | None,
+    typer.Option("--zenoh-config", exists=True, dir_okay=False, help="zenoh config file (TLS, user/password)."),
+]
+Namespace = Annotated[
+    str,
+    typer.Option(
+        "--namespace",
+        metavar="NAMESPACE",
+        callback=options.check_namespace,
+        help="The ROS 2 namespace of the node and of otgym's topics (e.g. /rig1).",
+    ),
+]
+Chip = Annotated[
+    str,
+    typer.Option("--chip", metavar="CHIP", callback=options.check_chip, help="Shipped chip name or a PNG file."),
+]
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("node")
-    def node(
-        role: str = typer.Argument(..., help="sim, device, recorder, autonomy, ui or foxglove."),
-        name: str = typer.Option(
-            "device0",
-            "--name",
-            help="device node: its name on the bus; sim node: the device "
-            "names it drives (robot i by the i-th), comma-separated; "
-            "ui node: the device nodes whose feedback and loss it "
-            "shows (robot i by the i-th; '' for none).",
-        ),
-        device: str = typer.Option(
-            None,
-            "--device",
-            help="device node: its driver (keyboard, gamepad, touch, simulated, replay, twist; "
-            "default simulated); ui node: what the window sends as ui0, ui1 "
-            "(keyboard, gamepad, mouse; default keyboard).",
-        ),
-        device_name: str = typer.Option(
-            None, "--device-name", help="device node with --device touch: the Touch's name in Touch Setup."
-        ),
-        replay: Path = typer.Option(
-            None, "--replay", help="device node with --device replay: the CSV to play (looped)."
-        ),
-        takeover: str = typer.Option(
-            None,
-            "--takeover",
-            help="sim node: devices (comma-separated, robot i by the "
-            "i-th) that take robot i over while their clutch is "
-            "held: a ui node's mouse (ui0,ui1).",
-        ),
-        mode: str = typer.Option("shared", "--mode", help="sim node: manual, shared or autonomous."),
-        participant: str = typer.Option("P1", "--participant", help="sim node: the participant ID of its trials."),
-        hold: bool = typer.Option(
-            False,
-            "--hold",
-            help="sim node: after each trial wait for a next_trial command (a ui node's questionnaires).",
-        ),
-        chip: str = typer.Option("default", "--chip", help="sim, autonomy, ui nodes: chip name or PNG."),
-        autonomy: str = typer.Option(
-            "local",
-            "--autonomy",
-            help="sim node: dP_r from its own navigator (local) or from an autonomy node (remote).",
-        ),
-        seed: int = typer.Option(0, "--seed", help="sim node: trial t meets scenario seed * 10000 + t."),
-        duration: float = typer.Option(
-            None, "--duration", help="sim node: seconds of simulated time (default: until stopped)."
-        ),
-        listen: list[str] = typer.Option(None, "--listen", help="zenoh endpoint to listen on (repeatable)."),
-        connect: list[str] = typer.Option(None, "--connect", help="zenoh endpoint to connect to (repeatable)."),
-        zenoh_config: Path = typer.Option(None, "--zenoh-config", help="zenoh config file (TLS, user/password)."),
-        out: Path = typer.Option(
-            None,
-            "--out",
-            help="recorder node: folder for session.mcap; ui node: for trials.csv and questionnaires.csv.",
-        ),
-        no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="ui node: no questionnaires."),
-        namespace: str = typer.Option(
-            "/", "--namespace", help="the ROS 2 namespace of the node and of otgym's topics (e.g. /rig1)."
-        ),
-        twist_topic: str = typer.Option(
-            "/cmd_vel", "--twist-topic", help="device node with --device twist: the ROS 2 topic of its Twist commands."
-        ),
-        host: str = typer.Option("127.0.0.1", "--host", help="foxglove node: the address its WebSocket listens on."),
-        port: int = typer.Option(8765, "--port", help="foxglove node: the WebSocket's port (0: any free port)."),
-        navigator: str = typer.Option(
-            "route",
-            "--navigator",
-            help="autonomy node: route (the route navigator) or mpc (the model-predictive navigator).",
-        ),
-    ) -> None:
-        """Run one node of the distributed runtime until stopped."""
-        from otgym.bus import messages as msg
-        from otgym.bus import ros_graph
-        from otgym.shared import MODES
+    app.add_typer(node_app, name="node")
 
-        if role not in BUILT:
-            raise ValueError(f"unknown or unbuilt node {role!r}; choose one of {', '.join(BUILT)}")
-        names = [n.strip() for n in name.split(",") if n.strip()] if role in ("sim", "ui") else [name]
-        takeovers = [n.strip() for n in takeover.split(",")] if takeover else []
-        for each in names + takeovers:
-            msg.check_name(each)
-        if not participant.strip() or "," in participant:
-            raise ValueError(f"--participant must be a non-empty ID without commas, got {participant!r}")
-        if mode not in MODES:
-            raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
-        if autonomy not in ("local", "remote"):
-            raise ValueError(f"--autonomy must be local or remote, got {autonomy!r}")
-        if navigator not in NAVIGATORS:
-            raise ValueError(f"--navigator must be one of {', '.join(NAVIGATORS)}, got {navigator!r}")
-        namespace = ros_graph.check_namespace(namespace)
-        ros_graph.domain_id()  # a bad ROS_DOMAIN_ID is an error line before anything starts
-        if role == "device" and device == "twist":
-            ros_graph.check_topic_name(twist_topic)
-        if not 0 <= port <= 65535:
-            raise ValueError(f"--port must lie in 0..65535, got {port}")
-        if role in ("recorder", "ui") and out is None:
-            raise ValueError(f"the {role} node needs --out")
-        device = device or {"device": "simulated", "ui": "keyboard"}.get(role)
-        if zenoh_config is not None and not zenoh_config.is_file():
-            raise FileNotFoundError(f"no zenoh config file {zenoh_config}")
-        stop = threading.Event()
-        for signum in (signal.SIGTERM, signal.SIGINT):
-            signal.signal(signum, lambda *_: stop.set())
-        endpoints = dict(
-            listen=list(listen or []),
-            connect=list(connect or []),
-            config_file=str(zenoh_config) if zenoh_config else None,
-            namespace=namespace,
-        )
-        if role == "foxglove":
-            from otgym.cli.node_foxglove import foxglove_node
 
-            foxglove_node(stop, endpoints, host=host, port=port)
-            return
-        {"sim": _sim, "device": _device, "recorder": _recorder, "autonomy": _autonomy, "ui": _ui}[role](
-            stop,
-            endpoints,
-            name=name,
-            names=names,
-            device=device,
-            replay=replay,
-            mode=mode,
-            seed=seed,
-            duration=duration,
-            out=out,
-            remote_autonomy=autonomy == "remote",
-            takeover=takeovers,
-            participant=participant.strip(),
-            hold=hold,
-            chip=chip,
-            device_name=device_name,
-            questionnaire=not no_questionnaire,
-            navigator=navigator,
-            twist_topic=twist_topic,
-        )
+def _bus(listen, connect, zenoh_config, namespace: str = "/") -> tuple[threading.Event, dict]:
+    """The stop event (set by SIGTERM or Ctrl-C) and the node's endpoints and namespace,
+    after the zenoh config file and ``ROS_DOMAIN_ID`` are checked."""
+    from otgym.bus import ros_graph
+
+    checks.check_zenoh_config(zenoh_config)
+    ros_graph.domain_id()  # a bad ROS_DOMAIN_ID is an error line before anything starts
+    stop = threading.Event()
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(signum, lambda *_: stop.set())
+    endpoints = dict(
+        listen=list(listen or []),
+        connect=list(connect or []),
+        config_file=str(zenoh_config) if zenoh_config else None,
+        namespace=namespace,
+    )
+    return stop, endpoints
 
 
 def _ready(text: str) -> None:
     print(f"ready: {text}", flush=True)
 
 
-def _device(stop, endpoints, *, name, device, replay, device_name, twist_topic, **_):
+@node_app.command("sim")
+def sim(
+    name: str = typer.Option(
+        "device0",
+        "--name",
+        metavar="NAMES",
+        callback=options.check_bus_names,
+        help="The device nodes it drives (robot i by the i-th), comma-separated.",
+    ),
+    takeover: str = typer.Option(
+        None,
+        "--takeover",
+        metavar="NAMES",
+        callback=options.check_bus_names,
+        help="Devices (comma-separated, robot i by the i-th) that take robot i over while their clutch is held: "
+        "a ui node's mouse (ui0,ui1).",
+    ),
+    mode: str = options.mode("shared"),
+    participant: str = options.participant("P1"),
+    hold: bool = typer.Option(
+        False, "--hold", help="After each trial wait for a next_trial command (a ui node's questionnaires)."
+    ),
+    chip: Chip = "default",
+    autonomy: str = options.name(
+        "local",
+        "--autonomy",
+        checks.AUTONOMY_SOURCES,
+        "dP_r from its own navigator (local) or from an autonomy node (remote).",
+    ),
+    seed: int = options.trial_seed(0),
+    duration: float = options.duration(),
+    listen: Listen = None,
+    connect: Connect = None,
+    zenoh_config: ZenohConfig = None,
+    namespace: Namespace = "/",
+) -> None:
+    """The simulator (its session ticks in a worker process): devices, commands, dP_r in; bodies, events out.
+
+    Example: otgym node sim --name device0 --mode shared --seed 0
+    """
+    from otgym.bus.sim_node import serve_sim_node
+    from otgym.bus.transport import Node
+    from otgym.cli.errors import report_worker_error
+    from otgym.runtime.worker import WorkerError
+    from otgym.sim.chip import load_chip
+    from otgym.teleop.device import DeviceError
+
+    names = checks.bus_names(name)
+    takeovers = checks.bus_names(takeover, drop_empty=False)
+    participant = checks.check_participant(participant)
+    checks.check_mode(mode)
+    remote_autonomy = checks.check_autonomy_source(autonomy) == "remote"
+    checks.check_seed(seed)
+    checks.check_duration(duration)
+    stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
+    load_chip(chip)  # a bad chip is an error line before anything starts
+    print("starting the simulation in its own process ...", flush=True)
+    with Node("sim", "sim", **endpoints) as node:
+        ready = functools.partial(
+            _ready,
+            f"sim for devices {', '.join(names)}"
+            + (f", taken over by {', '.join(takeovers)}" if takeovers else "")
+            + (" with a remote autonomy" if remote_autonomy else ""),
+        )
+        try:
+            stats = serve_sim_node(
+                node,
+                names,
+                mode,
+                seed,
+                stop,
+                duration,
+                remote_autonomy,
+                chip=chip,
+                takeover=takeovers,
+                participant=participant,
+                hold_between_trials=hold,
+                on_ready=ready,
+            )
+        except DeviceError as error:
+            raise ValueError(str(error)) from None
+        except WorkerError as error:
+            report_worker_error(error)
+        print(
+            f"sim: {stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts; dropped "
+            f"{sum(node.dropped.values())} malformed messages",
+            flush=True,
+        )
+    sys.stdout.flush()
+
+
+@node_app.command("device")
+def device(
+    name: str = typer.Option(
+        "device0", "--name", metavar="NAMES", callback=options.check_bus_names, help="Its name on the bus."
+    ),
+    device: str = options.name("simulated", "--device", DEVICE_DRIVERS, "Its driver."),
+    device_name: str = typer.Option(
+        None, "--device-name", metavar="TEXT", help="With --device touch: the Touch's name in Touch Setup."
+    ),
+    replay: Path = typer.Option(
+        None, "--replay", exists=True, dir_okay=False, help="With --device replay: the CSV to play (looped)."
+    ),
+    twist_topic: str = typer.Option(
+        "/cmd_vel",
+        "--twist-topic",
+        metavar="TOPIC",
+        callback=options.check_topic,
+        help="With --device twist: the ROS 2 topic of its geometry_msgs/Twist commands.",
+    ),
+    listen: Listen = None,
+    connect: Connect = None,
+    zenoh_config: ZenohConfig = None,
+    namespace: Namespace = "/",
+) -> None:
+    """A local device on the bus: its samples out, the simulator's feedback in.
+
+    Example: otgym node device --device simulated --name device0
+    """
     from otgym.bus.nodes import run_device_node
     from otgym.bus.transport import Node
     from otgym.teleop.device import DeviceError, open_device
 
-    if device == "twist":
-        from otgym.bus import twist_source
-        from otgym.teleop.twist import TwistDevice
-
-        driver = TwistDevice()
-        with Node("device", name, **endpoints) as node:
-            topic = twist_source.attach(node, driver, twist_topic)
-            _ready(f"device {name} ({driver.caps.name} from {topic})")
-            published = run_device_node(node, driver, name, stop)
-        print(
-            f"device {name}: {published} samples published; {driver.received} commands applied, "
-            f"{driver.dropped_nonfinite} non-finite dropped, {driver.clamped} clamped; "
-            f"{sum(node.dropped.values())} messages dropped by the bus checks",
-            flush=True,
-        )
-        return
-
-    options = {"path": replay, "loop": True} if device == "replay" else {}
-    if device == "touch" and device_name:
-        options["device_name"] = device_name
     if device == "replay" and replay is None:
         raise ValueError("--device replay needs --replay FILE")
+    if replay is not None and device != "replay":
+        raise ValueError(f"--replay plays a recorded CSV: it needs --device replay, not --device {device}")
+    if device_name is not None and device != "touch":
+        raise ValueError(f"--device-name names a Touch: it needs --device touch, not --device {device}")
+    stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
+    if device == "twist":
+        _twist_device(stop, endpoints, name, twist_topic)
+        return
+    driver_options = {"path": replay, "loop": True} if device == "replay" else {}
+    if device == "touch" and device_name:
+        driver_options["device_name"] = device_name
     try:
-        driver = open_device(device, **options)
+        driver = open_device(device, **driver_options)
     except DeviceError as error:
         raise ValueError(str(error)) from None
     with Node("device", name, **endpoints) as node:
@@ -207,24 +255,53 @@ def _device(stop, endpoints, *, name, device, replay, device_name, twist_topic, 
     print(f"device {name}: {published} samples published", flush=True)
 
 
-SESSION_END_RECORDED = "recorded: session_end"
-"""The recorder node's line once the simulator's ``session_end`` event is in its file."""
+def _twist_device(stop: threading.Event, endpoints: dict, name: str, twist_topic: str) -> None:
+    """A device driven by ROS 2 ``geometry_msgs/Twist`` (teleop_twist_keyboard, teleop_twist_joy)."""
+    from otgym.bus import twist_source
+    from otgym.bus.nodes import run_device_node
+    from otgym.bus.transport import Node
+    from otgym.teleop.twist import TwistDevice
+
+    driver = TwistDevice()
+    with Node("device", name, **endpoints) as node:
+        topic = twist_source.attach(node, driver, twist_topic)
+        _ready(f"device {name} ({driver.caps.name} from {topic})")
+        published = run_device_node(node, driver, name, stop)
+    print(
+        f"device {name}: {published} samples published; {driver.received} commands applied, "
+        f"{driver.dropped_nonfinite} non-finite dropped, {driver.clamped} clamped; "
+        f"{sum(node.dropped.values())} messages dropped by the bus checks",
+        flush=True,
+    )
 
 
-def _recorder(stop, endpoints, *, out, **_):
+@node_app.command("recorder")
+def recorder(
+    out: Path = options.out_dir(..., "Folder for session.mcap."),
+    listen: Listen = None,
+    connect: Connect = None,
+    zenoh_config: ZenohConfig = None,
+    namespace: Namespace = "/",
+) -> None:
+    """Every message on the bus into one MCAP file, with the 3D scene Foxglove replays.
+
+    Example: otgym node recorder --out results/session
+    """
     from otgym.bus import messages as msg
     from otgym.bus.foxglove_scene import SceneRecording
+    from otgym.bus.schemas import SCHEMAS
     from otgym.bus.transport import Node
     from otgym.experiments.output_folder import check_out_dir
     from otgym.record.mcap_file import McapRecorder, session_path
 
+    stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
     path = session_path(check_out_dir(out))
-    with McapRecorder(path) as recorder, Node("recorder", "recorder", **endpoints) as node:
-        scene = SceneRecording(recorder.write_encoded)
+    with McapRecorder(path) as recording, Node("recorder", "recorder", **endpoints) as node:
+        scene = SceneRecording(recording.write_encoded)
 
         def sink(topic: str, message, data: bytes) -> None:
             type_name = msg.topic_type(topic)
-            recorder.write(topic, type_name, msg.SCHEMAS[type_name], data)
+            recording.write(topic, type_name, SCHEMAS[type_name], data)
             scene.take(topic, message)
             if topic == msg.EVENTS and msg.event_fields(message).get("event") == "session_end":
                 print(SESSION_END_RECORDED, flush=True)  # what otgym play --distributed waits for
@@ -232,47 +309,37 @@ def _recorder(stop, endpoints, *, out, **_):
         node.subscribe("/otgym/**", sink)
         _ready(f"recorder into {path}")
         while not stop.wait(0.25):
-            recorder.flush()
+            recording.flush()
     print(
-        f"recorder: {sum(recorder.counts.values())} messages, {sum(node.dropped.values())} dropped, into {path}",
+        f"recorder: {sum(recording.counts.values())} messages, {sum(node.dropped.values())} dropped, into {path}",
         flush=True,
     )
 
 
-def _ui(stop, endpoints, *, names, device, chip, out, questionnaire, **_):
-    from otgym.bus.sim_node import build_task
-    from otgym.bus.transport import Node
-    from otgym.experiments.output_folder import check_out_dir
-    from otgym.runtime.layout import layout_of
-    from otgym.teleop.device import DeviceError
-    from otgym.ui.node import WINDOW_KINDS, run_window
+@node_app.command("autonomy")
+def autonomy(
+    chip: Chip = "default",
+    navigator: str = options.navigator("route"),
+    listen: Listen = None,
+    connect: Connect = None,
+    zenoh_config: ZenohConfig = None,
+    namespace: Namespace = "/",
+) -> None:
+    """The autonomy's dP_r for a simulator started with --autonomy remote.
 
-    if device not in WINDOW_KINDS:
-        raise ValueError(f"unknown window device {device!r} for the ui node; choose one of {', '.join(WINDOW_KINDS)}")
-    check_out_dir(out)
-    print("building the task ...", flush=True)
-    layout = layout_of(build_task(chip))
-    with Node("ui", "ui", **endpoints) as node:
-        _ready(f"ui ({device})")
-        try:
-            app = run_window(
-                node, layout, device, names if device == "mouse" else [], out, questionnaire=questionnaire, stop=stop
-            )
-        except DeviceError as error:
-            raise ValueError(str(error)) from None
-    print(f"ui: wrote {app.trials_written} trial(s) to {out / 'trials.csv'}", flush=True)
-
-
-def _autonomy(stop, endpoints, *, chip, navigator, **_):
+    Example: otgym node autonomy --navigator route
+    """
     from otgym.bus.nodes import run_autonomy_node
     from otgym.bus.sim_node import build_task
     from otgym.bus.transport import Node
 
+    checks.check_navigator(navigator)
+    stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
     print("building the task ...", flush=True)
     task = build_task(chip)
     planner = None
     if navigator == "mpc":
-        from otgym.runtime.mpc_navigator import MPCNavigator
+        from otgym.autonomy.mpc_navigator import MPCNavigator
 
         print(
             "building the model-predictive navigator (its model, grip calibration and first compile take about "
@@ -289,45 +356,82 @@ def _autonomy(stop, endpoints, *, chip, navigator, **_):
         )
 
 
-def _sim(stop, endpoints, *, names, mode, seed, duration, remote_autonomy, takeover, participant, hold, chip, **_):
-    from otgym.bus.sim_node import serve_sim_node
-    from otgym.bus.transport import Node
-    from otgym.cli.app import report_worker_error
-    from otgym.runtime.worker import WorkerError
-    from otgym.sim.chip import load_chip
-    from otgym.teleop.device import DeviceError
+@node_app.command("ui")
+def ui(
+    out: Path = options.out_dir(..., "Folder for trials.csv and questionnaires.csv."),
+    device: str = options.name(
+        "keyboard", "--device", ("keyboard", "gamepad", "mouse"), "What the window sends as ui0, ui1."
+    ),
+    name: str = typer.Option(
+        "device0",
+        "--name",
+        metavar="NAMES",
+        callback=options.check_bus_names,
+        help="With --device mouse: the device nodes whose feedback and loss it shows (robot i by the i-th; "
+        "'' for none).",
+    ),
+    chip: Chip = "default",
+    no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="No questionnaires."),
+    listen: Listen = None,
+    connect: Connect = None,
+    zenoh_config: ZenohConfig = None,
+    namespace: Namespace = "/",
+) -> None:
+    """The window as a node: draws from the sim's topics, sends input and keys.
 
-    load_chip(chip)  # a bad chip is an error line before anything starts
-    print("starting the simulation in its own process ...", flush=True)
-    with Node("sim", "sim", **endpoints) as node:
-        ready = functools.partial(
-            _ready,
-            f"sim for devices {', '.join(names)}"
-            + (f", taken over by {', '.join(takeover)}" if takeover else "")
-            + (" with a remote autonomy" if remote_autonomy else ""),
-        )
+    Example: otgym node ui --out results/session --device keyboard
+    """
+    from otgym.bus.sim_node import build_task
+    from otgym.bus.transport import Node
+    from otgym.experiments.output_folder import check_out_dir
+    from otgym.task.layout import layout_of
+    from otgym.teleop.device import DeviceError
+    from otgym.ui.node import WINDOW_KINDS, run_window
+
+    names = checks.bus_names(name)
+    if device not in WINDOW_KINDS:
+        raise ValueError(f"unknown window device {device!r} for the ui node; choose one of {', '.join(WINDOW_KINDS)}")
+    stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
+    check_out_dir(out)
+    print("building the task ...", flush=True)
+    layout = layout_of(build_task(chip))
+    with Node("ui", "ui", **endpoints) as node:
+        _ready(f"ui ({device})")
         try:
-            stats = serve_sim_node(
+            app = run_window(
                 node,
-                names,
-                mode,
-                seed,
-                stop,
-                duration,
-                remote_autonomy,
-                chip=chip,
-                takeover=takeover,
-                participant=participant,
-                hold_between_trials=hold,
-                on_ready=ready,
+                layout,
+                device,
+                names if device == "mouse" else [],
+                out,
+                questionnaire=not no_questionnaire,
+                stop=stop,
             )
         except DeviceError as error:
             raise ValueError(str(error)) from None
-        except WorkerError as error:
-            report_worker_error(error)
-        print(
-            f"sim: {stats.get('ticks', 0)} ticks, {stats.get('late_ticks', 0)} schedule restarts; dropped "
-            f"{sum(node.dropped.values())} malformed messages",
-            flush=True,
-        )
-    sys.stdout.flush()
+    print(f"ui: wrote {app.trials_written} trial(s) to {out / 'trials.csv'}", flush=True)
+
+
+@node_app.command("foxglove")
+def foxglove(
+    host: str = typer.Option(
+        "127.0.0.1",
+        "--host",
+        metavar="HOST",
+        callback=options.check_host,
+        help="The address its WebSocket listens on (loopback unless told otherwise).",
+    ),
+    port: int = typer.Option(8765, "--port", min=0, max=65535, help="The WebSocket's port (0: any free port)."),
+    listen: Listen = None,
+    connect: Connect = None,
+    zenoh_config: ZenohConfig = None,
+    namespace: Namespace = "/",
+) -> None:
+    """The running session served to Foxglove: the 3D scene, alpha, contact force and handle lag.
+
+    Example: otgym node foxglove --port 8765
+    """
+    from otgym.cli.node_foxglove import foxglove_node
+
+    stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
+    foxglove_node(stop, endpoints, host=host, port=port)

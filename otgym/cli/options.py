@@ -30,7 +30,8 @@ def out_dir(default: Path | None, help: str) -> typer.Option:
     return typer.Option(default, "--out", file_okay=False, dir_okay=True, metavar="DIR", help=help)
 
 
-def _check_chip(value: str | None) -> str | None:
+def check_chip(value: str | None) -> str | None:
+    """A typer callback: ``value`` a shipped chip's name or a readable chip PNG."""
     if value is None:
         return value
     from otgym.sim.chip import check_chip_source
@@ -44,11 +45,11 @@ def _check_chip(value: str | None) -> str | None:
 
 def chip(default: str | None, help: str = "Shipped chip name (e.g. default) or a PNG file.") -> typer.Option:
     """``--chip``: a shipped chip's name or a readable PNG."""
-    return typer.Option(default, "--chip", metavar="CHIP", callback=_check_chip, help=help)
+    return typer.Option(default, "--chip", metavar="CHIP", callback=check_chip, help=help)
 
 
 def chip_argument(default: str, help: str = "Shipped chip name (e.g. default) or a PNG file.") -> typer.Argument:
-    return typer.Argument(default, metavar="CHIP", callback=_check_chip, help=help)
+    return typer.Argument(default, metavar="CHIP", callback=check_chip, help=help)
 
 
 def check_choice(option: str, choices: tuple[str, ...]):
@@ -120,3 +121,118 @@ def policy(
 ) -> typer.Option:
     """``--policy``: ``pretrained`` or a readable policy file."""
     return typer.Option(default, "--policy", metavar="POLICY", callback=_check_policy, help=help)
+
+
+def _as_bad_parameter(check):
+    """A typer callback from a check that raises ValueError (or OSError)."""
+
+    def callback(value):
+        if value is None:
+            return value
+        try:
+            result = check(value)
+        except (ValueError, OSError) as error:
+            raise typer.BadParameter(str(error)) from None
+        return value if result is None else result
+
+    return callback
+
+
+def _endpoints(values: list[str]) -> list[str]:
+    import re
+
+    for value in values:
+        if not re.fullmatch(r"[a-z][a-z0-9-]*/\S+", value):
+            raise ValueError(f"{value!r} is not a zenoh endpoint (PROTOCOL/ADDRESS, e.g. tcp/127.0.0.1:7447)")
+    return values
+
+
+def _namespace(value: str) -> str:
+    from otgym.bus import ros_graph
+
+    return ros_graph.check_namespace(value)
+
+
+def _topic(value: str) -> str:
+    from otgym.bus import ros_graph
+
+    return ros_graph.check_topic_name(value)
+
+
+def _host(value: str) -> str:
+    import ipaddress
+    import re
+
+    try:
+        ipaddress.ip_address(value)
+    except ValueError:
+        if not re.fullmatch(r"[A-Za-z0-9]([A-Za-z0-9.-]*[A-Za-z0-9])?", value):
+            raise ValueError(f"{value!r} is neither an IP address nor a host name") from None
+    return value
+
+
+def _bus_names(value: str) -> str:
+    from otgym.cli import checks
+
+    checks.bus_names(value, drop_empty=False) if value else None
+    return value
+
+
+check_endpoints = _as_bad_parameter(_endpoints)
+check_namespace = _as_bad_parameter(_namespace)
+check_topic = _as_bad_parameter(_topic)
+check_host = _as_bad_parameter(_host)
+check_bus_names = _as_bad_parameter(_bus_names)
+
+
+def mode(default: str) -> typer.Option:
+    """``--mode``: manual, shared or autonomous."""
+    from otgym.shared import MODES
+
+    return name(default, "--mode", MODES, "The control mode (keys 1/2/3 switch in the window).")
+
+
+def navigator(default: str) -> typer.Option:
+    """``--navigator``: the autonomy's navigator."""
+    from otgym.cli import checks
+
+    return name(default, "--navigator", checks.NAVIGATORS, "The autonomy's navigator (mpc: model-predictive).")
+
+
+def participant(default: str) -> typer.Option:
+    """``--participant``: a participant ID (free text, no commas)."""
+    from otgym.cli import checks
+
+    return typer.Option(
+        default,
+        "--participant",
+        metavar="TEXT",
+        callback=_as_bad_parameter(checks.check_participant),
+        help="Participant ID written with every trial (no commas).",
+    )
+
+
+def trial_seed(default: int) -> typer.Option:
+    """``--seed`` of the interactive task: trial t meets scenario seed * 10000 + t."""
+    from otgym.cli import checks
+
+    return typer.Option(
+        default,
+        "--seed",
+        min=0,
+        max=checks.MAX_SEED - 1,
+        help=f"Trial t meets scenario seed * 10000 + t, [0, {checks.MAX_SEED - 1}].",
+    )
+
+
+def duration() -> typer.Option:
+    """``--duration``: seconds of simulated time in all (default: until stopped)."""
+    from otgym.cli import checks
+
+    return typer.Option(
+        None,
+        "--duration",
+        min=0.02,
+        max=float(checks.MAX_DURATION_S),
+        help="Seconds of simulated time in all (default: until stopped).",
+    )

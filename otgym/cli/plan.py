@@ -50,24 +50,19 @@ def register(app: typer.Typer) -> None:
 
         Example: otgym plan --chip default --start 15,40 --goal 285,160 --out results/plan
         """
-        from otgym.planning.pipeline import load_path_csv, metrics_markdown, write_plan
+        from otgym.human.operator import simulate_operator
+        from otgym.planning.pipeline import load_path_csv, metrics_markdown, plan_path, write_plan
 
         start_um = options.parse_point("--start", start)
         goal_um = options.parse_point("--goal", goal)
         manual_um = load_path_csv(manual) if manual is not None else None
         loaded = load_chip_arrays(chip, pixel_size_um)
-        metrics = write_plan(
-            loaded.image,
-            loaded.pixel_size_um,
-            start_um,
-            goal_um,
-            out,
-            robot_radius_um=robot_radius_um,
-            margin_um=margin_um,
-            manual_um=manual_um,
-            threshold=CHIP_FLUID_THRESHOLD,
-            seed=seed,
+        plan = plan_path(
+            loaded.image, loaded.pixel_size_um, start_um, goal_um, robot_radius_um, margin_um, CHIP_FLUID_THRESHOLD
         )
+        if manual_um is None:
+            manual_um = simulate_operator(plan.occupancy.planning, loaded.pixel_size_um, start_um, goal_um, seed=seed)
+        metrics = write_plan(plan, manual_um, out)
         console = Console()
         console.print(
             f"[bold]otgym plan[/bold] wrote {out}/path.csv, astar.csv, manual.csv, metrics.csv, metrics.md, "

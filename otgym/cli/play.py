@@ -11,20 +11,28 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from otgym.cli import checks, options
+
 
 def register(app: typer.Typer) -> None:
     @app.command("play")
     def play(
-        chip: str = typer.Option("default", "--chip", help="Chip name or PNG."),
-        mode: str = typer.Option("shared", "--mode", help="manual, shared or autonomous (keys 1/2/3 switch)."),
-        device: str = typer.Option("keyboard", "--device", help="keyboard, gamepad, touch or simulated."),
-        participant: str = typer.Option("P1", "--participant", help="Participant ID written with every trial."),
-        seed: int = typer.Option(0, "--seed", help="Trial t meets scenario seed * 10000 + t."),
-        duration: float = typer.Option(
-            None, "--duration", help="Seconds of simulated time in all (default: until Esc)."
+        chip: str = options.chip("default"),
+        mode: str = options.mode("shared"),
+        device: str = typer.Option(
+            "keyboard",
+            "--device",
+            metavar="NAME",
+            callback=_check_device,
+            help="What drives the robots: keyboard, gamepad, touch or simulated.",
         ),
+        participant: str = options.participant("P1"),
+        seed: int = options.trial_seed(0),
+        duration: float = options.duration(),
         no_questionnaire: bool = typer.Option(False, "--no-questionnaire", help="No questionnaires after trials."),
-        screenshot: Path = typer.Option(None, "--screenshot", help="Save the last frame as this PNG."),
+        screenshot: Path = typer.Option(
+            None, "--screenshot", file_okay=True, dir_okay=False, help="Save the last frame as this PNG."
+        ),
         headless: bool = typer.Option(False, "--headless", help="No window (SDL dummy drivers); for tests and CI."),
         distributed: bool = typer.Option(
             False,
@@ -33,33 +41,26 @@ def register(app: typer.Typer) -> None:
             "as local node processes on loopback, the "
             "window as the ui node.",
         ),
-        navigator: str = typer.Option(
-            "route",
-            "--navigator",
-            help="With --distributed: the autonomy node's navigator, route or mpc (model-predictive).",
-        ),
-        out: Path = typer.Option(..., "--out", help="Folder for trials.csv, session.mcap (and questionnaires.csv)."),
+        navigator: str = options.navigator("route"),
+        out: Path = options.out_dir(..., "Folder for trials.csv, session.mcap (and questionnaires.csv)."),
     ) -> None:
         """The interactive task in a window: global and microscope views, cues, keys 1/2/3
         for the mode, space to pause, R to reset, H for help, Esc to quit; trials.csv and
         the session's MCAP recording (session.mcap). The simulation runs in a process of
-        its own (with --distributed: as nodes on the bus)."""
-        from otgym.shared import MODES
+        its own (with --distributed: as nodes on the bus).
+
+        Example: otgym play --device keyboard --mode shared --out results/play
+        """
         from otgym.ui.bindings import check_device_name
 
-        if mode not in MODES:
-            raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+        checks.check_mode(mode)
         check_device_name(device)
-        if duration is not None and not 0 < duration <= 24 * 3600:
-            raise ValueError(f"--duration must lie in (0, 86400] seconds, got {duration}")
-        if not 0 <= seed < 2**32 // 10_000:
-            raise ValueError(f"--seed must lie in [0, {2**32 // 10_000}), got {seed}")
+        checks.check_duration(duration)
+        checks.check_seed(seed)
         if screenshot is not None and screenshot.suffix.lower() != ".png":
             raise ValueError(f"--screenshot must name a .png file, got {screenshot}")
-        if not participant.strip() or "," in participant:
-            raise ValueError(f"--participant must be a non-empty ID without commas, got {participant!r}")
-        if navigator not in ("route", "mpc"):
-            raise ValueError(f"--navigator must be route or mpc, got {navigator!r}")
+        participant = checks.check_participant(participant)
+        checks.check_navigator(navigator)
         if navigator == "mpc" and not distributed:
             raise ValueError(
                 "--navigator mpc needs --distributed: its replans (about 74 ms each) run in the "
@@ -68,11 +69,20 @@ def register(app: typer.Typer) -> None:
         if headless:
             os.environ["SDL_VIDEODRIVER"] = "dummy"
             os.environ["SDL_AUDIODRIVER"] = "dummy"
-        arguments = (chip, mode, device, participant.strip(), seed, duration, not no_questionnaire, screenshot, out)
+        arguments = (chip, mode, device, participant, seed, duration, not no_questionnaire, screenshot, out)
         if distributed:
             run_distributed(*arguments, navigator=navigator)
         else:
             run_play(*arguments)
+
+
+def _check_device(value: str) -> str:
+    from otgym.ui.bindings import check_device_name  # the window's module: imported when asked
+
+    try:
+        return check_device_name(value)
+    except ValueError as error:
+        raise typer.BadParameter(str(error), param_hint="--device") from None
 
 
 def _check_screenshot_folder(screenshot: Path | None, out: Path) -> None:
@@ -96,7 +106,7 @@ def run_play(
     """The window in this process, the session in its own (``otgym.runtime.worker``)."""
     import functools
 
-    from otgym.cli.app import report_worker_error
+    from otgym.cli.errors import report_worker_error
     from otgym.experiments.output_folder import check_out_dir
     from otgym.record.mcap_file import session_path
     from otgym.runtime.worker import SessionProcess, WorkerError, WorkerSpec
@@ -273,8 +283,8 @@ def run_distributed(
     from otgym.bus.sim_node import build_task
     from otgym.cli.launch import NodeProcesses, free_loopback_endpoint
     from otgym.experiments.output_folder import check_out_dir
-    from otgym.runtime.layout import layout_of
     from otgym.sim.chip import load_chip
+    from otgym.task.layout import layout_of
     from otgym.teleop.device import DeviceError
     from otgym.ui.bindings import robot_primaries, window_devices
 

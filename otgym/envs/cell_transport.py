@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from otgym.control import formation as fm
 from otgym.envs import transport as tr
 from otgym.envs.presets import TaskConfig, preset
 from otgym.envs.transport import TransportParams, TransportState
+from otgym.planning import formation as fm
 
 GOAL_TOLERANCE_UM = 0.5
 ROBOT_OF_TRAP = (0, 0, 1, 1)  # traps of robot a, then b (``scene.reset_at``)

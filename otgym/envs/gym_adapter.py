@@ -1,4 +1,4 @@
-"""Gymnasium adapters of the functional tasks (numpy at the edges, DESIGN.md):
+"""Gymnasium adapters of the functional tasks (numpy at the edges):
 numpy float32 observations, python float rewards and bool flags, ``render_mode``
 "rgb_array" (an RGB frame of the chip, the robots, the cell and the path) or "human"
 (the same frame in a matplotlib window). Invalid actions raise ValueError.

@@ -2,17 +2,9 @@
 
 ``paper``: the paper's trap law (equation 3, at most 0.30 pN per handle) and its six
 constant-speed groups, 0.27 to 0.51 um/s (Table II), in water at 20 C (1.0 mPa s), a
-medium chosen from physics, not tuned (issue 10). The preset used to run in a medium
-2.4 times as viscous, tuned so that the paper's speeds straddle the traps' escape; that
-tuning leant on a van der Waals glue (one polystyrene Hamaker constant for every pair,
-non-retarded) which held the cell to the robots with about 0.5 pN per contact. With the
-literature's constants (``otgym.physics.adhesion``) a cell is held only by the robots'
-notches, and in 2.4 mPa s even the slowest speed lost a trap in every run: the weak
-traps cannot hold a cell that the medium's drag pushes out of the notches. In water at
-20 C the paper's speeds are mostly safe: measured with the constant speeds on 128
-episodes (seed 101), success 1.000, 0.984, 1.000, 1.000, 0.984, 0.938 from 0.27 to
-0.51 um/s, so the speed trade-off of the paper's Table II is much weaker here than
-published (its fastest group succeeded in about a fifth of the runs).
+medium chosen from physics, not tuned (docs/decisions/0011-paper-preset-medium.md). In
+it the paper's speeds are mostly safe, so the speed trade-off of the paper's Table II is
+much weaker here than published.
 The cell is carried upstream (outlet to inlet) against a weak flow (4 % of the chip's
 nominal flow, 0.2-0.3 um/s), which varies along the path. Episodes are 15 um segments
 of the planned path (about 200 control steps, as in the paper) at random places;
@@ -50,14 +42,8 @@ class RewardWeights:
     0.5-0.6 um out even the slowest speed cannot bring it back. Such near-losses are far
     more frequent than losses, so they teach the risk faster. The failure penalty alone
     cannot: the DQN's Huber loss clips the error of its rare large targets, so a failure
-    pulls the Q-values down by the same gradient whatever its size.
-    Measured on ``paper`` as it was before issue 10 (2.4 mPa s and the old van der Waals
-    glue; 200k steps, seed 0, 512 test episodes; RL failures and ATCT):
-    fraction 0.5, weight -0.3: 2 failures, 37.1 s; 0.45, -0.3: 0, 50.2 s (slower than
-    a constant 0.318 um/s); 0.45, -0.1 (default): 0, 41.5 s; 0.45, -0.05: 9, 40.7 s;
-    0.475, -0.1: 2, 39.0 s. Training seeds vary about as much as these variants (0.45,
-    -0.1, seed 1: 4 failures, 43.1 s), hence the selection among seeds in
-    ``otgym.experiments.pretrain``."""
+    pulls the Q-values down by the same gradient whatever its size. The fraction and
+    weight were chosen among five variants (docs/decisions/0012-trap-margin-shaping.md)."""
 
     time: float = -0.05
     speed: float = 0.05

@@ -1,7 +1,7 @@
 """Task ``SpeedControl`` (paper section II-C, III-B/C): the planner gives the path,
 the agent gives the speed. Each control step the action picks one of the discrete
 speed levels; the four traps advance as one rigid formation along the path by
-speed x control period (``otgym.control.formation``), the physics runs its sub-steps
+speed x control period (``otgym.planning.formation``), the physics runs its sub-steps
 in between. The episode ends at the segment's end (goal) or on a failure, and is
 truncated after ``max_steps``. See ``otgym.envs.transport`` for observation and reward.
 
@@ -16,10 +16,10 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from otgym.control import formation as fm
 from otgym.envs import transport as tr
 from otgym.envs.presets import TaskConfig, preset
 from otgym.envs.transport import TransportParams, TransportState
+from otgym.planning import formation as fm
 
 
 def make_params(config: TaskConfig | str = "paper") -> TransportParams:

@@ -32,8 +32,8 @@ import numpy as np
 from flax import struct
 
 from otgym import physics as ph
-from otgym.control import formation as fm
 from otgym.envs.presets import TaskConfig
+from otgym.planning import formation as fm
 from otgym.planning import plan_path
 from otgym.sim import scene as sc
 from otgym.sim.chip import Chip, load_chip

@@ -266,7 +266,8 @@ def run_demo(
     from otgym.experiments import report
     from otgym.experiments.speed_control_eval import evaluate, write_results
     from otgym.experiments.transport import run as run_transport
-    from otgym.planning.pipeline import write_plan
+    from otgym.human.operator import simulate_operator
+    from otgym.planning.pipeline import plan_path, write_plan
     from otgym.rl.policy import load_policy, policy_meta, resolve_policy
     from otgym.sim.cache import chip_fields
     from otgym.sim.chip import load_chip
@@ -303,15 +304,13 @@ def run_demo(
         study = _Background(study_work)
     try:
         transport = config.transport
-        metrics = write_plan(
-            chip.image,
-            chip.pixel_size_um,
-            transport.start_um,
-            transport.goal_um,
-            out_dir / "plan",
-            robot_radius_um=PLAN_ROBOT_RADIUS_UM,
-            threshold=0.5,
+        plan = plan_path(
+            chip.image, chip.pixel_size_um, transport.start_um, transport.goal_um, PLAN_ROBOT_RADIUS_UM, threshold=0.5
         )
+        manual_um = simulate_operator(
+            plan.occupancy.planning, chip.pixel_size_um, transport.start_um, transport.goal_um
+        )
+        metrics = write_plan(plan, manual_um, out_dir / "plan")
         timings["plan_s"] = time.perf_counter() - start
         if config.study is not None and not config.background_study:
             announce(2)
@@ -386,7 +385,7 @@ def run_study(study: StudyConfig, seed: int, out_dir: Path, detail: Callable[[st
     ``scenario_per_participant``). Returns its size, its per-mode rows as written to
     summary.csv (``read_summary``) and the acceptance checks."""
     from otgym.experiments.shared_control import run_experiment, write_experiment
-    from otgym.runtime.task import InteractiveConfig
+    from otgym.task.task import InteractiveConfig
 
     out_dir = Path(out_dir)
     trials = run_experiment(

@@ -1,4 +1,4 @@
-"""Distil the MPC into a policy network (``otgym.runtime.mpc_policy``): record MPC
+"""Distil the MPC into a policy network (``otgym.autonomy.mpc_policy``): record MPC
 trials on development scenarios, train the clone, evaluate it in mode ``mpc`` trials
 with the clone as navigator.
 
@@ -28,8 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from otgym.planning.human import sample_population
-from otgym.runtime.mpc_policy import (
+from otgym.autonomy.mpc_policy import (
     ClonedPolicy,
     DAggerNavigator,
     PolicyNavigator,
@@ -37,9 +36,10 @@ from otgym.runtime.mpc_policy import (
     dagger,
     train,
 )
-from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
+from otgym.human.params import sample_population
 from otgym.runtime.trials import TrialSpec, run_trials
 from otgym.study.summary import summarize
+from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
 
 
 def _task(time_limit_s: float = 300.0) -> InteractiveTask:

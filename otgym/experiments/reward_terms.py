@@ -1,4 +1,4 @@
-"""Does every term of the speed-control reward matter? (issue 10, item 4)
+"""Does every term of the speed-control reward matter?
 
 Runs the shipped policy (greedy) and uniformly random speeds on the same seeded
 episodes of the ``paper`` preset and records every term of every step's reward

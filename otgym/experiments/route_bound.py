@@ -1,6 +1,6 @@
 """How fast a controller that keeps the assembly on the planned route could carry the
 cell past the shared-control experiment's obstacles: the earliest passage
-(``otgym.runtime.route_timing``) on the experiment's own scenarios (trial t of seed s
+(``otgym.autonomy.route_timing``) on the experiment's own scenarios (trial t of seed s
 meets scenario ``s * 10000 + t``, as in ``otgym experiment shared-control``), from the
 route's start at time 0 (no time to grip) to the goal tolerance, with perfect
 foresight of the tracks and no margin beyond contact. Its mean over the scenarios
@@ -16,10 +16,10 @@ from pathlib import Path
 
 import pandas as pd
 
+from otgym.autonomy.route_timing import earliest_passage, task_assembly_shape
 from otgym.experiments.shared_control import check_arguments
-from otgym.runtime.route_timing import earliest_passage, task_assembly_shape
-from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
 from otgym.runtime.trials import CRUISE_SPEED_UM_S
+from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
 
 ROUTE_SPEED_UM_S = CRUISE_SPEED_UM_S
 """The route navigator's cruise speed in trials: the autonomous mode's pace, and

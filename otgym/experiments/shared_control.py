@@ -2,7 +2,7 @@
 simulated participants: every mode for every participant on the same seeded
 scenarios (trial t of every participant and mode meets scenario ``seed * 10000 + t``).
 A fourth mode, ``mpc``, runs the model-predictive navigator alone (no participant acts;
-``otgym.runtime.mpc``); ``shared_autonomy="mpc"`` makes it shared control's dP_r too.
+``otgym.autonomy.mpc``); ``shared_autonomy="mpc"`` makes it shared control's dP_r too.
 Writes trials.csv (one row per trial), summary.csv, summary.md and stats.json (per
 mode, beside the paper's values; repeated-measures ANOVA and Holm-corrected paired
 tests, ``otgym.study``), fig8.png, acceptance.json (the paper's ordering, and the MPC's
@@ -18,15 +18,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from otgym.planning.human import sample_population
-from otgym.runtime.mpc import MPCConfig
-from otgym.runtime.task import InteractiveConfig, InteractiveTask
+from otgym.autonomy.mpc import MPCConfig
+from otgym.human.params import sample_population
 from otgym.runtime.trials import AUTONOMIES, TRIAL_COLUMNS, TRIAL_MODES, TrialSpec, run_trials
 from otgym.study import plot_fig8, write_summary
 from otgym.study.summary import json_safe
+from otgym.task.task import InteractiveConfig, InteractiveTask
 
 MPC_ACCEPTANCE_RATE = 0.99
-"""Issue 13: the MPC avoids at least this share of the obstacles it meets and reaches
+"""The MPC's acceptance: it avoids at least this share of the obstacles it meets and reaches
 the goal in at least this share of its trials."""
 
 
@@ -80,7 +80,7 @@ def run_experiment(
     check_arguments(participants, trials, seed)
     if shared_autonomy not in AUTONOMIES:
         raise ValueError(f"--shared-autonomy must be one of {', '.join(AUTONOMIES)}, got {shared_autonomy!r}")
-    from otgym.runtime.task import interactive_scene
+    from otgym.task.task import interactive_scene
 
     task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip), time_limit_s=time_limit_s))
     people = dict(enumerate(sample_population(participants, seed)))
@@ -121,8 +121,8 @@ def run_experiment(
 
 
 def acceptance(summary: pd.DataFrame) -> dict:
-    """The issue's criteria on the paper's ordering, where the modes are present, and
-    issue 13's on the MPC: obstacles avoided and goals reached (pooled over trials)
+    """The acceptance criteria on the paper's ordering, where the modes are present, and
+    the MPC's: obstacles avoided and goals reached (pooled over trials)
     at least ``MPC_ACCEPTANCE_RATE``, no trap loss, and its mean completion time no
     longer than shared control's (where shared control ran)."""
     by_mode = summary.set_index("mode")

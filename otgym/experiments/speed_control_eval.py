@@ -69,7 +69,7 @@ class Evaluation:
 
 
 SAFE_FRACTION = 0.99
-"""Safety acceptance (issue 5): contact force under its limit and every handle within
+"""Safety acceptance: contact force under its limit and every handle within
 the deviation limit of its trap in at least this fraction of the steps."""
 
 SIGNIFICANCE = 0.05
@@ -77,7 +77,7 @@ SIGNIFICANCE = 0.05
 
 
 def acceptance(evaluation: Evaluation, rl_safety: dict, significance: float = SIGNIFICANCE) -> dict:
-    """The trained policy against the constant speeds (issue 10, item 5).
+    """The trained policy against the constant speeds.
 
     The reference is the fastest constant speed that is at least as safe as RL: its
     success rate on the same episodes is no lower than RL's (when none is, RL is safer

@@ -2,7 +2,7 @@
 
 The paper's autonomous pipeline at constant speed: plan on the chip image (A* and
 B-spline, ``otgym.planning``) for the whole robot-cell assembly, then carry the four
-traps along the path as one formation (``otgym.control.formation``) while the physics
+traps along the path as one formation (``otgym.planning.formation``) while the physics
 core simulates robots, cell, flow, walls and the four moving obstacles. Writes the
 trajectory (CSV), a figure, the planned path and a summary.
 """
@@ -18,9 +18,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from otgym import physics as ph
-from otgym.control import formation
 from otgym.physics.validation import require_positive_scalar
-from otgym.planning import plan_path, save_path_csv
+from otgym.planning import formation, plan_path, save_path_csv
 from otgym.sim import scene as sc
 from otgym.sim.chip import load_chip
 

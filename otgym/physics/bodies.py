@@ -7,7 +7,7 @@ model of optical microrobots used by the paper's group (Zhang et al., two-photon
 polymerised robots about 10 um across with 2-3 um spherical handles; see
 shared/reference/original-release.md).
 
-Kinds follow shared/DESIGN.md: robot, cell (a soft sphere), obstacle, bead.
+Kinds: robot, cell (a soft sphere), obstacle, bead.
 Obstacles are kinematic by default: they move with a prescribed velocity and are
 not pushed by forces (the chip issue drives them).
 

@@ -3,7 +3,7 @@
 ``otgym.physics.mobility`` treats the spheres of a body as free-draining: the body's
 drag is the sum of the spheres' Stokes drags. In reality each sphere moves in the flow
 the others set up, and a cluster of touching or overlapping spheres drags markedly
-less (issue 10). This module computes the body resistance with the spheres'
+less. This module computes the body resistance with the spheres'
 hydrodynamic interaction in the Rotne-Prager-Yamakawa (RPY) approximation. It is
 plain NumPy/SciPy, meant to be called once per body shape (a 7-sphere robot takes
 well under a millisecond), not inside the JAX integrator, and it changes nothing in

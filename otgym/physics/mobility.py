@@ -1,6 +1,6 @@
 """Mobility of a rigid multi-sphere body in a viscous fluid at low Reynolds number.
 
-Default model (``interaction=True``, issue 10): the spheres of a body interact
+Default model (``interaction=True``): the spheres of a body interact
 hydrodynamically in the Rotne-Prager-Yamakawa approximation, and the body's planar
 resistance R (3 x 3: x, y, rotation) and its drag from a background flow come from
 the rigid multiblob method of ``otgym.physics.hydrodynamics``. A cluster of touching

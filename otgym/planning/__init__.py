@@ -2,18 +2,16 @@
 
 Chip image -> binary map -> obstacles dilated by robot radius + margin -> 8-connected
 A* with octile costs -> collision-free B-spline smoothing, plus the path metrics of
-Table I and a simulated human operator for the manual row. Coordinates are um with the
-origin at the image's top-left corner, x right (column * pixel size), y down (row *
-pixel size), pixel centres at +0.5 pixel.
+Table I, and a formation of traps carried along a path (``formation``, JAX).
+Coordinates are um with the origin at the image's top-left corner, x right (column *
+pixel size), y down (row * pixel size), pixel centres at +0.5 pixel.
 
-``otgym.planning.human`` is otgym's one human motor model (``HumanParams``,
-``sample_population``, ``HumanMotor``: a person's hand at a stylus, in mm), used by the
-simulated operator here and by the simulated teleoperation participant.
+Table I's manual row comes from the caller (a recorded trajectory, or the simulated
+operator of ``otgym.human.operator``): planning imports nothing of otgym above it.
 """
 
 from otgym.planning.astar import astar
 from otgym.planning.collision import segments_free
-from otgym.planning.human import POPULATION_CV, HumanMotor, HumanParams, sample_population
 from otgym.planning.metrics import (
     PathMetrics,
     curvature_spectrum,
@@ -22,7 +20,6 @@ from otgym.planning.metrics import (
     resample_by_arc_length,
 )
 from otgym.planning.occupancy import OccupancyMap, binarise, build_occupancy, dilate_obstacles, pixels_to_um
-from otgym.planning.operator import OperatorParams, simulate_operator
 from otgym.planning.pipeline import (
     TABLE_ROWS,
     PlanResult,
@@ -36,12 +33,8 @@ from otgym.planning.pipeline import (
 from otgym.planning.smoothing import smooth_path, string_pull
 
 __all__ = [
-    "POPULATION_CV",
     "TABLE_ROWS",
-    "HumanMotor",
-    "HumanParams",
     "OccupancyMap",
-    "OperatorParams",
     "PathMetrics",
     "PlanResult",
     "astar",
@@ -56,10 +49,8 @@ __all__ = [
     "pixels_to_um",
     "plan_path",
     "resample_by_arc_length",
-    "sample_population",
     "save_path_csv",
     "segments_free",
-    "simulate_operator",
     "smooth_path",
     "string_pull",
     "table_metrics",

@@ -4,8 +4,10 @@ The paper's planning pipeline (section II-C): grayscale image -> binarisation ->
 dilation by the robot's radius plus a margin -> image-to-physical coordinates -> A*
 with eight directions -> B-spline smoothing. ``plan_path`` runs it on any chip image
 (a numpy array with its pixel size; a chip object gives ``chip.image`` and
-``chip.pixel_size_um``). ``write_plan`` adds the manual path (a recorded trajectory
-or the simulated operator) and writes the paper's Table I with its figures.
+``chip.pixel_size_um``). ``write_plan`` takes a plan and the manual path (a recorded
+trajectory, or the simulated operator's that the caller made with
+``otgym.human.operator.simulate_operator``) and writes the paper's Table I with its
+figures.
 
 Coordinates everywhere: um, origin at the image's top-left corner, x right
 (column * pixel size), y down (row * pixel size), pixel centres at +0.5 pixel.
@@ -23,7 +25,6 @@ from otgym.planning.astar import astar
 from otgym.planning.figures import plot_paths, plot_spectrum
 from otgym.planning.metrics import DEFAULT_STEP_UM, PathMetrics, path_metrics
 from otgym.planning.occupancy import OccupancyMap, build_occupancy, pixels_to_um
-from otgym.planning.operator import OperatorParams, simulate_operator
 from otgym.planning.smoothing import smooth_path
 
 TABLE_ROWS = ("manual", "A*", "B-spline")
@@ -134,34 +135,19 @@ def write_metrics_csv(path: str | Path, metrics: dict[str, PathMetrics]) -> None
             writer.writerow([name, *(f"{getattr(row, field):.8g}" for field in fields)])
 
 
-def write_plan(
-    image: np.ndarray,
-    pixel_size_um: float,
-    start_um,
-    goal_um,
-    out_dir: str | Path,
-    robot_radius_um: float = 5.0,
-    margin_um: float | None = None,
-    manual_um: np.ndarray | None = None,
-    threshold: float | str = "otsu",
-    seed: int = 0,
-    operator: OperatorParams = OperatorParams(),
-) -> dict[str, PathMetrics]:
-    """Plan, take the manual path (given, or from the simulated operator), and write
+def write_plan(plan: PlanResult, manual_um: np.ndarray, out_dir: str | Path) -> dict[str, PathMetrics]:
+    """Table I of ``plan`` beside the manual path ``manual_um`` ((n, 2) um): writes
     ``path.csv`` (smoothed), ``astar.csv``, ``manual.csv``, ``metrics.csv``,
     ``metrics.md``, ``paths.png`` and ``spectrum.png`` into ``out_dir``."""
-    result = plan_path(image, pixel_size_um, start_um, goal_um, robot_radius_um, margin_um, threshold)
-    if manual_um is None:
-        manual_um = simulate_operator(result.occupancy.planning, pixel_size_um, start_um, goal_um, operator, seed)
-    paths = dict(zip(TABLE_ROWS, (manual_um, result.astar_um, result.smoothed_um)))
+    paths = dict(zip(TABLE_ROWS, (manual_um, plan.astar_um, plan.smoothed_um)))
     metrics = table_metrics(paths)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    save_path_csv(out_dir / "path.csv", result.smoothed_um)
-    save_path_csv(out_dir / "astar.csv", result.astar_um)
+    save_path_csv(out_dir / "path.csv", plan.smoothed_um)
+    save_path_csv(out_dir / "astar.csv", plan.astar_um)
     save_path_csv(out_dir / "manual.csv", manual_um)
     write_metrics_csv(out_dir / "metrics.csv", metrics)
     (out_dir / "metrics.md").write_text(metrics_markdown(metrics))
-    plot_paths(out_dir / "paths.png", result.occupancy, paths)
+    plot_paths(out_dir / "paths.png", plan.occupancy, paths)
     plot_spectrum(out_dir / "spectrum.png", paths)
     return metrics

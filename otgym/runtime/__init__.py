@@ -1,5 +1,5 @@
-"""The interactive runtime: the task stepped at the control rate, scenarios, simulated
-participants and the loop that runs trials (DESIGN.md, "The human half"); a person's
-session of trials paced by the wall clock (``session``), in a process of its own when
-something else must keep its core (``worker``), and what a view needs of the task
-(``layout``)."""
+"""The interactive runtime: the one control tick (``tick``), batched trials of
+simulated participants (``trials``), the real-time loop for one environment with real
+devices (``loop``), a person's session of trials paced by the wall clock
+(``session``), the session in a process of its own (``worker``), and the interfaces
+they offer (``protocols``)."""

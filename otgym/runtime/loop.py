@@ -1,12 +1,11 @@
 """The real-time interactive loop for one environment of the interactive task
-(DESIGN.md, "The human half"; paper sections II-D and II-E, Fig. 2's closed loop).
+(paper sections II-D and II-E, Fig. 2's closed loop).
 
 One tick (50 Hz by default; ``InteractiveTask``'s control period), in this order:
 
     device(s) --read--> Retargeter (clutch, dead band, tremor low-pass, tau)  --> dP_h
     RouteNavigator (the autonomy along the planned route)                     --> dP_r
-    alpha = alpha_for_mode(mode, gap to the nearest obstacle)      (otgym.shared)
-    dP_s = cap_speed(blend(dP_h, dP_r, alpha))                     (trap-speed clamp)
+    alpha, dP_s = control_tick(mode, gap, dP_h, dP_r)   (otgym.runtime.tick, as the trials)
     InteractiveTask.dispatch(dP_s)                                 ("physics", started)
     microscope crops around each trap, frame of the tick's start   ("render")
     VisionForceSensor.measure -> handle positions and trap forces  ("sense")
@@ -20,10 +19,11 @@ two overlap. The feedback a device gets therefore comes from a camera frame one 
 exposed; the record keeps that frame's trap positions (``frame_trap_xy_um``) beside
 the sensed handles.
 
-This mirrors ``otgym.runtime.trials.run_trials`` for one environment with real devices,
-with two differences: the human's increment comes from devices, not from simulated
-participants, and the handle forces that drive the feedback come from the vision
-sensor reading a rendered microscope frame, not from the simulator's true offsets.
+The command is ``otgym.runtime.tick.control_tick``, the one that
+``otgym.runtime.trials.run_trials`` runs, for one environment with real devices; the
+two differ only in where dP_h and the feedback's handle forces come from: devices, not
+simulated participants, and the vision sensor reading a rendered microscope frame, not
+the simulator's true offsets.
 
 Devices. Each ``DeviceBinding`` ties one ``otgym.teleop.device.Device`` to the robots
 it drives: one device per robot (bimanual: robot 0 and robot 1, as the paper's two
@@ -42,7 +42,7 @@ knows: where it put its traps, the handles' radius, the pixel size. The handle o
 fed to the feedback law is trap minus sensed handle. The robot-cell contact force of
 the feedback's contact cue is the simulator's report (no camera measures it).
 
-Safety (DESIGN.md, "safety first"): a device whose latest sample is non-finite or
+Safety first: a device whose latest sample is non-finite or
 older than the retargeter's ``silence_timeout_s`` (100 ms) gives dP_h = 0 (the
 ``Retargeter`` drops NaN samples and holds nothing stale) and is sent zero force (its
 feedback filter is cleared, so the force ramps up again through the low-pass when it
@@ -68,13 +68,15 @@ import jax
 import numpy as np
 
 from otgym import physics as ph
-from otgym.runtime.navigator import RouteNavigator, cap_speed
-from otgym.runtime.scenario import Scenario
-from otgym.runtime.task import DONE, InteractiveTask, Observation
+from otgym.autonomy.navigator import RouteNavigator
+from otgym.autonomy.protocol import Autonomy
+from otgym.runtime.tick import control_tick
 from otgym.runtime.trials import TASK_RETARGET
-from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
+from otgym.shared import MODES, ArbitrationConfig
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.sensor import VisionForceSensor
+from otgym.task.scenario import Scenario
+from otgym.task.task import DONE, InteractiveTask, Observation
 from otgym.teleop.device import Device, DeviceError, start_devices
 from otgym.teleop.feedback import FeedbackConfig, FeedbackLaw, newtons_per_pn_for
 from otgym.teleop.retarget import RetargetConfig, Retargeter
@@ -189,7 +191,7 @@ class InteractiveLoop:
         microscope: MicroscopeParams = MicroscopeParams(),
         crop_px: int = 48,
         clock: Callable[[], float] = time.monotonic,
-        autonomy: Callable[[Observation], np.ndarray | None] | None = None,
+        autonomy: Autonomy | None = None,
     ):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
@@ -355,9 +357,16 @@ class InteractiveLoop:
         robot = self.autonomy(obs)
         autonomy_live = robot is not None
         robot = np.zeros((self.task.n_traps, 2)) if robot is None else np.asarray(robot, float)[0]
-        mode = "manual" if self.mode == "shared" and not autonomy_live else self.mode
-        alpha = float(alpha_for_mode(mode, obs.nearest_obstacle_gap_um[0], self.arbitration))
-        shared = cap_speed(blend(human, robot, alpha, self.arbitration.tau), self.max_step_um)
+        command = control_tick(
+            obs,
+            [self.mode],
+            robot[None],
+            lambda modes, alpha: human[None],
+            self.arbitration,
+            self.max_step_um,
+            autonomy_live,
+        )
+        mode, alpha, shared = str(command.modes[0]), float(command.alpha[0]), command.shared_um[0]
         physics_begin = time.perf_counter()
         pending = self.task.dispatch(self.state, shared[None], self._next_key())
         render_begin = time.perf_counter()

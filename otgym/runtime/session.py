@@ -16,8 +16,8 @@ by ``advance`` between ticks, so the loop is only ever touched by the thread tha
 ticks it. ``snapshot`` is replaced whole after each tick (one reference assignment,
 safe to read from another thread).
 
-Sink: an object with ``describe(task)``, ``tick(record, sphere_xy_um, mode)``,
-``event(name, **fields)`` and ``close()`` gets the task once at the session's start
+Sink (``otgym.runtime.protocols.Sink``: ``describe(task)``, ``tick(record,
+sphere_xy_um, mode)``, ``event(name, **fields)``, ``close()``) gets the task once at the session's start
 (the chip, route and spheres: latched topics), every tick and the events ``trial_start`` (trial, scenario, mode,
 participant, the spheres' radii in um), ``mode`` (a switch), ``paused`` / ``resumed`` (trial,
 time_s), ``trial_end`` (the trial's row), ``autonomy_lost`` / ``autonomy_back``
@@ -50,51 +50,19 @@ from collections.abc import Callable
 
 import numpy as np
 
+from otgym.autonomy.protocol import Autonomy
 from otgym.runtime.loop import DeviceBinding, InteractiveLoop, TickRecord
-from otgym.runtime.task import InteractiveTask, Observation
+from otgym.runtime.protocols import Sink
+from otgym.runtime.snapshot import Snapshot, smoothed_velocity
 from otgym.shared import MODES
+from otgym.task.task import InteractiveTask, Observation
 from otgym.teleop.device import Sample, start_devices
 from otgym.teleop.forwarded import ForwardedDevice
 from otgym.teleop.mouse_drag import MouseDragDevice
 
 MAX_CATCH_UP_TICKS = 3
-OBSTACLE_VELOCITY_SMOOTHING_S = 0.3
-"""Time constant of the obstacles' velocity estimate (their Brownian jitter averages out)."""
 EXTRA_COLUMNS = ["modes_used", "ended_by"]
 ENDINGS = ("goal", "trap_lost", "time_limit", "duration", "aborted")
-
-
-@dataclasses.dataclass(frozen=True)
-class Snapshot:
-    """What the views draw: the state after the latest tick (one environment)."""
-
-    trial: int
-    mode: str
-    paused: bool
-    observation: Observation
-    record: TickRecord | None  # None before the trial's first tick
-    sphere_xy_um: np.ndarray  # (S, 2)
-    obstacle_velocity_um_s: np.ndarray  # (K, 2)
-    encountered: np.ndarray  # (K,) bool
-    collided: np.ndarray  # (K,) bool
-    alpha: float
-    lost_devices: tuple[str, ...] = ()
-    """Devices whose link was lost (binding i is ``device<i>``, as the recording and the bus name it)."""
-    autonomy_live: bool = True
-    """The latest tick had the autonomy's dP_r."""
-
-    @property
-    def time_s(self) -> float:
-        return float(self.observation.time_s[0])
-
-
-def smoothed_velocity(
-    previous_um_s: np.ndarray, before_um: np.ndarray, after_um: np.ndarray, tick_s: float
-) -> np.ndarray:
-    """The obstacles' velocity estimate after one tick: a first-order low-pass
-    (``OBSTACLE_VELOCITY_SMOOTHING_S``) of their displacement over the tick."""
-    raw = (after_um - before_um) / tick_s
-    return previous_um_s + tick_s / OBSTACLE_VELOCITY_SMOOTHING_S * (raw - previous_um_s)
 
 
 class Session:
@@ -112,9 +80,9 @@ class Session:
         seed: int,
         duration_s: float | None = None,
         clock: Callable[[], float] = time.monotonic,
-        sink=None,
+        sink: Sink | None = None,
         *,
-        autonomy=None,
+        autonomy: Autonomy | None = None,
         hold_between_trials: bool = True,
         forwarded: tuple[ForwardedDevice, ...] = (),
     ):
@@ -158,7 +126,7 @@ class Session:
     def layout(self):
         """The task's ``TaskLayout`` (what a view draws it with), built on first use."""
         if self._layout is None:
-            from otgym.runtime.layout import layout_of
+            from otgym.task.layout import layout_of
 
             self._layout = layout_of(self.task)
         return self._layout
@@ -265,6 +233,10 @@ class Session:
     def take_finished(self) -> dict | None:
         """The row of a trial that ended, once; None when none is waiting."""
         return self._finished.popleft() if self._finished else None
+
+    def poll(self) -> None:
+        """Nothing comes back from a session in this process (``SessionControl``'s
+        ``poll``): its snapshot and rows are read directly."""
 
     # --- the ticking thread ---------------------------------------------------------
     def next_tick_in_s(self) -> float:

@@ -5,9 +5,8 @@ participant, a mode, a scenario), all stepped together tick by tick:
                                                          navigator, or the model-predictive
                                                          one in mode ``mpc`` and, with
                                                          ``shared_autonomy="mpc"``, in shared mode)
-    alpha = law(mode, gap to the nearest obstacle)      (otgym.shared)
-    dP_h = participants(what they saw, alpha, dP_r)     (two hands, um)
-    dP_s = alpha dP_h + (1 - alpha) dP_r, clamped to the trap-speed limit
+    alpha, dP_h, dP_s = control_tick(...)               (otgym.runtime.tick: the law, the
+                                                         participants' two hands, the blend)
     observation = task.step(dP_s)
 
 Each hand feels the feedback of its robot's handles. In batched trials the handle
@@ -25,13 +24,16 @@ from collections.abc import Callable
 import jax
 import numpy as np
 
-from otgym.planning.human import HumanParams
-from otgym.runtime.mpc import MPCConfig, MPCCosts
-from otgym.runtime.mpc_navigator import MPCNavigator, observation_rows
-from otgym.runtime.navigator import RouteNavigator, cap_speed
-from otgym.runtime.participants import ParticipantTask, SimulatedParticipants
-from otgym.runtime.task import InteractiveTask
-from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
+from otgym.autonomy.mpc import MPCConfig, MPCCosts
+from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
+from otgym.autonomy.navigator import RouteNavigator
+from otgym.autonomy.protocol import Navigator
+from otgym.human.params import HumanParams
+from otgym.human.participant_task import ParticipantTask
+from otgym.human.participants import SimulatedParticipants
+from otgym.runtime.tick import control_tick
+from otgym.shared import MODES, ArbitrationConfig
+from otgym.task.task import InteractiveTask
 from otgym.teleop.feedback import FeedbackConfig, stable_newtons_per_pn
 from otgym.teleop.retarget import RetargetConfig
 
@@ -46,7 +48,7 @@ CRUISE_SPEED_UM_S = 5.0
 
 TRIAL_MODES = MODES + ("mpc",)
 """The arbitration modes, and ``mpc``: autonomous (alpha 0) with the model-predictive
-navigator's dP_r (``otgym.runtime.mpc``) instead of the route navigator's."""
+navigator's dP_r (``otgym.autonomy.mpc``) instead of the route navigator's."""
 AUTONOMIES = ("route", "mpc")
 
 
@@ -92,27 +94,10 @@ def task_feedback(trap_law, retarget: RetargetConfig, handles_per_robot: int) ->
     return FeedbackConfig(newtons_per_pn=scale, contact_gain_n=scale * contact_limit_pn)
 
 
-def arbitration_modes(modes) -> np.ndarray:
-    """Each trial's arbitration mode: ``mpc`` trials are autonomous."""
-    modes = np.asarray(modes)
-    return np.where(modes == "mpc", "autonomous", modes)
-
-
 def stylus_feedback(task) -> FeedbackConfig:
     """``task_feedback`` for a person's styluses on ``task`` (``TASK_RETARGET``, the
     task's handles per robot): what ``otgym play`` and the sim node give each device."""
     return task_feedback(task.config.scene.trap_law, TASK_RETARGET, int(np.sum(task.trap_robot == task.trap_robot[0])))
-
-
-def mode_alpha(modes: np.ndarray, gap_um: np.ndarray, config: ArbitrationConfig) -> np.ndarray:
-    """alpha (E,) for each environment's mode at its obstacle gap (``mpc``: autonomous)."""
-    modes = arbitration_modes(modes)
-    alpha = np.zeros(len(modes))
-    for mode in MODES:
-        chosen = modes == mode
-        if chosen.any():
-            alpha[chosen] = alpha_for_mode(mode, gap_um[chosen], config)
-    return alpha
 
 
 def run_trials(
@@ -129,7 +114,7 @@ def run_trials(
     mpc_config: MPCConfig = MPCConfig(),
     mpc_costs: MPCCosts = MPCCosts(),
     mpc_stats: dict | None = None,
-    mpc_navigator: Callable | None = None,
+    mpc_navigator: Callable[..., Navigator] | None = None,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The
@@ -137,7 +122,7 @@ def run_trials(
     ``shared_autonomy="mpc"``, to shared ones; ``mpc_stats`` (a dict) receives its
     replan count and wall times; ``mpc_navigator`` (default ``MPCNavigator``) builds
     the navigator from ``(task, config, costs, seed=...)``, e.g. a recording or
-    distilled one (``otgym.runtime.mpc_policy``)."""
+    distilled one (``otgym.autonomy.mpc_policy``)."""
     if not specs:
         raise ValueError("no trials to run")
     if shared_autonomy not in AUTONOMIES:
@@ -182,12 +167,17 @@ def run_trials(
         robot = navigator.increments(obs)
         if mpc is not None:
             robot[mpc_rows] = mpc.increments(observation_rows(obs, mpc_rows))
-        alpha = mode_alpha(modes, obs.nearest_obstacle_gap_um, arbitration)
-        human = people.intend(obs, arbitration_modes(modes), alpha, robot, task.trap_robot)[:, task.trap_robot]
-        command = cap_speed(blend(human, robot, alpha[:, None, None], arbitration.tau), max_step)
+        command = control_tick(
+            obs,
+            modes,
+            robot,
+            lambda modes, alpha: people.intend(obs, modes, alpha, robot, task.trap_robot)[:, task.trap_robot],
+            arbitration,
+            max_step,
+        )
         key, step_key = jax.random.split(key)
-        obs = task.step(state, command, step_key, alpha)
-        people.moved(command, arbitration.tau * alpha, task.trap_robot)
+        obs = task.step(state, command.shared_um, step_key, command.alpha)
+        people.moved(command.shared_um, arbitration.tau * command.alpha, task.trap_robot)
         people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
         if progress is not None and index % 50 == 0:
             progress(float(state.metrics.done.mean()))

@@ -5,16 +5,13 @@ lock with the ticks: each process has a core of its own on a 2-core machine.
 
 Processes: ``SessionProcess(spec).start()`` spawns the worker (``multiprocessing``'s
 spawn context; nothing but pipes and shared-memory blocks: no socket) with the BLAS
-and OpenMP libraries limited to ``spec.threads`` threads, so that they do not spin on
-the window's core. XLA's CPU client keeps its own pool of a thread per core whatever
-``XLA_FLAGS`` says (``--xla_cpu_multi_thread_eigen=false`` and
-``intra_op_parallelism_threads=1`` changed neither the pool nor the CPU time with
-jaxlib 0.10.2); it runs the tick's compiled programs one at a time, so the worker uses
-about a third of one core (benchmarks/README.md). The worker pins itself to one core
-(``pin_to_one_core``), so that the pool's threads never take the other core from the
-window or the sim node's bus side. The worker calls ``spec.setup`` (a picklable callable: the task, the bindings, the sink,
-the autonomy), starts the session and paces it by the wall clock until it is asked to
-quit, its parent dies, or (without ``hold_between_trials``) its duration is spent.
+and OpenMP libraries limited to ``spec.threads`` threads, and the worker pins itself
+to one core (``pin_to_one_core``), so that neither they nor XLA's own thread pool take
+the other core from the window or the sim node's bus side
+(docs/decisions/0007-session-in-its-own-process.md). The worker calls ``spec.setup``
+(a picklable callable: the task, the bindings, the sink, the autonomy), starts the
+session and paces it by the wall clock until it is asked to quit, its parent dies, or
+(without ``hold_between_trials``) its duration is spent.
 
 Channels:
 - parent -> worker, a pipe of commands (``("set_mode", "manual")``, ``("drag",
@@ -44,66 +41,28 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import functools
+import inspect
 import multiprocessing
 import os
 import pickle
 import signal
-import struct
 import threading
 import time
 import traceback
 from collections.abc import Callable
 from typing import Any
 
+from otgym.runtime.latest_bytes import SAMPLE_BYTES, LatestBytes, pack_sample, unpack_sample
+from otgym.runtime.protocols import SessionCommands, Sink, protocol_methods
 from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 
 SNAPSHOT_BYTES = 1 << 17
 """Room for one pickled snapshot (about 5 kB for the interactive task's 19 spheres)."""
-_SEQLOCK_TRIES = 256
-_SAMPLE = struct.Struct("<dq3d3dq")
-"""A device sample in a block: time_s, sequence, position_mm, velocity_mm_s, buttons."""
 
 
 class WorkerError(RuntimeError):
     """The worker process failed or ended unasked; ``str()`` says how."""
-
-
-class LatestBytes:
-    """The latest byte string written by one process, read by others without locks:
-    a sequence counter that is odd while the single writer writes (a seqlock, as
-    ``otgym.teleop.servo``'s blocks), then the length and the bytes."""
-
-    def __init__(self, capacity: int, context=None):
-        context = context or multiprocessing.get_context("spawn")
-        self._header = context.RawArray("q", 2)  # [sequence, length]
-        self._data = context.RawArray("B", capacity)
-
-    @property
-    def capacity(self) -> int:
-        return len(self._data)
-
-    def write(self, payload: bytes) -> None:
-        size = len(payload)
-        if size > len(self._data):
-            raise ValueError(f"{size} bytes do not fit in {len(self._data)}")
-        header = self._header
-        header[0] += 1
-        memoryview(self._data).cast("B")[:size] = payload
-        header[1] = size
-        header[0] += 1
-
-    def read(self) -> tuple[int, bytes] | None:
-        """(writes so far, the latest bytes), or None before the first write or when
-        every try met a write in progress."""
-        header, view = self._header, memoryview(self._data).cast("B")
-        for _ in range(_SEQLOCK_TRIES):
-            before = header[0]
-            if before % 2:
-                continue
-            payload = bytes(view[: header[1]])
-            if header[0] == before:
-                return (before // 2, payload) if before else None
-        return None
 
 
 @dataclasses.dataclass
@@ -112,8 +71,8 @@ class WorkerParts:
 
     task: Any
     bindings: list
-    sink: Any = None
-    autonomy: Any = None
+    sink: Sink | None = None
+    autonomy: ForwardedAutonomy | None = None
     on_failure: Callable[[], None] | None = None
     """Called when the session cannot start (e.g. remove a recording just created)."""
 
@@ -169,16 +128,8 @@ class ForwardedAutonomy:
         return self._latest[1]
 
 
-_SESSION_COMMANDS = ("set_mode", "toggle_pause", "set_paused", "reset", "next_trial", "lose", "drag", "release_drag")
-
-
-def pack_sample(sample: Sample) -> bytes:
-    return _SAMPLE.pack(sample.time_s, sample.sequence, *sample.position_mm, *sample.velocity_mm_s, sample.buttons)
-
-
-def unpack_sample(data: bytes) -> Sample:
-    values = _SAMPLE.unpack(data)
-    return Sample(values[0], values[1], values[2:5], values[5:8], values[8])
+SESSION_COMMANDS = protocol_methods(SessionCommands)
+"""The commands the parent forwards to the worker's ``Session``: ``SessionCommands``' methods."""
 
 
 def _exit_on_sigterm(signum, frame):
@@ -190,9 +141,7 @@ def pin_to_one_core() -> None:
     it may use. One environment's tick is latency-bound (XLA's pool of a thread per core
     gains it little), and the other cores stay free for the window, the sim node's
     answers to the devices and the haptic servo (which widens its own affinity again:
-    ``otgym.teleop.servo``). Measured on the quiet 2-core machine
-    (``benchmarks/bus.py``): the device -> sim node -> feedback round trip's p99 went
-    from 2.25 to 1.6-1.7 ms; the window's frame rate and real-time factor unchanged."""
+    ``otgym.teleop.servo``). Linux only; elsewhere nothing (docs/decisions/0007)."""
     if not hasattr(os, "sched_setaffinity"):
         return
     cores = sorted(os.sched_getaffinity(0))
@@ -275,7 +224,7 @@ def _worker_main(
                 if name == "quit":
                     quit_asked = True
                     break
-                if name in _SESSION_COMMANDS:
+                if name in SESSION_COMMANDS:
                     getattr(session, name)(*arguments)
                 elif name == "autonomy":
                     parts.autonomy.update(*arguments)
@@ -307,14 +256,14 @@ def _worker_main(
         send(("closed", {"ticks": session.ticks, "late_ticks": session.late_ticks, "trials": session.trial}))
 
 
-class SessionProcess:
-    """The parent's side of a worker running ``spec``: start it, read its latest
-    ``snapshot``, send it commands (the ``Session`` 's: ``set_mode``,
-    ``toggle_pause``, ``reset``, ``next_trial``, ``feed``, ``lose``, ``drag``,
-    ``release_drag``; and ``autonomy``, ``autonomy_alive``), take the rows of finished
-    trials, ``finish`` it. ``on_publish(payload)`` and ``on_force(index, force_n)`` get
-    the worker's ``publish`` and ``force`` events (from ``poll``, or from the thread
-    of ``serve_events``)."""
+class SessionProcess(SessionCommands):
+    """The parent's side of a worker running ``spec`` (a ``SessionControl``): start it,
+    read its latest ``snapshot``, send it commands (``SessionCommands``' methods,
+    forwarded as they are: generated below from the protocol; ``feed`` through a
+    shared-memory block; and ``autonomy``, ``autonomy_alive``), take the rows of
+    finished trials, ``finish`` it. ``on_publish(payload)`` and ``on_force(index,
+    force_n)`` get the worker's ``publish`` and ``force`` events (from ``poll``, or from
+    the thread of ``serve_events``)."""
 
     def __init__(
         self,
@@ -338,7 +287,7 @@ class SessionProcess:
         self.process = None
         self._context = multiprocessing.get_context("spawn")
         self._snapshots = LatestBytes(SNAPSHOT_BYTES, self._context) if spec.snapshots else None
-        self._device_blocks = [LatestBytes(_SAMPLE.size, self._context) for _ in spec.forwarded_caps]
+        self._device_blocks = [LatestBytes(SAMPLE_BYTES, self._context) for _ in spec.forwarded_caps]
         self._snapshot = None
         self._snapshot_sequence = 0
         self._finished: collections.deque = collections.deque()
@@ -426,33 +375,9 @@ class SessionProcess:
             except (BrokenPipeError, OSError):
                 pass  # the worker is gone: poll reports it
 
-    def set_mode(self, mode: str) -> None:
-        self.send("set_mode", mode)
-
-    def toggle_pause(self) -> None:
-        self.send("toggle_pause")
-
-    def set_paused(self, paused: bool) -> None:
-        self.send("set_paused", paused)
-
-    def reset(self) -> None:
-        self.send("reset")
-
-    def next_trial(self) -> None:
-        self.send("next_trial")
-
     def feed(self, index: int, sample: Sample) -> None:
         """The latest sample of forwarded device ``index`` (never blocks; one writer per device)."""
         self._device_blocks[index].write(pack_sample(sample))
-
-    def lose(self, index: int, reason: str) -> None:
-        self.send("lose", index, reason)
-
-    def drag(self, robot: int, pointer_um, traps_um) -> None:
-        self.send("drag", robot, pointer_um, traps_um)
-
-    def release_drag(self) -> None:
-        self.send("release_drag")
 
     def autonomy(self, arrival_s: float, increments) -> None:
         self.send("autonomy", arrival_s, increments)
@@ -522,3 +447,20 @@ class SessionProcess:
     @property
     def running(self) -> bool:
         return self.process is not None and self.stats is None and self.process.is_alive()
+
+
+def _forwarder(name: str):
+    """``SessionProcess.<name>``: send the command and its arguments (bound to the
+    protocol method's signature, so a wrong call fails here, not in the worker)."""
+    declared = getattr(SessionCommands, name)
+    signature = inspect.signature(declared)
+
+    def forward(self, *arguments, **keywords) -> None:
+        bound = signature.bind(self, *arguments, **keywords)
+        self.send(name, *bound.args[1:])
+
+    return functools.update_wrapper(forward, declared)
+
+
+for _name in SESSION_COMMANDS:
+    setattr(SessionProcess, _name, _forwarder(_name))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import importlib
 import math
 
 import numpy as np
@@ -119,9 +120,6 @@ class Device(abc.ABC):
         self.stop()
 
 
-DEVICE_NAMES = ("keyboard", "gamepad", "touch", "simulated", "replay")
-
-
 def start_devices(devices) -> None:
     """Start every device in order; if one fails, zero the force of and stop those
     already started, then re-raise (nothing is left running half-started)."""
@@ -137,30 +135,30 @@ def start_devices(devices) -> None:
         raise
 
 
+DRIVERS = {
+    "keyboard": "otgym.teleop.pygame_devices:KeyboardMouseDevice",
+    "gamepad": "otgym.teleop.pygame_devices:GamepadDevice",
+    "touch": "otgym.teleop.touch:TouchDevice",
+    "simulated": "otgym.teleop.servo:simulated_haptic_device",
+    "replay": "otgym.teleop.replay:ReplayDevice",
+}
+"""Each device name's driver, ``"module:callable"``: imported only when asked for (by
+``open_device``), so pygame or OpenHaptics are needed only by their users, and this
+module, which every driver imports, imports none of them."""
+DEVICE_NAMES = tuple(DRIVERS)
+
+
+def driver(name: str):
+    """The class (or factory) of device ``name``, imported now; ValueError for an unknown name."""
+    if name not in DRIVERS:
+        raise ValueError(f"unknown device {name!r}; choose one of {', '.join(DEVICE_NAMES)}")
+    module, attribute = DRIVERS[name].split(":")
+    return getattr(importlib.import_module(module), attribute)
+
+
 def open_device(name: str, **options) -> Device:
-    """A device by name, constructed (not started) with ``options`` passed to its class:
-    keyboard -> KeyboardMouseDevice, gamepad -> GamepadDevice, touch -> TouchDevice,
-    simulated -> a simulated haptic stylus in its servo process
-    (``servo.simulated_haptic_device``), replay -> ReplayDevice. Drivers are imported
-    only when asked for, so pygame or OpenHaptics are needed only by their users."""
-    if name == "keyboard":
-        from otgym.teleop.pygame_devices import KeyboardMouseDevice
-
-        return KeyboardMouseDevice(**options)
-    if name == "gamepad":
-        from otgym.teleop.pygame_devices import GamepadDevice
-
-        return GamepadDevice(**options)
-    if name == "touch":
-        from otgym.teleop.touch import TouchDevice
-
-        return TouchDevice(**options)
-    if name == "simulated":
-        from otgym.teleop.servo import simulated_haptic_device
-
-        return simulated_haptic_device(**options)
-    if name == "replay":
-        from otgym.teleop.replay import ReplayDevice
-
-        return ReplayDevice(**options)
-    raise ValueError(f"unknown device {name!r}; choose one of {', '.join(DEVICE_NAMES)}")
+    """A device by name (``DRIVERS``), constructed (not started) with ``options`` passed
+    to its driver: keyboard -> KeyboardMouseDevice, gamepad -> GamepadDevice, touch ->
+    TouchDevice, simulated -> a simulated haptic stylus in its servo process
+    (``servo.simulated_haptic_device``), replay -> ReplayDevice."""
+    return driver(name)(**options)

@@ -100,7 +100,7 @@ def stable_newtons_per_pn(
     trap). Haptic teleoperation of stiff traps is scaled for stability this way
     (Pacoret & Regnier, Rev. Sci. Instrum. 84, 081301, 2013); the paper says only that
     its forces were "empirically scaled". Default arm stiffness: the 300 N/m of
-    ``otgym.planning.human.HumanParams``."""
+    ``otgym.human.motor.HumanParams``."""
     for name, value in (
         ("trap_stiffness_pn_per_um", trap_stiffness_pn_per_um),
         ("handles", handles),

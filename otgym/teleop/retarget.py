@@ -7,7 +7,7 @@ Per control tick (rate ``tick_rate_hz``), in this order:
 1. Input: the latest sample if it is finite and at most ``silence_timeout_s`` old,
    else none. Non-finite samples are dropped and counted; a silent device (no fresh
    sample) gives zero output while the filter is fed zeros and decays: nothing is ever
-   extrapolated, so the traps hold (DESIGN.md, "safety first").
+   extrapolated, so the traps hold (safety first).
 2. Clutch (deadman): motion passes only while button ``clutch_bit`` is held. On
    release the output is zero at once and the filter is cleared, so re-engaging never
    replays old motion (ROS 2 ``teleop_twist_joy``: an enable button, zero sent on

@@ -1,4 +1,4 @@
-"""The interface of ``otgym play`` (DESIGN.md, "The human half"; paper Fig. 9): one
+"""The interface of ``otgym play`` (paper Fig. 9): one
 pygame-ce window with a global view of the chip, a local microscope-like view around
 the cell and the paper's situational-awareness cues, over a session of the
 interactive task (``otgym.runtime.session``) that runs in a process of its own

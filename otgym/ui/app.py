@@ -4,13 +4,11 @@ session of the interactive task (``otgym.runtime.session``).
 
 Processes. The window only draws and forwards input; the session (its ticks, the
 devices' retargeting and feedback, the recording) runs elsewhere, behind a driver with
-one interface: a ``SessionProcess`` (``otgym.runtime.worker``: its own process, what
-``otgym play`` runs), a ``BusSession`` (``otgym.ui.node``: a sim node on the bus, what
-``otgym play --distributed`` and ``otgym node ui`` run), or a ``Session`` in this
-process (tests step it frame by frame; ``benchmarks/ui_fps.py`` also ticks it in a
-thread, the earlier design). In a thread the ticks and the drawing shared one
-interpreter lock: 54-60 fps with the simulation at 0.88-0.94 of real time on a quiet
-2-core machine; in two processes each has a core (benchmarks/README.md).
+one interface, ``otgym.runtime.protocols.SessionControl``: a ``SessionProcess``
+(``otgym.runtime.worker``: its own process, what ``otgym play`` runs; why:
+docs/decisions/0007-session-in-its-own-process.md), a ``BusSession`` (``otgym.ui.node``:
+a sim node on the bus, what ``otgym play --distributed`` and ``otgym node ui`` run), or
+a ``Session`` in this process (tests step it frame by frame).
 
 What the window forwards: the mode keys, pause, reset, the next trial after the
 questionnaires, quitting, the mouse dragging a robot (``drag``), and the samples of the
@@ -22,8 +20,7 @@ Drawing. Each frame draws only what changed and presents only those rectangles
 global view (where they are and where they were), the local view, the cue panel and
 the status line; a frame without a new snapshot redraws nothing but the frame-rate
 counter twice a second. Presenting goes through the platform's framebuffer
-(``SDL_FRAMEBUFFER_ACCELERATION=0``, below), not SDL's OpenGL path, which without a
-GPU costs 3-4 ms of CPU per present (Mesa's software renderer) whatever changed.
+(``SDL_FRAMEBUFFER_ACCELERATION=0``, below), not SDL's OpenGL path.
 
 Keys (also in the help overlay, H):
 
@@ -56,11 +53,11 @@ import numpy as np
 
 os.environ.setdefault("SDL_FRAMEBUFFER_ACCELERATION", "0")
 """The window's surface is presented by the platform's own framebuffer (X11: shared
-memory), not through an OpenGL renderer: without a GPU (Xvfb, remote X, most VMs) SDL's
-default renders each present with Mesa's software GL, about 3.5 ms of CPU whatever
-the size of the rectangles (measured under Xvfb: 0.01 ms with this setting)."""
+memory), not through an OpenGL renderer, which without a GPU costs milliseconds of CPU
+per present (docs/decisions/0008-sdl-framebuffer-present.md)."""
 import pygame  # noqa: E402
 
+from otgym.runtime.protocols import SessionControl  # noqa: E402
 from otgym.teleop.device import DeviceError  # noqa: E402
 from otgym.teleop.pygame_devices import KEYBOARD_EVENTS  # noqa: E402
 from otgym.ui import cues, views  # noqa: E402
@@ -98,7 +95,7 @@ class PlayApp:
 
     def __init__(
         self,
-        session,
+        session: SessionControl,
         out_dir: Path,
         *,
         window_devices=(),
@@ -215,9 +212,7 @@ class PlayApp:
         self._forward_window_devices()
         if self.step:
             self.session.advance()
-        poll = getattr(self.session, "poll", None)
-        if poll is not None:
-            poll()
+        self.session.poll()
         self._finish_trials()
         if self.session.over and self.running:
             self.running = False

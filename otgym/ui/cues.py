@@ -27,10 +27,10 @@ import dataclasses
 
 import numpy as np
 
-from otgym.runtime.navigator import route_point
-from otgym.runtime.task import ALPHA_BANDS
+from otgym.autonomy.navigator import route_point
 from otgym.shared import ArbitrationConfig, alpha_for_mode
 from otgym.shared.arbitration import ALPHA_FAR, ALPHA_NEAR
+from otgym.task.task import ALPHA_BANDS
 
 FINE_TUNE_ALPHA = dict((name, low) for name, low, _ in ALPHA_BANDS)["fine_tune"]
 """0.4: where the paper's fine-tuning band of alpha begins."""

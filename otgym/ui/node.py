@@ -36,10 +36,10 @@ import numpy as np
 from otgym.bus import messages as msg
 from otgym.bus.nodes import REMOTE_FORCE_LIMIT_N
 from otgym.bus.transport import Node
-from otgym.runtime.layout import TaskLayout, observation_from_spheres
 from otgym.runtime.loop import TickRecord
-from otgym.runtime.session import Snapshot, smoothed_velocity
+from otgym.runtime.snapshot import Snapshot, smoothed_velocity
 from otgym.runtime.trials import TASK_RETARGET
+from otgym.task.layout import TaskLayout, observation_from_spheres
 from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 from otgym.teleop.forwarded import ForwardedDevice
 from otgym.teleop.mouse_drag import MouseDragDevice

@@ -11,9 +11,9 @@ from otgym.runtime.worker import WorkerParts
 
 
 def play_setup(chip: str, device: str, recording_path: Path, forwarded, outbox) -> WorkerParts:
-    from otgym.runtime.task import InteractiveConfig, InteractiveTask, interactive_scene
     from otgym.runtime.trials import stylus_feedback
     from otgym.sim.chip import load_chip
+    from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
     from otgym.ui.bindings import play_bindings, robot_primaries
     from otgym.ui.recording import SessionRecording
 

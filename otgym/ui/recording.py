@@ -18,10 +18,12 @@ import time
 from pathlib import Path
 
 from otgym.bus import messages as msg
+from otgym.bus import task_messages
 from otgym.bus.foxglove_scene import SceneRecording
+from otgym.bus.schemas import SCHEMAS
 from otgym.record.mcap_file import McapRecorder
 from otgym.runtime.loop import DeviceBinding, TickRecord
-from otgym.runtime.task import InteractiveTask
+from otgym.task.task import InteractiveTask
 from otgym.teleop.device import Device, Sample
 
 SCENE_SOURCES = (msg.SESSION, msg.CHIP, msg.ROUTE, msg.TRAPS, msg.BODIES)
@@ -46,7 +48,7 @@ class SessionRecording:
     def write(self, topic: str, data: bytes, stamp_s: float | None = None) -> None:
         stamp_s = self.clock_s() if stamp_s is None else stamp_s
         type_name = msg.topic_type(topic)
-        self.recorder.write(topic, type_name, msg.SCHEMAS[type_name], data, log_time_ns=int(stamp_s * 1e9))
+        self.recorder.write(topic, type_name, SCHEMAS[type_name], data, log_time_ns=int(stamp_s * 1e9))
         if topic in SCENE_SOURCES:
             self.scene.take(topic, msg.decode(topic, data))
 
@@ -61,14 +63,14 @@ class SessionRecording:
 
     def describe(self, task: InteractiveTask) -> None:
         """Record the session's description, chip image and route (once, at its start)."""
-        for topic, data in msg.session_messages(task, self.devices, self.clock_s()):
+        for topic, data in task_messages.session_messages(task, self.devices, self.clock_s()):
             self.write(topic, data)
 
     def tick(self, record: TickRecord, sphere_xy_um, mode: str) -> None:
         stamp_s = self.clock_s()
         changed = mode if mode != self._mode_written else None  # the mode at a trial's first tick and on change
         self._mode_written = mode
-        for topic, data in msg.tick_messages(record, self.devices, sphere_xy_um, stamp_s, changed):
+        for topic, data in task_messages.tick_messages(record, self.devices, sphere_xy_um, stamp_s, changed):
             self.write(topic, data, stamp_s)
 
     def event(self, name: str, **fields) -> None:

@@ -19,7 +19,7 @@
   stylus feeds back.
 * ``CuePanel``: the cues of ``otgym.ui.cues`` as bars, a compass and prompts.
 
-Each view draws from the task's ``TaskLayout`` (``otgym.runtime.layout``) and a
+Each view draws from the task's ``TaskLayout`` (``otgym.task.layout``) and a
 ``Snapshot``, and returns the rectangles it changed, so that the window presents only
 those (``pygame.display.update(rects)``): under an X server without a GPU (Xvfb,
 remote X) presenting the whole 1280 x 720 frame costs about 9 ms of CPU a frame.
@@ -32,9 +32,9 @@ import math
 import numpy as np
 import pygame
 
-from otgym.runtime.layout import TaskLayout
-from otgym.runtime.session import Snapshot
+from otgym.runtime.snapshot import Snapshot
 from otgym.sim.microscope import MicroscopeParams, microscope_images
+from otgym.task.layout import TaskLayout
 from otgym.ui import cues
 
 BACKGROUND_RGB = (24, 27, 33)

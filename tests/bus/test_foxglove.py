@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from otgym.bus import messages as msg
+from otgym.bus import task_messages
 from otgym.bus.transport import Node
 from tests.bus.test_nodes import children, free_endpoint, spawn, wait_for_line  # noqa: F401  (fixture)
 
@@ -76,7 +77,7 @@ def session(stamp_s: float):
     from tests.bus.test_messages import stand_in_task
 
     task = stand_in_task()
-    return task, msg.session_messages(task, [], stamp_s)
+    return task, task_messages.session_messages(task, [], stamp_s)
 
 
 def test_the_foxglove_node_serves_the_scene_of_the_running_session(children):  # noqa: F811

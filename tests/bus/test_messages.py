@@ -15,6 +15,7 @@ from PIL import Image
 from rosbags.typesys import Stores, get_typestore
 
 from otgym.bus import messages as m
+from otgym.bus import schemas, task_messages
 from otgym.teleop.device import Sample
 
 TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
@@ -93,7 +94,7 @@ def test_sample_rebuilt_from_twist_and_buttons_on_the_receivers_clock():
 
 def test_every_schema_names_the_fields_of_the_ros2_definition():
     """Our schema text's own fields (first block) are ROS 2 Humble's, in order."""
-    for type_name, text in m.SCHEMAS.items():
+    for type_name, text in schemas.SCHEMAS.items():
         ours = [line.split()[1] for line in text.split("=" * 80)[0].strip().splitlines()]
         theirs = [name for name, _ in TYPESTORE.fielddefs[type_name][1]]
         assert ours == theirs, type_name
@@ -120,7 +121,7 @@ def test_the_session_description_chip_and_route_decode_with_rosbags():
     from otgym.sim.chip import load_chip
 
     task = stand_in_task()
-    messages = dict(m.session_messages(task, ["device0"], STAMP_S))
+    messages = dict(task_messages.session_messages(task, ["device0"], STAMP_S))
     assert list(messages) == [m.SESSION, m.CHIP, m.ROUTE] and set(m.LATCHED) == {
         m.SESSION,
         m.CHIP,
@@ -152,18 +153,18 @@ def test_tick_messages_carry_the_mode_only_when_given():
         sensed_force_pn=np.array([[1.0, -2.0], [np.nan, np.nan]]),
         sensed_valid=np.array([True, False]),
     )
-    without_mode = dict(m.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S))
+    without_mode = dict(task_messages.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S))
     assert m.MODE not in without_mode
     # the contact force: the valid handle's reading only, pN -> N (a NaN or an invalid one would spoil it)
     contact = m.decode(m.CONTACT_FORCE, without_mode[m.CONTACT_FORCE])
     np.testing.assert_allclose(m.force_n(contact), [1e-12, -2e-12, 0.0])
-    with_mode = m.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S, "shared")
+    with_mode = task_messages.tick_messages(record, ["device0"], np.zeros((3, 2)), STAMP_S, "shared")
     assert m.decode(m.MODE, dict(with_mode)[m.MODE]).data == "shared"
     assert [topic for topic, _ in with_mode][-2:] == [m.BODIES, m.feedback_topic("device0")]
 
 
 def _session(**changes) -> bytes:
-    description = m.session_description(stand_in_task(), [])
+    description = task_messages.session_description(stand_in_task(), [])
     for key, value in changes.items():
         if key.startswith("chip_"):
             description["chip"][key[5:]] = value

@@ -124,7 +124,7 @@ def device_node(endpoint: str, csv: Path) -> subprocess.Popen:
 
 
 def test_device_node_killed_its_input_is_zero_at_once_and_the_traps_hold(tmp_path, children):
-    from tests.runtime import fast_scenario, shared_task
+    from tests.task import fast_scenario, shared_task
 
     task = shared_task()
     endpoint = free_endpoint()
@@ -300,7 +300,7 @@ def test_malformed_messages_are_dropped_and_counted_never_applied():
 
 def test_sim_node_publishes_every_tick_and_the_trial_events():
     from otgym.bus.sim_node import run_sim_node
-    from tests.runtime import shared_task
+    from tests.task import shared_task
 
     endpoint = free_endpoint()
     seen: dict[str, list] = {}
@@ -328,7 +328,7 @@ def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_
     pid, the sim runs as manual (mode message and an ``autonomy_lost`` event) within the
     detection bound, and with no device the traps then hold."""
     from otgym.bus.sim_node import run_sim_node
-    from tests.runtime import shared_task
+    from tests.task import shared_task
 
     endpoint = free_endpoint()
     seen: dict[str, list] = {}
@@ -446,10 +446,29 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
     "args, message",
     [
         (["autonomy", "--navigator", "astar"], "--navigator must be one of route, mpc"),
-        (["pilot"], "unknown or unbuilt node 'pilot'"),
         (["sim", "--autonomy", "cloud"], "--autonomy must be local or remote"),
+        (["sim", "--mode", "telepathic"], "unknown mode 'telepathic'"),
+        (["sim", "--participant", "P1,P2"], "--participant must be a non-empty ID without commas"),
+        (["sim", "--takeover", "ui0,,ui1"], "device name must be a letter"),
+        (["device", "--device", "replay"], "--device replay needs --replay FILE"),
     ],
 )
 def test_bad_node_arguments_end_in_one_line_and_exit_2(args, message):
+    run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert run.stderr.strip().splitlines() == [f"error: {run.stderr.strip().removeprefix('error: ')}"]
+    assert message in run.stderr
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["pilot"], "No such command 'pilot'"),
+        (["device", "--navigator", "mpc"], "No such option: --navigator"),  # each role takes only its own options
+        (["autonomy", "--out", "x"], "No such option: --out"),
+        (["recorder"], "Missing option '--out'"),
+    ],
+)
+def test_a_role_takes_only_its_own_options(args, message):
     run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr

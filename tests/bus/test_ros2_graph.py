@@ -16,7 +16,7 @@ import pytest
 import zenoh
 
 from otgym.bus import messages as msg
-from otgym.bus import ros_graph
+from otgym.bus import ros_graph, schemas
 from otgym.bus.intake import TYPE_HASH, Counts, Intake
 from otgym.bus.transport import Node
 from otgym.bus.type_hash import rihs01
@@ -37,19 +37,19 @@ PUBLISHED = [
     # (type, ros2msg definition, hash, where it is published)
     (
         "std_msgs/msg/String",
-        msg.SCHEMAS[msg.STRING],
+        schemas.SCHEMAS[msg.STRING],
         "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18",
         "ros2/rmw_zenoh docs/design.md (the chatter key); ros2/rclpy rclpy/test/test_type_hash.py",
     ),
     (
         "geometry_msgs/msg/Twist",
-        msg.SCHEMAS[msg.TWIST],
+        schemas.SCHEMAS[msg.TWIST],
         "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
         "ZettaScaleLabs/ros-z docs/bindings/python-codegen.md",
     ),
     (
         "geometry_msgs/msg/TwistStamped",
-        msg.SCHEMAS[msg.TWIST_STAMPED],
+        schemas.SCHEMAS[msg.TWIST_STAMPED],
         "RIHS01_5f0fcd4f81d5d06ad9b4c4c63e3ea51b82d6ae4d0558f1d475229b1121db6f64",
         "ZettaScaleLabs/ros-z crates/ros-z-codegen/tests/hash_regression.rs",
     ),
@@ -93,12 +93,12 @@ def test_every_type_otgym_uses_hashes_as_an_independent_implementation_does():
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.LATEST)
-    for type_name in msg.SCHEMAS:
+    for type_name in schemas.SCHEMAS:
         assert TYPE_HASH[type_name] == store.hash_rihs01(type_name), type_name
 
 
 def test_a_changed_definition_changes_the_hash():
-    twist = msg.SCHEMAS[msg.TWIST]
+    twist = schemas.SCHEMAS[msg.TWIST]
     assert rihs01(msg.TWIST, twist.replace("angular", "rotation")) != rihs01(msg.TWIST, twist)
     assert rihs01(msg.TWIST, twist.replace("float64 z", "float32 z")) != rihs01(msg.TWIST, twist)
     assert rihs01(msg.TWIST, twist.replace("float64 z", "float64 z 0")) == rihs01(msg.TWIST, twist)  # defaults dropped

@@ -19,6 +19,7 @@ from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
 from otgym.bus import messages as msg
+from otgym.bus import task_messages
 from otgym.bus.transport import EPHEMERAL_ENDPOINT, WAIT_BEFORE_DROP_US, Node, zenoh_config
 from otgym.teleop.device import Sample
 from tests.bus.test_nodes import free_endpoint, wait_until
@@ -50,7 +51,7 @@ def test_latched_topics_reach_a_late_subscriber_once_with_the_latest_message():
     with Node("sim", "sim", listen=[endpoint]) as sim, Node("recorder", "early", connect=[endpoint]) as early_node:
         early = Inbox(early_node, "/otgym/**")
         sim.wait_for_subscribers(msg.ALPHA)  # the link is up and the early pattern known
-        sim.publish(msg.SESSION, msg.string(json.dumps(msg.session_description(_task(), []))))
+        sim.publish(msg.SESSION, msg.string(json.dumps(task_messages.session_description(_task(), []))))
         for mode in ("shared", "autonomous"):
             sim.publish(msg.MODE, msg.string(mode))
         sim.publish(msg.ALPHA, msg.float64(0.5))  # not latched: a late subscriber never sees it

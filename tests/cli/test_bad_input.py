@@ -13,7 +13,8 @@ bad value chosen from the option's declaration:
 - text, by its metavar: ``CHIP`` (unknown name, truncated PNG, not an image, a folder),
   ``NAME`` (an unknown name of a closed set), ``POLICY`` (unknown, a folder, a broken
   file), ``X,Y`` (three numbers, NaN, words), ``NUMBERS`` (NaN, empty), ``ENDPOINT``,
-  ``NAMES`` (a name ROS 2 would refuse); ``TEXT`` is free text and left alone;
+  ``NAMES`` (a name otgym's bus refuses), ``NAMESPACE``/``TOPIC`` (a name ROS 2 would
+  refuse), ``HOST``; ``TEXT`` is free text and left alone;
 - options that only make sense together (``COMBINATIONS`` below).
 
 "Before any expensive work" is checked, not timed: while a case runs, a JAX compilation,
@@ -125,12 +126,44 @@ STRING_CASES = {
     "MODES": [Case("unknown mode", "manual,flying"), Case("empty", "")],
     "ENDPOINT": [Case("not an endpoint", "nowhere")],
     "NAMES": [Case("bad name", "bad name!")],
+    "NAMESPACE": [Case("not a ROS 2 namespace", "/rig 1")],
+    "TOPIC": [Case("not a ROS 2 topic", "/cmd vel")],
+    "HOST": [Case("not an address", "no such host!")],
     "TEXT": [],
 }
 
-COMBINATIONS = {
-    # (command, option, value): options given without what they need
-}
+COMBINATIONS = [
+    # (command, the arguments added to its example, a word of the error): options given
+    # without the option they only make sense with
+    (("node", "device"), ["--replay", "stylus.csv"], "--device replay"),
+    (("node", "device"), ["--device", "replay"], "--replay"),
+    (("node", "device"), ["--device-name", "Right Device"], "--device touch"),
+    (("play",), ["--navigator", "mpc"], "--distributed"),
+]
+
+
+def combination_cases():
+    commands = dict(leaf_commands())
+    for path, extra, word in COMBINATIONS:
+        yield pytest.param(path, commands[path], extra, word, id=f"{' '.join(path)} {' '.join(extra)}")
+
+
+@pytest.mark.parametrize("path, command, extra, word", list(combination_cases()))
+def test_options_that_need_another_are_refused_without_it(tmp_path, monkeypatch, capsys, path, command, extra, word):
+    folder = tmp_path / "case"
+    folder.mkdir()
+    monkeypatch.chdir(folder)
+    argv = example_argv(path, command)
+    _example_inputs(command, argv, folder)
+    (folder / "stylus.csv").write_text("t_s,sequence,x_mm,y_mm,z_mm,vx_mm_s,vy_mm_s,vz_mm_s,buttons\n")
+    before = sorted(p.relative_to(folder) for p in folder.rglob("*"))
+    with pytest.raises(SystemExit) as exit_info:
+        cli_app.main([*path, *argv, *extra])
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert exit_info.value.code == 2 and len(lines) == 1 and lines[0].startswith("error: "), err
+    assert word in lines[0], lines[0]
+    assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == before
 
 
 def _make(folder: Path, kind: str, name: str) -> None:

@@ -61,12 +61,13 @@ def record_trials(path, frame: pd.DataFrame) -> None:
     import math
 
     from otgym.bus import messages as m
+    from otgym.bus import schemas
     from otgym.record.mcap_file import McapRecorder
 
     with McapRecorder(path) as recorder:
 
         def write(topic, data):
-            recorder.write(topic, m.topic_type(topic), m.SCHEMAS[m.topic_type(topic)], data)
+            recorder.write(topic, m.topic_type(topic), schemas.SCHEMAS[m.topic_type(topic)], data)
 
         for row in frame.to_dict("records"):
             write(m.EVENTS, m.event("trial_start", trial=row["trial"], mode=row["mode"]))
@@ -106,13 +107,14 @@ def test_recordings_give_the_same_analysis_as_trials_csv(tmp_path, capsys):
 
 def test_a_simulator_nodes_recording_is_refused_with_one_line(tmp_path, capsys):
     from otgym.bus import messages as m
+    from otgym.bus import schemas
     from otgym.record.mcap_file import McapRecorder
 
     with McapRecorder(tmp_path / "session.mcap") as recorder:
         recorder.write(
             m.EVENTS,
             m.STRING,
-            m.SCHEMAS[m.STRING],
+            schemas.SCHEMAS[m.STRING],
             m.event("trial_end", trial=1, ended_by="duration", completion_time_s=3.0),
         )
     assert "carry no trial rows" in _fails([str(tmp_path / "session.mcap"), "--out", str(tmp_path / "o")], capsys)

@@ -168,8 +168,8 @@ def test_the_default_study_runs_long_enough_to_meet_obstacles_and_finish():
     5 um/s reaches about 20 s into a trial (a 20 s cut met none); the default cut lets
     the autonomous and shared trials reach the goal (the paper's took about 54 s, ours
     61-86 s) and gives the manual ones time to meet their first obstacles."""
-    from otgym.runtime.scenario import ScenarioConfig
     from otgym.study import PAPER_FIG8
+    from otgym.task.scenario import ScenarioConfig
 
     limit = StudyConfig().time_limit_s
     scenario = ScenarioConfig()

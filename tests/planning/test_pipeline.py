@@ -35,7 +35,11 @@ def test_smoothed_path_is_free_and_beats_astar_on_every_table_metric(chip_plan):
 
 
 def test_table_has_the_paper_ordering_with_the_simulated_operator(default_chip, tmp_path):
-    metrics = write_plan(default_chip.image, default_chip.pixel_size_um, START, GOAL, tmp_path, threshold=0.5)
+    from otgym.human.operator import simulate_operator
+
+    plan = plan_path(default_chip.image, default_chip.pixel_size_um, START, GOAL, threshold=0.5)
+    manual_um = simulate_operator(plan.occupancy.planning, default_chip.pixel_size_um, START, GOAL)
+    metrics = write_plan(plan, manual_um, tmp_path)
     assert tuple(metrics) == TABLE_ROWS
     for field in ("length_um", "mean_curvature_per_um", "angular_deviation_deg"):
         values = [getattr(metrics[row], field) for row in TABLE_ROWS]

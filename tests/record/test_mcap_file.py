@@ -15,6 +15,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from otgym.bus import messages as m
+from otgym.bus import schemas
 from otgym.record.mcap_file import McapRecorder, read_recording
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -22,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def write(recorder: McapRecorder, topic: str, data: bytes, **times) -> None:
     type_name = m.topic_type(topic)
-    recorder.write(topic, type_name, m.SCHEMAS[type_name], data, **times)
+    recorder.write(topic, type_name, schemas.SCHEMAS[type_name], data, **times)
 
 
 def session(recorder: McapRecorder, ticks: int) -> dict[str, list[bytes]]:
@@ -90,13 +91,14 @@ def test_chunks_reach_the_file_once_a_second_has_passed(tmp_path):
 WRITER = """
 import sys
 from otgym.bus import messages as m
+from otgym.bus import schemas
 from otgym.record.mcap_file import McapRecorder
 now_s = [0.0]
 recorder = McapRecorder(sys.argv[1], monotonic=lambda: now_s[0])
 for i in range(int(sys.argv[2])):
     now_s[0] = i / 64  # the recorder's clock: 64 messages a second, exact in binary
     data = m.float64(i / 1000)
-    recorder.write(m.ALPHA, m.FLOAT64, m.SCHEMAS[m.FLOAT64], data, log_time_ns=10**9 + i * 15_625_000)
+    recorder.write(m.ALPHA, m.FLOAT64, schemas.SCHEMAS[m.FLOAT64], data, log_time_ns=10**9 + i * 15_625_000)
     print(i, recorder.flushes, data.hex(), flush=True)
 print("written", flush=True)
 sys.stdin.read()  # the recording stays open until the process is killed

@@ -17,6 +17,7 @@ import pytest
 from PIL import Image
 
 from otgym.bus import messages as m
+from otgym.bus import schemas, task_messages
 from otgym.physics.bodies import BodyKind
 from otgym.record.frames import STRIP_PX, FrameRenderer, label, render_frames
 from otgym.record.mcap_file import McapRecorder, read_recording
@@ -34,7 +35,7 @@ TRAP_UM = [40.0, 165.0]
 
 
 def stand_in_task(chip):
-    """What ``messages.session_messages`` reads of a task, for four spheres on ``chip``."""
+    """What ``task_messages.session_messages`` reads of a task, for four spheres on ``chip``."""
     model = types.SimpleNamespace(
         sphere_body=[0, 0, 1, 2],
         body_kinds=[BodyKind.ROBOT, BodyKind.CELL, BodyKind.OBSTACLE],
@@ -51,7 +52,7 @@ def stand_in_task(chip):
 
 def write(recorder: McapRecorder, topic: str, data: bytes, t_ns: int) -> None:
     type_name = m.topic_type(topic)
-    recorder.write(topic, type_name, m.SCHEMAS[type_name], data, log_time_ns=t_ns)
+    recorder.write(topic, type_name, schemas.SCHEMAS[type_name], data, log_time_ns=t_ns)
 
 
 def record(path, n_ticks: int, described=("session", "chip", "route"), chip=None, mode_every_tick=False) -> None:
@@ -61,7 +62,9 @@ def record(path, n_ticks: int, described=("session", "chip", "route"), chip=None
     topics = {"session": m.SESSION, "chip": m.CHIP, "route": m.ROUTE}
     with McapRecorder(path) as recorder:
         wanted = [topics[name] for name in described]
-        for topic, data in m.session_messages(stand_in_task(chip or load_chip("default")), ["device0"], 1.0):
+        for topic, data in task_messages.session_messages(
+            stand_in_task(chip or load_chip("default")), ["device0"], 1.0
+        ):
             if topic in wanted:
                 write(recorder, topic, data, 10**9)
         write(

@@ -5,6 +5,7 @@ trial that never ended has none, and a folder's sessions in the order written.""
 import math
 
 from otgym.bus import messages as m
+from otgym.bus import schemas
 from otgym.record.mcap_file import McapRecorder
 from otgym.record.trials import folder_recordings, trial_rows
 
@@ -18,7 +19,7 @@ def test_rows_come_from_trial_end_events_only(tmp_path):
             m.event("mode", trial=2, mode="manual"),
             m.event("trial_start", trial=2),
         ):
-            recorder.write(m.EVENTS, m.STRING, m.SCHEMAS[m.STRING], event)
+            recorder.write(m.EVENTS, m.STRING, schemas.SCHEMAS[m.STRING], event)
     rows = trial_rows(path)
     assert len(rows) == 1 and rows[0]["participant"] == "P1" and math.isnan(rows[0]["success"])
     assert "event" not in rows[0]

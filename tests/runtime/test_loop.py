@@ -21,14 +21,14 @@ import numpy as np
 import pytest
 
 from otgym.runtime.loop import DeviceBinding, InteractiveLoop
-from otgym.runtime.task import CARRY, DONE
 from otgym.runtime.trials import TASK_RETARGET
+from otgym.task.task import CARRY, DONE
 from otgym.teleop.device import Device, DeviceCaps, DeviceError, Sample
 from otgym.teleop.feedback import FeedbackConfig, newtons_per_pn_for
 from otgym.teleop.replay import ReplayDevice, record_samples
 from otgym.teleop.retarget import RetargetConfig, device_to_chip
 from otgym.teleop.servo import SIMULATED_HAPTIC_CAPS, ServoDevice, SimulatedHapticBackend, SteadyHand
-from tests.runtime import fast_scenario, shared_task
+from tests.task import fast_scenario, shared_task
 
 TAU_UM_PER_MM = TASK_RETARGET.motion_scale_um_per_mm
 SENSOR_POSITION_BOUND_UM = 0.020

@@ -16,7 +16,7 @@ import threading
 import time
 from pathlib import Path
 
-from otgym.runtime.worker import LatestBytes
+from otgym.runtime.latest_bytes import LatestBytes
 
 ROOT = Path(__file__).resolve().parents[2]
 READS = 500

@@ -10,11 +10,11 @@ from scipy import ndimage
 from otgym.envs.presets import PRESETS
 from otgym.physics.bodies import two_handle_robot
 from otgym.physics.traps import TRAP_LAWS, TrapLaw
-from otgym.runtime.task import interactive_scene
 from otgym.sim.locate import kept_median, sample
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.scene import SceneConfig
 from otgym.sim.sensor import VisionForceSensor, sensor_errors, trap_force_pn
+from otgym.task.task import interactive_scene
 
 FRAMES = 1000
 FOV_PX = (140, 140)

@@ -71,3 +71,24 @@ def test_open_simulated_gives_a_servo_stylus_that_follows_its_hand():
     assert later.finite and later.sequence > first.sequence
     moved = later.position_mm - first.position_mm
     assert moved[0] > 1.0 and abs(moved[1]) < 0.1 * moved[0], moved
+
+
+def test_every_driver_name_resolves_to_its_class_or_factory():
+    """The name -> "module:callable" table names callables that exist (a typo in a
+    module or class name fails here, not when a user first asks for that device)."""
+    from otgym.teleop.device import DRIVERS, driver
+    from otgym.teleop.pygame_devices import GamepadDevice, KeyboardMouseDevice
+    from otgym.teleop.replay import ReplayDevice
+    from otgym.teleop.servo import simulated_haptic_device
+    from otgym.teleop.touch import TouchDevice
+
+    expected = {
+        "keyboard": KeyboardMouseDevice,
+        "gamepad": GamepadDevice,
+        "touch": TouchDevice,
+        "simulated": simulated_haptic_device,
+        "replay": ReplayDevice,
+    }
+    assert set(DRIVERS) == set(DEVICE_NAMES) == set(expected)
+    for name, made in expected.items():
+        assert driver(name) is made, name

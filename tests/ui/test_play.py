@@ -28,7 +28,7 @@ from otgym.teleop.device import Device, DeviceCaps, Sample  # noqa: E402
 from otgym.ui.app import PlayApp  # noqa: E402
 from otgym.ui.bindings import play_bindings  # noqa: E402
 from otgym.ui.views import ROUTE_RGB  # noqa: E402
-from tests.runtime import shared_task  # noqa: E402
+from tests.task import shared_task  # noqa: E402
 
 
 class SpyStylus(Device):
@@ -265,7 +265,7 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
         (["--chip", "no_such_chip"], "no chip file"),
         (["--device", "gamepad"], "no gamepad"),  # none plugged in on a test machine
         (["--navigator", "mpc"], "needs --distributed"),
-        (["--navigator", "oracle"], "--navigator must be route or mpc"),
+        (["--navigator", "oracle"], "--navigator must be one of route, mpc"),
     ],
 )
 def test_cli_refuses_bad_arguments_with_one_line_and_writes_nothing(tmp_path, capsys, arguments, message):

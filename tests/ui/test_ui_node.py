@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from otgym.bus import messages as msg
+from otgym.bus import task_messages
 from otgym.bus.transport import Node
 from otgym.ui import cues
 
@@ -33,7 +34,7 @@ def wait_until(condition, timeout_s: float = 60.0, poll_s: float = 0.005) -> Non
 
 def publish_tick(sim, loop, record) -> None:
     """One tick's messages, as the sim publishes them."""
-    for topic, data in msg.tick_messages(record, [], loop.sphere_xy_um(), mode="shared", stamp_s=time.time()):
+    for topic, data in task_messages.tick_messages(record, [], loop.sphere_xy_um(), mode="shared", stamp_s=time.time()):
         sim.publish(topic, data)
 
 
@@ -52,9 +53,9 @@ def publish_until(publish, condition, every_s: float = 0.5, timeout_s: float = 6
 
 @pytest.fixture(scope="module")
 def layout_and_loop():
-    from otgym.runtime.layout import layout_of
     from otgym.runtime.loop import InteractiveLoop
-    from tests.runtime import fast_scenario, shared_task
+    from otgym.task.layout import layout_of
+    from tests.task import fast_scenario, shared_task
 
     task = shared_task()
     loop = InteractiveLoop(task, [], fast_scenario(7), "shared")

@@ -1,1 +1,0 @@
-"""Control layer: turning plans and policies into trap commands."""

@@ -1,0 +1,330 @@
+"""Simulated participants: a closed-loop model of a person driving the interactive task
+with two haptic styluses (bimanual: hand 0 moves robot A's traps, hand 1 robot B's),
+vectorised over E environments. The hand itself is ``otgym.human.motor``'s motor model
+(reaction delay, intermittent sub-movements with Fitts timing, neuromuscular lag,
+speed-dependent noise, tremor, yielding to the stylus force); this module is the task
+level: where the person wants each robot to be when a sub-movement ends. Parameters:
+``otgym.human.participant_task.ParticipantTask``; obstacle avoidance:
+``otgym.human.avoidance``.
+
+Perception. The person sees the scene one reaction time late and knows what they have
+commanded since (an efference copy: the motor system predicts the current state from the
+delayed one and its own commands, a Smith predictor; Miall, Weir, Wolpert & Stein, J.
+Motor Behav. 25, 203, 1993): the traps' commanded motion since what is seen, plus the
+planned motion still on its way through the arm's lag and the input filter (forgotten
+over ``pending_memory_s``: motion the retargeting's dead band swallowed never arrives).
+Each sub-movement is a reach to a place, re-planned at the next correction.
+
+Places, per phase:
+
+* Grip places: each robot's traps as in the formation, at the robots' present
+  orientation (a hand translates its traps and cannot turn its robot), around the cell
+  while gripping and around the centre the robots' traps imply once it is held
+  (docs/decisions/0001-participant-grip-orientation.md).
+* APPROACH: align, then close: the robots are held ``open_gap_um`` out from their places
+  around the free cell (where it will be: its drift over a glimpse, extrapolated over the
+  delay and the movement) until the cell sits within ``align_tolerance_um`` of the
+  formation's centre along the notches (twice that to open again); closing on a
+  misaligned cell pinches it. The last ``close_guard_um`` of a close at most
+  ``close_speed_um_s`` (docs/decisions/0003-participant-careful-closing.md).
+* A gripped cell seen more than ``seat_tolerance_um`` off-centre along the notches is let
+  go and gripped again.
+* Walls: each robot's handles kept ``wall_clearance_um`` from the walls, a place closer
+  moved out along the wall's normal: one robot while approaching, the whole formation
+  while carrying (docs/decisions/0002-participant-wall-clearance.md).
+* CARRY: the places move along the route at the intended assembly speed,
+  ``carry_speed_um_s`` in manual mode, or the velocity ``choose_velocity`` picks when an
+  obstacle threatens.
+* Shared mode: the hand rests while the cue shows alpha below ``fine_tune_alpha``, then
+  commands dP_h = (dP_want - (1 - alpha) dP_r) / alpha within the trap-speed clamp, at
+  the autonomy's pace at most its cruise speed
+  (docs/decisions/0005-participant-shared-mode-effort.md).
+
+Stylus units: chip um -> stylus mm through the retargeting scale (tau) and plane; the
+hands feel the feedback force (``otgym.teleop.feedback.chip_force_n`` on the trap forces
+of their robot's handles) and yield to it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from otgym.human.avoidance import choose_velocity, unit
+from otgym.human.motor import HumanMotor
+from otgym.human.params import HumanParams
+from otgym.human.participant_task import ParticipantTask
+from otgym.task.geometry import rotate
+from otgym.task.task import APPROACH, CARRY
+from otgym.teleop.feedback import FeedbackConfig, chip_force_n
+from otgym.teleop.retarget import BatchRetargeter, RetargetConfig
+
+N_HANDS = 2
+
+
+def robots_heading(traps_um, offsets_um, trap_robot):
+    """(E,) the formation heading the robots' present orientations show: each robot's
+    turn is that of the line between its own two traps (E, T, 2) against the same line in
+    the formation's ``offsets_um`` (T, 2); their circular mean (not the line between the
+    robots, which tilts with any shear between them: docs/decisions/0001)."""
+    turns = []
+    for robot in range(N_HANDS):
+        first, second = np.flatnonzero(np.asarray(trap_robot) == robot)[:2]
+        now = traps_um[:, second] - traps_um[:, first]
+        reference = offsets_um[second] - offsets_um[first]
+        turns.append(np.arctan2(now[:, 1], now[:, 0]) - np.arctan2(reference[1], reference[0]))
+    turns = np.stack(turns, axis=1)
+    return np.arctan2(np.sin(turns).sum(axis=1), np.cos(turns).sum(axis=1))
+
+
+class SimulatedParticipants:
+    """E simulated participants (one per environment), each with two hands.
+
+    Per tick: ``intend(obs, ...)`` gives the hands' trap increments dP_h, then
+    ``moved(dP_s, human_weight)`` tells the participants what the traps were commanded
+    to do (for their efference copy; ``human_weight`` (E,) is tau * alpha, the share of
+    dP_h in dP_s) and ``feel(obs, ...)`` what their hands feel next."""
+
+    def __init__(
+        self,
+        params: list[HumanParams],
+        tick_s: float,
+        seed: int,
+        navigator,
+        retarget: RetargetConfig,
+        feedback: FeedbackConfig,
+        bend_distance_um: float,
+        task: ParticipantTask = ParticipantTask(),
+        wall_distance_um=None,
+    ):
+        self.n_env = len(params)
+        self.wall_distance_um = wall_distance_um
+        """``(n, 2) um -> (n,)`` distance to the chip's walls, or None (no walls)."""
+        self.tick_s = tick_s
+        self.navigator = navigator
+        self.task = task
+        self.retarget_config = retarget
+        self.feedback_config = feedback
+        self.bend_distance_um = bend_distance_um
+        hands = [p for p in params for _ in range(N_HANDS)]
+        self.motor = HumanMotor(
+            hands, 1.0 / tick_s, np.random.default_rng(seed), hands_per_person=N_HANDS if task.bimanual else 1
+        )
+        self.retargeter = BatchRetargeter(retarget, 1.0 / tick_s, self.n_env * N_HANDS)
+        self.delay_s = self.motor.delay_ticks[::N_HANDS] * tick_s
+        self._glimpses = max(1, int(round(task.glimpse_s / tick_s)))
+        self._history: list[np.ndarray] = []
+        self._moved_um: np.ndarray | None = None
+        self._unexecuted_um = np.zeros((self.n_env, N_HANDS, 2))
+        self._pending_um = np.zeros((self.n_env, N_HANDS, 2))
+        self._pending_keep = float(np.exp(-tick_s / task.pending_memory_s))
+        self.feedback_n = np.zeros((self.n_env, N_HANDS, 2))
+        self.closing = np.zeros(self.n_env, bool)
+
+    def _grip_places(self, cell_now, traps_now, phase, trap_robot):
+        """Each trap's place (E, T, 2): around the cell at the robots' present orientation,
+        closed or held open (module docstring); updates ``closing``."""
+        task = self.task
+        offsets = np.asarray(self.navigator.offsets_um, float)
+        heading = robots_heading(traps_now, offsets, trap_robot)
+        centre = (traps_now - rotate(offsets[None], heading)).mean(axis=1)  # the formation centre the traps imply
+        along = np.abs(np.sum((cell_now - centre) * np.stack([np.cos(heading), np.sin(heading)], axis=-1), axis=-1))
+        approach = phase == APPROACH
+        closing = np.where(
+            approach, along < np.where(self.closing, 2.0, 1.0) * task.align_tolerance_um, along < task.seat_tolerance_um
+        )
+        self.closing = closing
+        side = np.sign(np.array([offsets[trap_robot == r, 1].mean() for r in range(N_HANDS)]))[trap_robot]  # (T,)
+        opened = offsets + np.where(closing[:, None, None], 0.0, task.open_gap_um * side[None, :, None] * [0.0, 1.0])
+        about = np.where(((phase == CARRY) & closing)[:, None], centre, cell_now)
+        return about[:, None] + rotate(opened, heading)
+
+    def _guard_closing(self, reach_um, want, duration, traps_now, places, phase, trap_robot):
+        """While approaching, each hand closes its robot on the cell (moves it toward the
+        other robot, beyond the cell's own drift ``want`` (E, 2)) fast only while it is
+        more than ``close_guard_um`` from its grip place (``places`` (E, T, 2)); the last
+        ``close_guard_um`` at most ``close_speed_um_s``: the careful end of a grip."""
+        robots = np.stack([traps_now[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        goals = np.stack([places[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        across = unit(robots[:, 1] - robots[:, 0])  # closing is along the line between the robots
+        inward = np.stack([across, -across], axis=1)  # (E, hands, 2)
+        needed = np.sum((goals - robots) * inward, axis=-1)
+        allowed = np.maximum(self.task.close_speed_um_s * duration, needed - self.task.close_guard_um)
+        closing = np.sum((reach_um - want[:, None] * duration[..., None]) * inward, axis=-1)
+        excess = np.where((phase == APPROACH)[:, None], np.maximum(closing - allowed, 0.0), 0.0)
+        return reach_um - excess[..., None] * inward
+
+    def _off_walls(self, places, carried, trap_robot, step_um: float = 0.1):
+        """``places`` (E, T, 2) with each robot's moved out along the wall normal until
+        its handles are ``wall_clearance_um`` from the walls; for ``carried`` (E,)
+        environments every robot moves by the robots' summed shift."""
+        if self.wall_distance_um is None:
+            return places
+        flat = places.reshape(-1, 2)
+        probes = np.concatenate([flat, flat + [step_um, 0.0], flat + [0.0, step_um]])
+        distance = np.asarray(self.wall_distance_um(probes), float).reshape(3, *places.shape[:2])
+        normal = unit(np.stack([distance[1] - distance[0], distance[2] - distance[0]], axis=-1))
+        short = np.maximum(self.task.wall_clearance_um - distance[0], 0.0)  # (E, T)
+        shift = np.zeros_like(places)
+        for r in range(N_HANDS):
+            mine = trap_robot == r
+            worst = np.argmax(short[:, mine], axis=1)
+            rows = np.arange(len(places))
+            shift[:, mine] = (short[:, mine][rows, worst, None] * normal[:, mine][rows, worst])[:, None]
+        common = np.stack([shift[:, trap_robot == r][:, 0] for r in range(N_HANDS)], axis=1).sum(axis=1)
+        return places + np.where(carried[:, None, None], common[:, None], shift)
+
+    def _side_room_um(self, traps_um, route_direction, max_um: float):
+        """(E, 2) how far the formation of traps (E, T, 2) can move to the left and to the
+        right of ``route_direction`` (E, 2), in steps of ``side_step_resolution_um``, up to
+        ``max_um``, before a handle comes ``wall_clearance_um`` from a wall (or closer than
+        it is now); None without walls."""
+        if self.wall_distance_um is None:
+            return None
+        task = self.task
+        steps_um = np.arange(0.0, max_um + task.side_step_resolution_um, task.side_step_resolution_um)  # (S,)
+        left = np.stack([-route_direction[:, 1], route_direction[:, 0]], axis=-1)
+        sides = np.stack([left, -left], axis=1)  # (E, 2, 2)
+        probes = traps_um[:, None, None] + steps_um[None, None, :, None, None] * sides[:, :, None, None]
+        distance = np.asarray(self.wall_distance_um(probes.reshape(-1, 2)), float).reshape(probes.shape[:-1])
+        limit = np.minimum(task.wall_clearance_um, distance[:, :, :1])  # (E, 2, 1, T): now or the clearance
+        blocked = np.any(distance < limit - 1e-6, axis=-1)  # (E, 2, S)
+        free_steps = np.where(blocked.any(axis=-1), np.argmax(blocked, axis=-1) - 1, len(steps_um) - 1)
+        return steps_um[np.maximum(free_steps, 0)]
+
+    def moved(self, trap_increment_um: np.ndarray, human_weight: np.ndarray, trap_robot) -> None:
+        """The traps' commanded increments (E, T, 2) um this tick, plus the planned hand
+        motion not yet executed (weighted by ``human_weight`` (E,)): the efference copy."""
+        weight = np.asarray(human_weight, float)[:, None, None]
+        self._pending_um = self._pending_um * self._pending_keep + weight * self._unexecuted_um
+        self._moved_um = self._moved_um + np.asarray(trap_increment_um, float)
+
+    def _perceive(self, obs, trap_robot):
+        """What each participant sees now (one reaction time late): cell, traps,
+        obstacles, the cell's arc and phase, their drift over a glimpse, and the trap
+        motion commanded since what is seen."""
+        if self._moved_um is None:
+            self._moved_um = np.zeros_like(obs.trap_xy_um)
+        n_traps, n_obs = obs.trap_xy_um.shape[1], obs.obstacle_xy_um.shape[1]
+        now = np.concatenate(
+            [
+                obs.cell_xy_um,
+                obs.trap_xy_um.reshape(self.n_env, -1),
+                obs.obstacle_xy_um.reshape(self.n_env, -1),
+                obs.cell_arc_um[:, None],
+                obs.phase[:, None].astype(float),
+                self._moved_um.reshape(self.n_env, -1),
+            ],
+            axis=1,
+        )
+        seen = self.motor.perceive(np.repeat(now, N_HANDS, axis=0))[::N_HANDS]
+        self._history.append(seen)
+        if len(self._history) > self._glimpses + 1:
+            self._history.pop(0)
+        split = np.cumsum([2, 2 * n_traps, 2 * n_obs, 1, 1])
+        cell, traps, obstacles, arc, phase, moved = np.split(seen, split, axis=1)
+        earlier = np.split(self._history[0], split, axis=1)
+        elapsed = max(len(self._history) - 1, 1) * self.tick_s
+        obstacles = obstacles.reshape(self.n_env, n_obs, 2)
+        velocity = (obstacles - earlier[2].reshape(self.n_env, n_obs, 2)) / elapsed
+        cell_velocity = (cell - earlier[0]) / elapsed
+        since_um = self._moved_um - moved.reshape(self.n_env, n_traps, 2) + self._pending_um[:, trap_robot]
+        return (
+            cell,
+            cell_velocity,
+            traps.reshape(self.n_env, n_traps, 2),
+            obstacles,
+            velocity,
+            arc[:, 0],
+            phase[:, 0].round().astype(int),
+            since_um,
+        )
+
+    def intend(self, obs, mode: np.ndarray, alpha: np.ndarray, robot_increment_um: np.ndarray, trap_robot):
+        """Plan the hands' sub-movements (those due) and return dP_h (E, 2 hands, 2) um for this tick."""
+        task = self.task
+        cell, cell_velocity, traps, obstacles, velocity, arc, phase, since_um = self._perceive(obs, trap_robot)
+        delay = self.delay_s[:, None]
+        carrying = (phase == CARRY)[:, None]
+        traps_now = traps + since_um
+        cell_now = np.where(carrying, cell + since_um.mean(axis=1), cell + cell_velocity * delay)
+        obstacles_now = obstacles + velocity * delay[:, :, None]
+        route_direction = unit(self.navigator.route_point_at(arc + task.lookahead_um) - cell_now)
+        autonomy_um_s = robot_increment_um / self.tick_s  # (E, T, 2)
+        shared = mode == "shared"
+        pace = np.where(
+            shared,
+            np.minimum(np.linalg.norm(autonomy_um_s.mean(axis=1), axis=-1), self.navigator.cruise_speed_um_s),
+            task.carry_speed_um_s,
+        )
+        want = np.where(
+            carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH, cell_velocity, 0.0)
+        )
+        room = self._side_room_um(traps_now, route_direction, float(pace.max()) * task.horizon_s)
+        chosen, _ = choose_velocity(cell_now, obstacles_now, velocity, want, route_direction, task, room)
+        want = np.where(carrying, chosen, want)
+        places = self._grip_places(cell_now, traps_now, phase, trap_robot)
+        error = np.stack([(places - traps_now)[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        if not task.bimanual:  # one hand moves the formation: only the common part of the correction
+            error = np.repeat(error.mean(axis=1, keepdims=True), N_HANDS, axis=1)
+        scale = self.retarget_config.motion_scale_um_per_mm
+        limit_mm_s = self.retarget_config.max_trap_speed_um_s / scale
+        tolerance_mm = task.grip_tolerance_um / scale
+        duration = self.motor.submovement_duration_s(
+            np.linalg.norm(error, axis=-1).ravel() / scale, tolerance_mm, limit_mm_s
+        ).reshape(self.n_env, N_HANDS)
+        # where the hands go in this sub-movement: the places where they will be when it
+        # ends, kept off the walls
+        ahead = places + want[:, None] * duration[:, trap_robot, None]  # (E, T, 2)
+        off_wall = self._off_walls(ahead, (phase == CARRY) & self.closing, trap_robot) - ahead
+
+        def per_hand(traps):
+            return np.stack([traps[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+
+        reach_um = per_hand(ahead - traps_now)
+        duration = self.motor.submovement_duration_s(
+            np.linalg.norm(reach_um + per_hand(off_wall), axis=-1).ravel() / scale, tolerance_mm, limit_mm_s
+        ).reshape(self.n_env, N_HANDS)
+        reach_um = self._guard_closing(reach_um, want, duration, traps_now, places, phase, trap_robot)
+        reach_um = reach_um + per_hand(off_wall)  # a wall is escaped at once, not closed on carefully
+        if not task.bimanual:
+            reach_um = np.repeat(reach_um.mean(axis=1, keepdims=True), N_HANDS, axis=1)
+        hand_um_s = reach_um / duration[..., None]
+        robot_hand = np.stack([autonomy_um_s[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
+        safe_alpha = np.maximum(alpha, 1e-3)[:, None, None]
+        override = (hand_um_s - (1 - safe_alpha) * robot_hand) / safe_alpha
+        cue = carrying[:, 0] & (alpha >= task.fine_tune_alpha)
+        hand_um_s = np.where(shared[:, None, None], np.where(cue[:, None, None], override, 0.0), hand_um_s)
+        planar_mm_s = (hand_um_s * np.array([1.0, -1.0]) / scale).reshape(-1, 2)  # chip -> stylus x, y
+        speed_mm_s = np.maximum(np.linalg.norm(planar_mm_s, axis=-1), 1e-6)
+        self.motor.plan(
+            planar_mm_s * duration.reshape(-1, 1), tolerance_mm, np.minimum(speed_mm_s * 1.0001, limit_mm_s)
+        )
+        planned_um = (self.motor.command_mm_s * np.array([1.0, -1.0]) * scale * self.tick_s).reshape(
+            self.n_env, N_HANDS, 2
+        )
+        stylus = self.motor.step(self.feedback_n.reshape(-1, 2) * np.array([1.0, -1.0]))
+        increments = self.retargeter(stylus).reshape(self.n_env, N_HANDS, 2)
+        if not task.bimanual:
+            increments, planned_um = (np.repeat(a[:, :1], N_HANDS, axis=1) for a in (increments, planned_um))
+        self._unexecuted_um = planned_um - increments
+        return increments
+
+    def feel(self, obs, trap_force_pn: np.ndarray, trap_robot):
+        """The stylus force each hand feels next tick, from its robot's handle forces (E, T, 2)."""
+        offsets = obs.trap_xy_um - obs.handle_xy_um
+        valid = np.ones(offsets.shape[:2], bool)
+        forces = [
+            chip_force_n(
+                trap_force_pn[:, trap_robot == r],
+                offsets[:, trap_robot == r],
+                obs.contact_force_pn[:, r],
+                valid[:, trap_robot == r],
+                self.feedback_config,
+                self.bend_distance_um,
+            )
+            for r in range(N_HANDS)
+        ]
+        force = np.stack(forces, axis=1)
+        norm = np.linalg.norm(force, axis=-1, keepdims=True)
+        limit = self.feedback_config.force_limit_n
+        self.feedback_n = force * np.minimum(1.0, limit / np.maximum(norm, 1e-300))
