@@ -10,11 +10,11 @@ import typer
 from typer import Abort
 
 try:  # typer 0.2x carries its own copy of click
-    from typer._click.exceptions import ClickException, NoArgsIsHelpError
+    from typer._click.exceptions import BadParameter, ClickException, NoArgsIsHelpError
 except ImportError:  # older typer runs on click itself
-    from click.exceptions import ClickException, NoArgsIsHelpError
+    from click.exceptions import BadParameter, ClickException, NoArgsIsHelpError
 
-from otgym.cli.errors import USER_ERRORS
+from otgym.cli.errors import USER_ERRORS, bad_parameter_line
 
 app = typer.Typer(
     name="otgym",
@@ -70,6 +70,8 @@ def main(argv: list[str] | None = None) -> None:
     except NoArgsIsHelpError as error:  # ``otgym`` or ``otgym chip`` alone: the help
         print(error.format_message())
         sys.exit(0)
+    except BadParameter as error:
+        _fail(bad_parameter_line(error))
     except ClickException as error:
         _fail(error.format_message())
     except Abort:
@@ -88,7 +90,7 @@ def _use_persistent_jax_cache() -> None:
     import os
 
     if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
-        from otgym.sim.cache import cache_dir
+        from otgym.sim.cache_dir import cache_dir
 
         os.environ["JAX_COMPILATION_CACHE_DIR"] = str(cache_dir() / "jax")
     os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")

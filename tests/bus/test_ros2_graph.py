@@ -375,7 +375,7 @@ def test_a_ros2_publisher_of_another_type_or_qos_is_reported_once():
     [
         (["sim", "--namespace", "/1rig"], {}, "namespace"),
         (["device", "--device", "twist", "--twist-topic", "cmd vel"], {}, "topic name"),
-        (["foxglove", "--port", "70000"], {}, "--port must lie in 0..65535"),
+        (["foxglove", "--port", "70000"], {}, "--port must lie in [0, 65535], not 70000"),
         (["recorder", "--out", "x"], {"ROS_DOMAIN_ID": "999"}, "ROS_DOMAIN_ID"),
     ],
 )

@@ -42,7 +42,7 @@ def _fails(argv, capsys) -> str:
 
 def test_bad_input_is_one_line_and_exit_code_2(tmp_path, capsys):
     out = tmp_path / "out"
-    assert "missing' does not exist" in _fails([str(tmp_path / "missing"), "--out", str(out)], capsys)
+    assert "missing does not exist" in _fails([str(tmp_path / "missing"), "--out", str(out)], capsys)
     assert not out.exists()
     (tmp_path / "empty").mkdir()
     assert "has no trials.csv" in _fails([str(tmp_path / "empty"), "--out", str(out)], capsys)

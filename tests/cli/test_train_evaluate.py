@@ -61,8 +61,8 @@ def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params):
         (["evaluate", "--policy", "."], ". is a folder; give a policy file"),
         (["evaluate", "--policy", "pretrained", "--episodes", "0"], "--episodes"),
         (["evaluate", "--policy", "pretrained", "--repeats", "0"], "--repeats"),
-        (["train", "--preset", "fast"], "unknown preset"),
-        (["train", "--steps", "0"], "total_env_steps"),
+        (["train", "--preset", "fast"], "--preset must be one of paper, realistic, not 'fast'"),
+        (["train", "--steps", "0"], "--steps must lie in [1, "),
     ],
 )
 def test_bad_input_is_one_line(tmp_path, capsys, arguments, message):

@@ -44,7 +44,7 @@ def test_bare_png_needs_a_pixel_size(tmp_path, capsys):
     "argv, message",
     [
         (["chip", "show", "no_such_chip", "--out", "x"], "no_such_chip"),
-        (["chip", "show", "default", "--pixel-size-um", "-1", "--out", "x"], "pixel_size_um"),
+        (["chip", "show", "default", "--pixel-size-um", "-1", "--out", "x"], "--pixel-size-um must lie in"),
     ],
 )
 def test_user_errors_are_one_line(argv, message, capsys):

@@ -79,7 +79,7 @@ def test_a_ros2_teleop_twist_on_cmd_vel_moves_the_robot_and_silence_holds_the_tr
     from otgym.runtime.loop import DeviceBinding, InteractiveLoop
     from tests.bus.test_nodes import free_endpoint, wait_until
     from tests.bus.test_ros2_graph import peer_session
-    from tests.runtime import fast_scenario, shared_task
+    from tests.task import fast_scenario, shared_task
 
     task = shared_task()
     endpoint = free_endpoint()

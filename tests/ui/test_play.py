@@ -260,12 +260,12 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     "arguments, message",
     [
         (["--device", "joystick"], "unknown device 'joystick'"),
-        (["--mode", "telepathic"], "unknown mode 'telepathic'"),
+        (["--mode", "telepathic"], "--mode must be one of manual, shared, autonomous, not 'telepathic'"),
         (["--device", "touch"], "Geomagic Touch"),
         (["--chip", "no_such_chip"], "no chip file"),
         (["--device", "gamepad"], "no gamepad"),  # none plugged in on a test machine
         (["--navigator", "mpc"], "needs --distributed"),
-        (["--navigator", "oracle"], "--navigator must be one of route, mpc"),
+        (["--navigator", "oracle"], "--navigator must be one of route, mpc, not 'oracle'"),
     ],
 )
 def test_cli_refuses_bad_arguments_with_one_line_and_writes_nothing(tmp_path, capsys, arguments, message):
