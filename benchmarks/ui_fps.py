@@ -78,7 +78,8 @@ def main():
 
     from otgym.runtime.session import Session
     from otgym.runtime.worker import SessionProcess, WorkerSpec
-    from otgym.ui.app import WINDOW_SIZE, PlayApp
+    from otgym.ui.app import PlayApp
+    from otgym.ui.palette import WINDOW_SIZE
     from otgym.ui.play_worker import play_setup
 
     pygame.display.init()

@@ -206,11 +206,14 @@ def serve_sim_node(
     participant: str = "P1",
     hold_between_trials: bool = False,
     on_ready: Callable[[], None] | None = None,
+    on_status: Callable[[str], None] | None = None,
 ) -> dict:
     """The sim node with its session in a worker process (see the module's docstring),
     until ``stop`` is set, a ``quit`` command, the duration spent, or the worker fails
     (``WorkerError``); returns the worker's counts (ticks, late_ticks, trials).
-    ``on_ready`` is called once the session runs and the node listens to its devices."""
+    ``on_status(text)`` hears what the worker is doing while it starts (building the
+    task, compiling); ``on_ready`` is called once the session runs its ticks and the node
+    listens to its devices."""
     names, plan = device_plan(devices, takeover)
     remotes = [RemoteDevice(node, name, answer_twists=True) for name in names]
     spec = WorkerSpec(
@@ -229,7 +232,9 @@ def serve_sim_node(
         for topic, data in messages:
             node.publish(topic, data)
 
-    session = SessionProcess(spec, on_publish=publish, on_force=lambda i, force: remotes[i].set_force(force))
+    session = SessionProcess(
+        spec, on_publish=publish, on_force=lambda i, force: remotes[i].set_force(force), on_status=on_status
+    )
     session.start()
     events_stop = threading.Event()
     failure: list[BaseException] = []

@@ -187,6 +187,7 @@ def sim(
                 participant=participant,
                 hold_between_trials=hold,
                 on_ready=ready,
+                on_status=lambda text: print(f"sim: {text} ...", flush=True),
             )
         except DeviceError as error:
             raise ValueError(str(error)) from None

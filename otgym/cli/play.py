@@ -51,7 +51,7 @@ def register(app: typer.Typer) -> None:
 
         Example: otgym play --device keyboard --mode shared --out results/play
         """
-        from otgym.ui.bindings import check_device_name
+        from otgym.ui.device_names import check_device_name
 
         checks.check_mode(mode)
         check_device_name(device)
@@ -77,7 +77,7 @@ def register(app: typer.Typer) -> None:
 
 
 def _check_device(value: str) -> str:
-    from otgym.ui.bindings import check_device_name  # the window's module: imported when asked
+    from otgym.ui.device_names import check_device_name
 
     try:
         return check_device_name(value)
@@ -103,39 +103,47 @@ def run_play(
     screenshot: Path | None,
     out: Path,
 ) -> None:
-    """The window in this process, the session in its own (``otgym.runtime.worker``)."""
+    """The window in this process, the session in its own (``otgym.runtime.worker``).
+    The window opens first, before the simulator is imported, and shows what the
+    session's process is doing until it runs (``otgym.ui.startup``)."""
     import functools
 
-    from otgym.cli.errors import report_worker_error
+    import pygame
+
     from otgym.experiments.output_folder import check_out_dir
-    from otgym.record.mcap_file import session_path
-    from otgym.runtime.worker import SessionProcess, WorkerError, WorkerSpec
     from otgym.sim.chip import load_chip
-    from otgym.teleop.device import DeviceError, start_devices
-    from otgym.ui.bindings import robot_primaries, window_devices
-    from otgym.ui.play_worker import play_setup
+    from otgym.ui.palette import WINDOW_SIZE, fonts
+    from otgym.ui.startup import StartupAborted, StartupStatus, draw_startup, wait_in_window
 
     chip_data = load_chip(chip)
-    try:
-        windowed = window_devices(device)
-        robot_primaries(device, windowed)  # the Touch fails here at once without its runtime
-    except DeviceError as error:
-        raise ValueError(str(error)) from None
     _check_screenshot_folder(screenshot, out)
     created_out = not out.exists()
     check_out_dir(out)
-    import pygame
-
-    from otgym.ui.app import PlayApp
 
     def remove_empty_out() -> None:
         if created_out and out.is_dir() and not any(out.iterdir()):
             out.rmdir()
 
+    title = f"otgym play: chip {chip_data.name!r}, {mode}, participant {participant}"
     pygame.display.init()  # no audio: nothing plays sound
     pygame.font.init()
+    screen = pygame.display.set_mode(WINDOW_SIZE)
+    pygame.display.set_caption("otgym play")
+    status = StartupStatus("loading the simulator")
+    draw_startup(screen, fonts(), title, status.text, 0.0)
+    windowed = []
     try:
+        from otgym.cli.errors import report_worker_error
+        from otgym.record.mcap_file import session_path
+        from otgym.runtime.worker import SessionProcess, WorkerError, WorkerSpec
+        from otgym.teleop.device import DeviceError, start_devices
+        from otgym.ui.app import PlayApp
+        from otgym.ui.bindings import robot_primaries, window_devices
+        from otgym.ui.play_worker import play_setup
+
         try:
+            windowed = window_devices(device)
+            robot_primaries(device, windowed)  # the Touch fails here at once without its runtime
             start_devices(windowed)  # e.g. no gamepad plugged in: nothing written
         except DeviceError as error:
             remove_empty_out()
@@ -149,15 +157,20 @@ def run_play(
             duration_s,
             forwarded_caps=tuple(d.caps for d in windowed),
         )
-        session = SessionProcess(spec)
+        session = SessionProcess(spec, on_status=status.set)
+        status.set("starting the simulation process")
         print(f"starting the simulation on chip {chip_data.name!r} in its own process ...", flush=True)
         try:
-            session.start()
+            wait_in_window(screen, session.start, title, status)
         except DeviceError as error:  # a Touch that would not open: the worker left no recording behind
             remove_empty_out()
             raise ValueError(str(error)) from None
+        except StartupAborted:
+            session.finish()
+            print("closed before the simulation was ready; nothing recorded", flush=True)
+            return
         try:
-            app = PlayApp(session, out, window_devices=windowed, questionnaire=questionnaire)
+            app = PlayApp(session, out, window_devices=windowed, questionnaire=questionnaire, screen=screen)
             app.run()
             if screenshot is not None:
                 app.save_screenshot(screenshot)
@@ -189,7 +202,7 @@ def node_plan(device: str, endpoint: str) -> tuple[list[tuple[str, list[str]]], 
     whose feedback it shows. The keyboard and the gamepad are the window's own (sent as
     ui0, ui1); the simulated stylus and the Touches are device nodes, which the
     window's mouse takes over while it drags."""
-    from otgym.ui.bindings import TOUCH_NAMES
+    from otgym.ui.device_names import TOUCH_NAMES
 
     connect = ["--connect", endpoint]
     if device in ("keyboard", "gamepad"):

@@ -9,64 +9,53 @@ Quick use::
     state, report = jax.jit(ph.control_step)(model, state, ph.Controls.zeros(model), key)
 """
 
-from otgym.physics.adhesion import MATERIALS, Adhesion
-from otgym.physics.bodies import (
-    ROBOT_DESIGNS,
-    TWO_HANDLE_GRIPPER_SPHERES,
-    BodyKind,
-    BodySpec,
-    bead,
-    cell,
-    custom_body,
-    four_arm_robot,
-    obstacle,
-    two_handle_robot,
-)
-from otgym.physics.calibration import simulate_trapped_bead
-from otgym.physics.fields import NoWalls, UniformFlow
-from otgym.physics.hydrodynamics import resistance_matrix
-from otgym.physics.integrator import Controls, StepReport, control_step, control_step_batch, rollout
-from otgym.physics.model import (
-    Model,
-    PhysicsConfig,
-    PhysicsState,
-    build_model,
-    drag_force_pn,
-    initial_state,
-    max_stable_dt_s,
-    sphere_positions_um,
-)
-from otgym.physics.traps import TrapLaw
+import importlib
 
-__all__ = [
-    "MATERIALS",
-    "Adhesion",
-    "ROBOT_DESIGNS",
-    "TWO_HANDLE_GRIPPER_SPHERES",
-    "BodyKind",
-    "BodySpec",
-    "bead",
-    "cell",
-    "custom_body",
-    "four_arm_robot",
-    "obstacle",
-    "two_handle_robot",
-    "simulate_trapped_bead",
-    "NoWalls",
-    "UniformFlow",
-    "resistance_matrix",
-    "Controls",
-    "StepReport",
-    "control_step",
-    "control_step_batch",
-    "rollout",
-    "Model",
-    "PhysicsConfig",
-    "PhysicsState",
-    "build_model",
-    "drag_force_pn",
-    "initial_state",
-    "max_stable_dt_s",
-    "sphere_positions_um",
-    "TrapLaw",
-]
+_EXPORTS = {
+    "MATERIALS": "adhesion",
+    "Adhesion": "adhesion",
+    "ROBOT_DESIGNS": "bodies",
+    "TWO_HANDLE_GRIPPER_SPHERES": "bodies",
+    "BodyKind": "bodies",
+    "BodySpec": "bodies",
+    "bead": "bodies",
+    "cell": "bodies",
+    "custom_body": "bodies",
+    "four_arm_robot": "bodies",
+    "obstacle": "bodies",
+    "two_handle_robot": "bodies",
+    "simulate_trapped_bead": "calibration",
+    "NoWalls": "fields",
+    "UniformFlow": "fields",
+    "resistance_matrix": "hydrodynamics",
+    "Controls": "integrator",
+    "StepReport": "integrator",
+    "control_step": "integrator",
+    "control_step_batch": "integrator",
+    "rollout": "integrator",
+    "Model": "model",
+    "PhysicsConfig": "model",
+    "PhysicsState": "model",
+    "build_model": "model",
+    "drag_force_pn": "model",
+    "initial_state": "model",
+    "max_stable_dt_s": "model",
+    "sphere_positions_um": "model",
+    "TrapLaw": "traps",
+}
+"""Each public name and the submodule that defines it: loaded on first use (PEP 562), so
+that a light user (``physics.validation``, ``physics.constants``) does not import JAX."""
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f"otgym.physics.{_EXPORTS[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'otgym.physics' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_EXPORTS])

@@ -22,7 +22,8 @@ Channels:
   of its own (``feed``): a device that sends 1000 samples a second costs the worker
   nothing until it reads the latest before a tick, and a worker busy for a moment
   (a trial's start) never blocks the sender;
-- worker -> parent, a pipe of events: ``ready`` (what the parent asked to know:
+- worker -> parent, a pipe of events: ``status`` (what it is doing while it starts:
+  building the task, compiling), ``ready`` (what the parent asked to know:
   the task's layout, the devices' force limits), ``finished`` (a trial's row),
   ``over``, ``publish`` (whatever the sink sends: the sim node's messages), ``force``
   (a forwarded device's feedback), ``error`` and ``closed``;
@@ -57,6 +58,8 @@ from otgym.runtime.latest_bytes import SAMPLE_BYTES, LatestBytes, pack_sample, u
 from otgym.runtime.protocols import SessionCommands, Sink, protocol_methods
 from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 
+STATUS_COMPILING = "compiling the simulation (the first run takes longest: compiled code is cached)"
+"""The worker's status while its session's first tick compiles."""
 SNAPSHOT_BYTES = 1 << 17
 """Room for one pickled snapshot (about 5 kB for the interactive task's 19 spheres)."""
 
@@ -176,6 +179,7 @@ def _worker_main(
 
     parts = session = None
     try:
+        send(("status", "building the task: chip, route, robots and cell"))
         forwarded = [
             ForwardedDevice(caps, on_force=force_sender(i) if spec.forwarded_haptics else None)
             for i, caps in enumerate(spec.forwarded_caps)
@@ -193,6 +197,7 @@ def _worker_main(
             hold_between_trials=spec.hold_between_trials,
             forwarded=tuple(forwarded),
         )
+        send(("status", STATUS_COMPILING))
         session.start()
     except DeviceError as error:
         if parts is not None and parts.on_failure is not None:
@@ -263,7 +268,8 @@ class SessionProcess(SessionCommands):
     shared-memory block; and ``autonomy``, ``autonomy_alive``), take the rows of
     finished trials, ``finish`` it. ``on_publish(payload)`` and ``on_force(index,
     force_n)`` get the worker's ``publish`` and ``force`` events (from ``poll``, or from
-    the thread of ``serve_events``)."""
+    the thread of ``serve_events``); ``on_status(text)`` what the worker is doing while
+    it starts (from ``start``'s thread)."""
 
     def __init__(
         self,
@@ -271,11 +277,12 @@ class SessionProcess(SessionCommands):
         *,
         on_publish: Callable[[Any], None] | None = None,
         on_force: Callable[[int, Any], None] | None = None,
+        on_status: Callable[[str], None] | None = None,
         start_timeout_s: float = 900.0,
     ):
         self.spec = spec
         self.participant = spec.participant
-        self.on_publish, self.on_force = on_publish, on_force
+        self.on_publish, self.on_force, self.on_status = on_publish, on_force, on_status
         self.start_timeout_s = start_timeout_s
         self.layout = None
         self.force_limits_n: list[float] = []
@@ -438,6 +445,9 @@ class SessionProcess(SessionCommands):
         elif kind == "force":
             if self.on_force is not None:
                 self.on_force(message[1], message[2])
+        elif kind == "status":
+            if self.on_status is not None:
+                self.on_status(message[1])
         elif kind == "closed":
             self.stats = message[1]
             self.over = True

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from otgym.sim.cache_dir import cache_dir
 from otgym.sim.chip import Chip
 from otgym.sim.flow import FlowSolution, mid_height_factor, solve_flow
 from otgym.sim.walls import channel_widths_um, signed_distance_um, wall_normals
@@ -36,10 +37,6 @@ class ChipFields:
     def mid_height_factor(self) -> float:
         """Focal-plane (mid-height) over depth-averaged speed, see ``flow``."""
         return mid_height_factor(self.median_width_um, self.flow.channel_height_um)
-
-
-def cache_dir() -> Path:
-    return Path(os.environ.get("OTGYM_CACHE_DIR") or Path.home() / ".cache" / "otgym")
 
 
 def cache_path(chip: Chip) -> Path:

@@ -61,10 +61,10 @@ from otgym.runtime.protocols import SessionControl  # noqa: E402
 from otgym.teleop.device import DeviceError  # noqa: E402
 from otgym.teleop.pygame_devices import KEYBOARD_EVENTS  # noqa: E402
 from otgym.ui import cues, views  # noqa: E402
+from otgym.ui.palette import WINDOW_SIZE  # noqa: E402
 from otgym.ui.records import append_trial  # noqa: E402
 from otgym.ui.views import BACKGROUND_RGB, DIM_TEXT_RGB, TEXT_RGB, CuePanel, GlobalView, LocalView, fonts  # noqa: E402
 
-WINDOW_SIZE = (1280, 720)
 FPS = 60
 MODE_KEYS = {pygame.K_1: "manual", pygame.K_2: "shared", pygame.K_3: "autonomous"}
 HELP_LINES = (

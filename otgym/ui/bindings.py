@@ -39,16 +39,7 @@ from otgym.runtime.trials import TASK_RETARGET
 from otgym.teleop.device import Device, open_device
 from otgym.teleop.feedback import FeedbackConfig
 from otgym.teleop.mouse_drag import MouseDragDevice
-
-PLAY_DEVICES = ("keyboard", "gamepad", "touch", "simulated")
-TOUCH_NAMES = ("Default Device", "Right Device")
-"""The two Touches' names as set in 3D Systems' Touch Setup (robot 0, robot 1)."""
-
-
-def check_device_name(name: str) -> str:
-    if name not in PLAY_DEVICES:
-        raise ValueError(f"unknown device {name!r}; choose one of {', '.join(PLAY_DEVICES)}")
-    return name
+from otgym.ui.device_names import TOUCH_NAMES, check_device_name
 
 
 def window_devices(name: str) -> list[Device]:

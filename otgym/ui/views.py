@@ -36,20 +36,23 @@ from otgym.runtime.snapshot import Snapshot
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.task.layout import TaskLayout
 from otgym.ui import cues
+from otgym.ui.palette import (  # noqa: F401  (the views' colours, used by the window too)
+    BACKGROUND_RGB,
+    CELL_RGB,
+    CHANNEL_RGB,
+    DIM_TEXT_RGB,
+    FLOW_RGB,
+    HANDLE_RGB,
+    OBSTACLE_RGB,
+    OTHER_RGB,
+    ROBOT_RGB,
+    ROUTE_RGB,
+    TEXT_RGB,
+    TRAP_RGB,
+    WALL_RGB,
+    fonts,
+)
 
-BACKGROUND_RGB = (24, 27, 33)
-WALL_RGB = (62, 68, 80)
-CHANNEL_RGB = (232, 236, 241)
-FLOW_RGB = (120, 170, 230)
-ROUTE_RGB = (40, 100, 220)
-ROBOT_RGB = (240, 140, 40)
-HANDLE_RGB = (190, 90, 20)
-CELL_RGB = (60, 170, 90)
-OBSTACLE_RGB = (150, 70, 190)
-OTHER_RGB = (130, 130, 130)
-TRAP_RGB = (250, 215, 30)
-TEXT_RGB = (225, 229, 235)
-DIM_TEXT_RGB = (150, 158, 170)
 FLOW_ARROW_SPACING_UM = 20.0
 VELOCITY_ARROW_S = 3.0
 LOCAL_FIELD_UM = 18.0
@@ -57,16 +60,6 @@ LOCAL_PIXEL_UM = 0.15
 LOCAL_VIEW_HZ = 25.0
 OFFSET_MAGNIFICATION = 10.0
 MICROSCOPE = MicroscopeParams()
-
-
-def fonts() -> dict[str, pygame.font.Font]:
-    """The window's type sizes (pygame's default font)."""
-    return {
-        "small": pygame.font.Font(None, 20),
-        "body": pygame.font.Font(None, 24),
-        "title": pygame.font.Font(None, 30),
-        "prompt": pygame.font.Font(None, 44),
-    }
 
 
 def arrow(surface, rgb, start, end, width: int = 2, head_px: float = 7.0) -> pygame.Rect | None:
