@@ -42,8 +42,13 @@ def _check_modes(value: str) -> str:
 
 
 def register(app: typer.Typer) -> None:
-    experiment = typer.Typer(help="The paper's experiments with simulated participants.", no_args_is_help=True)
+    experiment = typer.Typer(
+        help="The paper's experiments: Fig. 8 with simulated participants, Table II as a front.", no_args_is_help=True
+    )
     app.add_typer(experiment, name="experiment")
+    from otgym.cli.speed_front import register as register_speed_front
+
+    register_speed_front(experiment)
 
     @experiment.command("shared-control")
     def shared_control(

@@ -178,10 +178,11 @@ def measure_goals(
     exempt = [c.name for c in constants if c.name not in eligible]
     covered = {c: [p.name for p in policies if comparisons[(p.name, c)].covers] for c in eligible}
     names = {p.name for p in policies}
-    pretrained = comparisons[("pretrained", reference)].covers if "pretrained" in names else None
+    has_reference = any(c.name == reference for c in constants)
+    pretrained = comparisons[("pretrained", reference)].covers if "pretrained" in names and has_reference else None
     groups: dict[str, tuple[int, int]] = {}
     for p in policies:
-        if p.group in ("constant", "pretrained"):
+        if p.group in ("constant", "pretrained") or not has_reference:
             continue
         done, total = groups.get(p.group, (0, 0))
         groups[p.group] = (done + int(comparisons[(p.name, reference)].covers), total + 1)
