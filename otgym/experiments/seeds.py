@@ -85,7 +85,8 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         5001,
         5009,
         "issue 29's development of the speed front: failure causes (the cell slides out of the notches), "
-        "feedback rules, reward and loss variants, training-seed reliability",
+        "feedback rules, reward and loss variants, a development front on 5005-5008 (with the training "
+        "seeds speed-front drew from 5005)",
     ),
     # DQN training
     SeedUse(
@@ -95,7 +96,9 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         "benchmarks/training.py's training seeds; pretrain's candidates 0-2 (seed 2 shipped, seed 1 before it); "
         "otgym train's default 0; the reward variants of RewardWeights' docstring (seed 0, seed 1)",
     ),
-    SeedUse("training", 10, 19, "issue 29's development of the speed front's family (reward and loss variants)"),
+    SeedUse(
+        "training", 10, 19, "issue 29's development of the speed front's family (reward and loss variants, seed 10)"
+    ),
     # shared-control study seeds (population, scenarios seed*10000+t, simulation seed+i)
     _one("study", 0, "otgym experiment shared-control's old default: the first Fig. 8 runs, participant development"),
     _one("study", 1, "participant development (shared 94.9 %, careful closing); the demo's study (10000-10002)"),
