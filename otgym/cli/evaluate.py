@@ -10,6 +10,7 @@ import typer
 from rich.console import Console
 
 from otgym.cli import options
+from otgym.experiments.seeds import REPORT_SEEDS
 
 
 def register(app: typer.Typer) -> None:
@@ -20,7 +21,10 @@ def register(app: typer.Typer) -> None:
             256, "--episodes", min=1, max=2**20, help="Episodes per policy (the same seeded episodes for each)."
         ),
         out: Path = options.out_dir(Path("results/evaluate"), "Folder for the results."),
-        seed: int = options.seed(1, "Random seed of the episodes,"),
+        seed: int = options.seed(
+            REPORT_SEEDS["evaluate"],
+            "Seed of the episodes (batch r: SEED + r); the default is the held-out report seed,",
+        ),
         repeats: int = typer.Option(
             1,
             "--repeats",
@@ -45,6 +49,7 @@ def register(app: typer.Typer) -> None:
         from otgym.envs import transport as tr
         from otgym.envs.presets import preset
         from otgym.experiments.report import reference_verdict
+        from otgym.experiments.seeds import development_note, mark_report_files
         from otgym.experiments.speed_control_eval import evaluate as run
         from otgym.experiments.speed_control_eval import write_results
         from otgym.rl.policy import load_policy, policy_meta, resolve_policy
@@ -53,6 +58,8 @@ def register(app: typer.Typer) -> None:
         task = preset(policy_meta(path).get("preset", "paper"))
         q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
         console = Console()
+        if development_note("evaluate", seed, batches=repeats):
+            console.print(development_note("evaluate", seed, batches=repeats), style="bold yellow", markup=False)
 
         def progress(done: int, total: int) -> None:
             if total > 1:
@@ -64,10 +71,13 @@ def register(app: typer.Typer) -> None:
             )
         limits = task.force_band_pn[1], task.deviation_limit_um
         rows, safety, checks = write_results(evaluation, out, *limits)
+        note = mark_report_files("evaluate", seed, [out / "table.md"], [out / "acceptance.json"], batches=repeats)
         console.print((out / "table.md").read_text())
         console.print(reference_verdict(checks, rows))
         console.print(
             f"safety of RL: force < {limits[0]:g} pN in {safety['RL']['force_below_limit']:.2%} of samples, "
             f"handle within {limits[1]:g} um in {safety['RL']['distance_within_limit']:.2%}"
         )
+        if note:
+            console.print(note, style="bold yellow", markup=False)
         console.print(f"wrote {out}/table.csv, table.md, safety.png, safety.json, acceptance.json ({len(rows)} rows)")

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from otgym.cli import options
+from otgym.experiments.seeds import REPORT_SEEDS
 
 
 def parse_speeds(text: str) -> list[float]:
@@ -41,8 +42,13 @@ def _check_modes(value: str) -> str:
 
 
 def register(app: typer.Typer) -> None:
-    experiment = typer.Typer(help="The paper's experiments with simulated participants.", no_args_is_help=True)
+    experiment = typer.Typer(
+        help="The paper's experiments: Fig. 8 with simulated participants, Table II as a front.", no_args_is_help=True
+    )
     app.add_typer(experiment, name="experiment")
+    from otgym.cli.speed_front import register as register_speed_front
+
+    register_speed_front(experiment)
 
     @experiment.command("shared-control")
     def shared_control(
@@ -62,7 +68,11 @@ def register(app: typer.Typer) -> None:
             callback=_check_modes,
             help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive).",
         ),
-        seed: int = options.seed(0, "Seed of the participants and scenarios,"),
+        seed: int = options.seed(
+            REPORT_SEEDS["shared-control"],
+            "Seed of the participants and scenarios (trial t: scenario SEED * 10000 + t); the default is the "
+            "held-out report seed,",
+        ),
         chip: str = options.chip("default"),
         time_limit_s: float = typer.Option(
             300.0,
@@ -84,7 +94,7 @@ def register(app: typer.Typer) -> None:
         scenarios: success (obstacles avoided / encountered) and completion time per
         mode (Fig. 8 a, b).
 
-        Example: otgym experiment shared-control --participants 8 --trials 8 --seed 0 --out results/fig8
+        Example: otgym experiment shared-control --participants 8 --trials 8 --out results/fig8
         """
         from otgym.autonomy.mpc import MPCConfig
         from otgym.experiments.output_folder import check_out_dir
@@ -108,6 +118,11 @@ def register(app: typer.Typer) -> None:
         except ValueError as error:
             raise ValueError(f"--mpc-rollouts/--mpc-plan-steps: {error}") from None
         check_out_dir(out)
+        from otgym.experiments.seeds import development_note, mark_report_files
+
+        note = development_note("shared-control", seed, trials=trials)
+        if note:
+            print(note, flush=True)
         stats = {}
         frame = run_experiment(
             participants,
@@ -124,6 +139,7 @@ def register(app: typer.Typer) -> None:
         checks = write_experiment(
             frame, out, mpc_summary(stats, mpc_config, InteractiveConfig().tick_s) if stats else None
         )
+        mark_report_files("shared-control", seed, [out / "summary.md"], [out / "acceptance.json"], trials=trials)
         print((out / "summary.md").read_text())
         for name, passed in checks.items():
             print(f"{'PASS' if passed else 'FAIL'}  {name}")
@@ -142,6 +158,9 @@ def register(app: typer.Typer) -> None:
                 f"{best['earliest_over_free']:.3f}x the unobstructed route (see route_bound.md)"
             )
             bound = ", route_bound.csv/.json/.md"
+            mark_report_files("route-bound", seed, [out / "route_bound.md"], trials=trials)
+        if note:
+            print(note)
         print(
             f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
             + (", mpc.json" if stats else "")
@@ -153,7 +172,10 @@ def register(app: typer.Typer) -> None:
         trials: int = typer.Option(
             8, "--trials", min=1, max=1000, help="Scenarios: those of trials 0..N-1 of the study's seed."
         ),
-        seed: int = options.seed(0, "The study's seed (scenarios seed * 10000 + trial),"),
+        seed: int = options.seed(
+            REPORT_SEEDS["route-bound"],
+            "The study's seed (scenarios SEED * 10000 + trial); the default is the held-out report seed,",
+        ),
         speeds_um_s: str = typer.Option(
             "5,8",
             "--speeds-um-s",
@@ -169,7 +191,7 @@ def register(app: typer.Typer) -> None:
         reach the goal past the obstacles of shared-control's scenarios (perfect
         foresight): a lower bound on manual and shared control's completion time.
 
-        Example: otgym experiment route-bound --trials 8 --seed 0 --out results/route-bound
+        Example: otgym experiment route-bound --trials 8 --out results/route-bound
         """
         from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.route_bound import run_route_bound, write_route_bound
@@ -178,7 +200,15 @@ def register(app: typer.Typer) -> None:
         speeds = parse_speeds(speeds_um_s)
         check_arguments(2, trials, seed)
         check_out_dir(out)
+        from otgym.experiments.seeds import development_note, mark_report_files
+
+        note = development_note("route-bound", seed, trials=trials)
+        if note:
+            print(note, flush=True)
         frame = run_route_bound(trials, seed, speeds, chip, report=lambda line: print(line, flush=True))
         write_route_bound(frame, out)
+        mark_report_files("route-bound", seed, [out / "route_bound.md"], trials=trials)
         print((out / "route_bound.md").read_text())
+        if note:
+            print(note)
         print(f"wrote {out}/route_bound.csv, route_bound.json, route_bound.md")

@@ -236,3 +236,32 @@ def duration() -> typer.Option:
         max=float(checks.MAX_DURATION_S),
         help="Seconds of simulated time in all (default: until stopped).",
     )
+
+
+def parse_numbers(option: str, text: str, allow_zero: bool = False) -> tuple[float, ...]:
+    """``"100,1000"`` -> (100.0, 1000.0): at least one finite number, each positive (or
+    zero with ``allow_zero``), no repeats; a ValueError naming the option otherwise."""
+    import math
+
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        values = ()
+    low_ok = (lambda v: v >= 0) if allow_zero else (lambda v: v > 0)  # noqa: E731
+    if not values or not all(math.isfinite(v) and low_ok(v) for v in values) or len(set(values)) != len(values):
+        kind = "non-negative" if allow_zero else "positive"
+        raise ValueError(f"{option} must be distinct comma-separated {kind} numbers, got {text!r}")
+    return values
+
+
+def numbers(default: str, option: str, help: str, allow_zero: bool = False) -> typer.Option:
+    """A comma-separated list of numbers (metavar ``NUMBERS``), checked while parsing."""
+
+    def check(value: str) -> str:
+        try:
+            parse_numbers(option, value, allow_zero)
+        except ValueError as error:
+            raise typer.BadParameter(str(error), param_hint=option) from None
+        return value
+
+    return typer.Option(default, option, metavar="NUMBERS", callback=check, help=help)

@@ -167,8 +167,10 @@ def observe_batch(params: TransportParams, state: TransportState):
     return jax.vmap(lambda s: _observe(params, s))(state)
 
 
-def reward_terms(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal) -> dict:
-    """Each term of the per-step reward (E,), weighted, by name; they sum to the reward."""
+def reward_terms(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal, cell_behind_um=None) -> dict:
+    """Each term of the per-step reward (E,), weighted, by name; they sum to the reward.
+    ``cell_behind_um`` (E,): how far the cell sits behind the formation's centre along
+    the path after the step (observation entry 2, negated); None counts as 0."""
     weights = config.reward
     low, high = config.force_band_pn
     force = events.contact_force_pn
@@ -177,6 +179,8 @@ def reward_terms(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal
     fraction = events.trap_distance_um / config.scene.trap_law.escape_distance
     margin = jnp.sum(jnp.maximum(fraction - weights.trap_margin_fraction, 0.0), axis=-1) / 0.1
     zeros = jnp.zeros(force.shape[:-1], force.dtype)
+    behind = zeros if cell_behind_um is None else cell_behind_um
+    cell_margin = jnp.maximum(behind - weights.cell_margin_um, 0.0) / 0.1
     return {
         "time": zeros + weights.time,
         "speed": zeros + weights.speed * speed / max(config.speed_levels_um_s),
@@ -184,13 +188,14 @@ def reward_terms(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal
         "force_out_of_band": weights.force_out_of_band * jnp.sum(~in_band, axis=-1),
         "handle_deviation": weights.handle_deviation * deviation,
         "trap_margin": weights.trap_margin * margin,
+        "cell_margin": weights.cell_margin * cell_margin,
         "failure": jnp.where(failed, weights.failure, 0.0),
         "goal": jnp.where(goal, weights.goal, 0.0),
     }
 
 
-def _reward(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal):
-    return sum(reward_terms(config, events, speed, failed, goal).values())
+def _reward(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal, cell_behind_um):
+    return sum(reward_terms(config, events, speed, failed, goal, cell_behind_um).values())
 
 
 def advance_batch(key, params: TransportParams, state: TransportState, trap_velocity_um_s, arc_of, speed_um_s):
@@ -204,7 +209,8 @@ def advance_batch(key, params: TransportParams, state: TransportState, trap_velo
     goal = (arc >= segment_end(params, new) - 1e-3) & ~failed
     terminated = failed | goal
     truncated = (new.steps >= params.config.max_steps) & ~terminated
-    reward = _reward(params.config, events, speed_um_s, failed, goal)
+    obs = observe_batch(params, new)
+    reward = _reward(params.config, events, speed_um_s, failed, goal, -obs[:, 2])
     info = {
         "success": goal,
         "failed": failed,
@@ -212,7 +218,7 @@ def advance_batch(key, params: TransportParams, state: TransportState, trap_velo
         "time_s": new.steps * params.config.scene.control_period_s,
         "events": events,
     }
-    return observe_batch(params, new), new, reward.astype(jnp.float32), terminated, truncated, info
+    return obs, new, reward.astype(jnp.float32), terminated, truncated, info
 
 
 def auto_reset(key, params: TransportParams, obs, state: TransportState, done):

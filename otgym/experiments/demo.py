@@ -268,7 +268,7 @@ def run_demo(
     from otgym.experiments.transport import run as run_transport
     from otgym.human.operator import simulate_operator
     from otgym.planning.pipeline import plan_path, write_plan
-    from otgym.rl.policy import load_policy, policy_meta, resolve_policy
+    from otgym.rl.policy import PRETRAINED_POLICY, load_policy, policy_meta, resolve_policy
     from otgym.sim.cache import chip_fields
     from otgym.sim.chip import load_chip
 
@@ -342,7 +342,15 @@ def run_demo(
         raise
 
     sections = [
-        report.speed_control_section(rows, safety, checks, *limits, task.name, full_episodes=FULL_EPISODES),
+        report.speed_control_section(
+            rows,
+            safety,
+            checks,
+            *limits,
+            task.name,
+            full_episodes=FULL_EPISODES,
+            front=report.shipped_front() if policy_path == PRETRAINED_POLICY else None,
+        ),
         report.planning_section(metrics),
         report.transport_section(transport_summary),
     ]

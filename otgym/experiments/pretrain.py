@@ -1,7 +1,7 @@
 """How the shipped speed-control policy is made, and how the training benchmark reaches
 the acceptance: train a few seeds, keep the one that does best on validation
-episodes; its Table II is then measured on other, fresh episodes (``otgym evaluate``
-and ``otgym demo`` use seed 1, the validation here ``VALIDATION_SEED``), so the
+episodes; its Table II is then measured on other, held-out episodes (the report seeds
+of ``otgym.experiments.seeds``; the validation here is ``VALIDATION_SEED``), so the
 reported figures are not the ones it was picked on.
 
 Selection rule: most validation episodes completed, then the lowest mean completion

@@ -50,7 +50,9 @@ def collect(params: tr.TransportParams, q_params, hidden, n_episodes: int, seed:
             greedy = jnp.argmax(network.apply(q_params, obs), axis=-1)
             action = jnp.where(random_policy, jax.random.randint(random_key, greedy.shape, 0, config.n_actions), greedy)
             obs, state, _, terminated, truncated, info = spc.step_batch(step_key, state, action, params)
-            terms = tr.reward_terms(config, info["events"], levels[action], info["failed"], info["success"])
+            terms = tr.reward_terms(
+                config, info["events"], levels[action], info["failed"], info["success"], cell_behind_um=-obs[:, 2]
+            )
             return (obs, state, active & ~(terminated | truncated)), (active, terms)
 
         carry = (obs, state, jnp.ones(2 * n_episodes, bool))

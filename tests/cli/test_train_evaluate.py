@@ -32,14 +32,29 @@ def test_train_writes_a_loadable_policy_curve_and_summary(tmp_path, capsys):
     assert "3200 steps" in capsys.readouterr().out
 
 
-def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params):
+def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params, capsys):
     policy = save_policy(
         tmp_path / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(FIXED_POLICY_HIDDEN)}
     )
     assert (
-        run_cli(["evaluate", "--policy", str(policy), "--episodes", str(EPISODES), "--out", str(tmp_path / "eval")])
+        run_cli(
+            [
+                "evaluate",
+                "--policy",
+                str(policy),
+                "--episodes",
+                str(EPISODES),
+                "--seed",
+                "3",
+                "--out",
+                str(tmp_path / "eval"),
+            ]
+        )
         == 0
     )
+    # seed 3 is a development seed (the evaluation's tests): said in the output and the report files
+    assert "development seed" in capsys.readouterr().out
+    assert (tmp_path / "eval" / "table.md").read_text().startswith("**development seed")
     lines = (tmp_path / "eval" / "table.csv").read_text().splitlines()
     assert len(lines) == 8
     rl, g1 = lines[1].split(","), lines[2].split(",")
@@ -52,6 +67,7 @@ def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params):
     checks = json.loads((tmp_path / "eval" / "acceptance.json").read_text())
     assert checks["reference"] in {"G1", "G2", "G3", "G4", "G5", "G6"} and checks["faster_episodes"] == 0
     assert not checks["beats_reference"] and not checks["passes"]
+    assert checks["seed_status"] == "development seed" and "seed 3" in checks["development_note"]
 
 
 @pytest.mark.parametrize(

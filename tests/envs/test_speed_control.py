@@ -30,7 +30,9 @@ def test_reset_and_step_shapes_and_determinism(paper_params):
     )  # float32 arcs of ~300 um
     # the reward is the sum of its named terms (reward_terms, used by experiments.reward_terms)
     speed = jnp.full(N_ENVS, paper_params.config.speed_levels_um_s[0])
-    terms = tr.reward_terms(paper_params.config, info["events"], speed, info["failed"], info["success"])
+    terms = tr.reward_terms(
+        paper_params.config, info["events"], speed, info["failed"], info["success"], cell_behind_um=-obs2[:, 2]
+    )
     assert set(terms) == {
         "time",
         "speed",
@@ -38,12 +40,20 @@ def test_reset_and_step_shapes_and_determinism(paper_params):
         "force_out_of_band",
         "handle_deviation",
         "trap_margin",
+        "cell_margin",
         "failure",
         "goal",
     }
     np.testing.assert_allclose(np.asarray(sum(terms.values())), np.asarray(reward), rtol=1e-6, atol=1e-6)
     weights = paper_params.config.reward
     np.testing.assert_allclose(np.asarray(terms["speed"]), weights.speed * 0.27 / 0.51, rtol=1e-6)
+    # the cell-margin shaping: nothing within cell_margin_um behind the centre, then
+    # cell_margin per 0.1 um beyond it (fails with the sign of the offset flipped)
+    behind = jnp.linspace(-1.0, 2.0, N_ENVS)
+    shaped = tr.reward_terms(paper_params.config, info["events"], speed, info["failed"], info["success"], behind)
+    expected = weights.cell_margin * np.maximum(np.asarray(behind) - weights.cell_margin_um, 0.0) / 0.1
+    np.testing.assert_allclose(np.asarray(shaped["cell_margin"]), expected, rtol=1e-5, atol=1e-6)
+    assert weights.cell_margin < 0 and np.asarray(shaped["cell_margin"])[-1] < 0
 
 
 def test_single_env_is_the_batch_of_one(paper_params):
@@ -98,3 +108,17 @@ def test_unknown_preset_and_bad_config_raise():
 
     with pytest.raises(ValueError, match="speed_levels_um_s"):
         dataclasses.replace(paper(), speed_levels_um_s=(0.3, -1.0))
+
+
+def test_priced_reward_scales_the_failure_and_its_precursors_together():
+    from otgym.envs.presets import RewardWeights
+
+    base = RewardWeights()
+    priced = base.priced(300.0)
+    assert priced.failure == -300.0
+    assert priced.trap_margin == pytest.approx(3 * base.trap_margin)
+    assert priced.cell_margin == pytest.approx(3 * base.cell_margin)
+    assert (priced.time, priced.goal, priced.cell_margin_um) == (base.time, base.goal, base.cell_margin_um)
+    assert base.priced(100.0) == base
+    with pytest.raises(ValueError):
+        base.priced(0.0)

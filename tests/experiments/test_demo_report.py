@@ -6,6 +6,7 @@ range. No simulation runs here."""
 
 import math
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -312,3 +313,41 @@ def test_out_folder_checks(tmp_path):
     assert target.read_text() == "x"
     made = check_out_dir(tmp_path / "a" / "b")
     assert made.is_dir() and list(made.iterdir()) == []  # the probe file is gone
+
+
+def test_the_shipped_policy_on_the_front_names_its_run_and_what_it_covers():
+    """The front paragraph quotes the run (command, seed, n), the shipped policy's rate
+    with its interval, and the constant speeds it covers; fails if a covered constant is
+    missing, an uncovered one is listed, or a development seed passes as held out."""
+    from otgym.experiments.front_stats import Outcomes
+    from otgym.experiments.report import front_lines
+    from otgym.experiments.speed_front_report import summarize
+
+    n = 200
+    lost = lambda k: np.arange(n) < k  # noqa: E731 - success array: the first k completed
+    outcomes = [
+        Outcomes("G1", lost(n), np.full(n, 55.6), 0.27),
+        Outcomes("G3", lost(n - 3), np.full(n, 41.0), 0.366),
+        Outcomes("pretrained", lost(n - 2), np.full(n, 33.0), None, "pretrained"),
+    ]
+    summary = summarize(outcomes)
+    front = {
+        "command": "otgym experiment speed-front --seed 123",
+        "seed": 123,
+        "seed_status": "held out",
+        "episodes": n,
+        "rows": summary.rows,
+        "pretrained_tests": [
+            vars(c) | {"as_safe": c.as_safe, "faster": c.faster, "covers": c.covers}
+            for c in summary.comparisons.values()
+        ],
+        "goals": {"exempt": summary.goals.exempt, "every_eligible_covered": summary.goals.every_eligible_covered},
+    }
+    text = "\n".join(front_lines(front))
+    assert "held-out seed 123, 200 episodes" in text and "198 of 200" in text
+    low, high = wilson(198, n)
+    assert f"[{low:.3f}, {high:.3f}]" in text
+    assert "It covers (at least as safe and at least 10 % faster): G3." in text  # not G1: 2 lost against 0
+    front["seed_status"] = "development seed"
+    assert "development seed 123" in "\n".join(front_lines(front))
+    assert front_lines(None) == []

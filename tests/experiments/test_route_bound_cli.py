@@ -30,6 +30,7 @@ def test_route_bound_writes_its_files_and_a_faster_limit_never_arrives_later(tmp
     summary = json.loads((out / "route_bound.json").read_text())
     assert summary["5"]["scenarios"] == 2
     assert "scenario 100001" in run.stdout and "earliest" in (out / "route_bound.md").read_text()
+    assert "development seed: seed 10" in run.stdout  # seed 10 is Fig. 8's: not held out
 
 
 def test_bad_speeds_are_one_line_and_exit_2(tmp_path):

@@ -18,7 +18,9 @@ def test_small_experiment_writes_every_file(tmp_path):
     (it grips in under 0.1 s and carries at 5 um/s: a cell near the start at 6 s means
     the navigator or the task's stepping is broken)."""
     out = tmp_path / "fig8"
-    run = run_otgym(COMMAND + ["--participants", "2", "--trials", "1", "--time-limit-s", "6", "--out", str(out)])
+    run = run_otgym(
+        COMMAND + ["--participants", "2", "--trials", "1", "--time-limit-s", "6", "--seed", "0", "--out", str(out)]
+    )
     assert run.returncode == 0, run.stderr
     for name in (
         "trials.csv",
@@ -41,6 +43,11 @@ def test_small_experiment_writes_every_file(tmp_path):
     assert (trials["grip_time_s"][trials["mode"] == "autonomous"] < 0.5).all()
     json.loads((out / "stats.json").read_text())
     assert "% of trials done" in run.stdout
+    # seed 0 is a development seed: the output and the report files say so
+    assert "development seed: seed 0" in run.stdout
+    assert (out / "summary.md").read_text().startswith("**development seed")
+    assert (out / "route_bound.md").read_text().startswith("**development seed")
+    assert json.loads((out / "acceptance.json").read_text())["seed_status"] == "development seed"
 
 
 def test_mpc_mode_alone_with_one_participant(tmp_path):
@@ -64,6 +71,8 @@ def test_mpc_mode_alone_with_one_participant(tmp_path):
             "12",
             "--mpc-plan-steps",
             "5",
+            "--seed",
+            "0",
             "--out",
             str(out),
         ]
