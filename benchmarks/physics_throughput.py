@@ -14,6 +14,10 @@ the standard scene at 64 environments) is printed too: unlike a timing it does n
 depend on what else the machine runs, so two commits can be compared on a busy machine
 (run the script at each).
 
+The transport scene's scratch memory per environment (XLA's memory analysis of the
+compiled batched step, ``--memory-sizes``) is printed last: it sets how many
+environments fit on one GPU.
+
 Run: python benchmarks/physics_throughput.py [--quick]
 Targets: >= 1e5 substeps/s for one environment, >= 1e6 env-substeps/s batched (CPU),
 >= 1e8 on one H100.
@@ -194,11 +198,24 @@ def time_scene(n_env, min_seconds):
     return rate * scene.model.substeps * n_env
 
 
+def scene_scratch_per_env_bytes(n_env):
+    """XLA's memory analysis of one compiled batched transport-scene step: scratch
+    (temporary) bytes divided by environments (the issue's limit: 0.25 MB)."""
+    from otgym.sim import scene as sc
+
+    scene = sc.build_scene(sc.SceneConfig(kind="transport"))
+    states = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), n_env))
+    velocity = jnp.zeros((n_env, scene.n_traps, 2))
+    compiled = jax.jit(sc.step_batch).lower(scene, states, velocity, jax.random.PRNGKey(1)).compile()
+    return compiled.memory_analysis().temp_size_in_bytes / n_env
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="shorter timings")
     parser.add_argument("--sizes", default="1,64,1024,4096")
     parser.add_argument("--scene-sizes", default="1,64,1024")
+    parser.add_argument("--memory-sizes", default="1024", help="batch sizes of the scratch-per-environment figure")
     args = parser.parse_args()
     seconds = 1.0 if args.quick else 3.0
     print(f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}), {jax.device_count()} device(s)")
@@ -223,6 +240,12 @@ def main():
     for n_env in [int(s) for s in args.scene_sizes.split(",")]:
         rate = time_scene(n_env, seconds)
         print(f"{n_env:>6} {rate:>16.3e} {rate / 2000:>36.1f}")
+    for n_env in [int(s) for s in args.memory_sizes.split(",") if s]:
+        scratch = scene_scratch_per_env_bytes(n_env)
+        print(
+            f"transport scene scratch per environment at {n_env} envs (XLA memory analysis of the compiled step): "
+            f"{scratch / 1e6:.3f} MB (limit 0.25 MB)"
+        )
 
 
 if __name__ == "__main__":

@@ -49,6 +49,7 @@ from otgym.physics.batching import batch_through
 from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
 from otgym.physics.model import Model, PhysicsState, sphere_positions_um, turn_to_body, turn_to_lab
+from otgym.physics.noise import substep_noise
 from otgym.physics.projection import project_overlaps
 
 
@@ -312,9 +313,11 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     """Advance E environments (leading batch axis on state and controls) by one
     control step of ``model.substeps`` Euler-Maruyama steps.
 
-    ``key`` is one PRNG key for the whole batch: the noise of all environments is drawn
-    in one call, directly in the batch-last layout (3x faster on CPU than one key per
-    environment, which is what ``vmap(control_step)`` does).
+    ``key`` is one PRNG key for the whole batch: the noise of all environments is that
+    of one draw of shape (substeps, 3, bodies, E), directly in the batch-last layout (3x
+    faster on CPU than one key per environment, which is what ``vmap(control_step)``
+    does). Each substep computes its own slice of that draw inside the loop
+    (``otgym.physics.noise``), so the step's scratch does not grow with the substeps.
     Returns (state, StepReport), both with a leading batch axis."""
     pose, trap_xy = state.pose, state.trap_xy_um
     if pose.ndim != 3 or pose.shape[1:] != (model.n_bodies, 3):
@@ -324,7 +327,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         raise ValueError(f"state.trap_xy_um must have shape {(n_env, model.n_traps, 2)}, got {trap_xy.shape}")
     _check_controls(model, controls, (n_env,))
     dtype = pose.dtype
-    noise = jax.random.normal(key, (model.substeps, 3, model.n_bodies, n_env), dtype)
+    noise = substep_noise(key, model.substeps, (3, model.n_bodies, n_env), dtype)
     last = lambda a: jnp.moveaxis(a, 0, -1)  # noqa: E731  (E, K, ...) -> (K, ..., E)
     pose_t, trap_t = last(pose), last(trap_xy)
     body_velocity, external = last(controls.body_velocity), last(controls.external_force)
@@ -360,21 +363,29 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         fields = _sample_fields(model, x, y)
         return fields, _body_frame_flow_drag(model, turn, fields)
 
+    def with_noise(inputs):
+        """A substep's scan inputs (noise inputs, index) -> (its noise, index). The noise
+        is materialised once per substep (the barrier), so XLA cannot duplicate its
+        threefry rounds into each fusion that reads one of its rows."""
+        return jax.lax.optimization_barrier(noise.draw(inputs[0])), inputs[1]
+
     def block(carry, inputs):
         fields, body_drag = sample(carry)
         return jax.lax.scan(
-            lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, i), carry, inputs
+            lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, with_noise(i)),
+            carry,
+            inputs,
         )
 
     if refresh == 1:  # one flat loop: a scan of one-step blocks costs a loop level per step
 
         def single(carry, inputs):
-            return _substep(model, step_controls, trap_start, *sample(carry), carry, inputs)
+            return _substep(model, step_controls, trap_start, *sample(carry), carry, with_noise(inputs))
 
-        carry, _ = jax.lax.scan(single, carry, (noise, jnp.arange(model.substeps)))
+        carry, _ = jax.lax.scan(single, carry, (noise.inputs, jnp.arange(model.substeps)))
     else:
         inputs = (
-            noise.reshape((blocks, refresh) + noise.shape[1:]),
+            jax.tree.map(lambda a: a.reshape((blocks, refresh) + a.shape[1:]), noise.inputs),
             jnp.arange(model.substeps).reshape(blocks, refresh),
         )
         carry, _ = jax.lax.scan(block, carry, inputs)
