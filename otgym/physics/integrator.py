@@ -51,6 +51,7 @@ from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
 from otgym.physics.model import Model, PhysicsState, sphere_positions_um, turn_to_body, turn_to_lab
 from otgym.physics.noise import substep_noise
 from otgym.physics.projection import project_overlaps
+from otgym.physics.sharding import shard_environment_tree
 
 
 @struct.dataclass
@@ -318,6 +319,8 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     faster on CPU than one key per environment, which is what ``vmap(control_step)``
     does). Each substep computes its own slice of that draw inside the loop
     (``otgym.physics.noise``), so the step's scratch does not grow with the substeps.
+    With several local devices the environments are split over them
+    (``otgym.physics.sharding``).
     Returns (state, StepReport), both with a leading batch axis."""
     pose, trap_xy = state.pose, state.trap_xy_um
     if pose.ndim != 3 or pose.shape[1:] != (model.n_bodies, 3):
@@ -353,6 +356,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         jnp.zeros((model.n_traps, n_env), dtype),
         jnp.zeros(n_env, dtype),
     )
+    carry = shard_environment_tree(carry, -1)  # split over every local device (one: unchanged)
     trap_start = (trap_t[:, 0], trap_t[:, 1])
     refresh = model.field_refresh
     blocks = model.substeps // refresh
@@ -423,7 +427,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     new_state = PhysicsState(
         pose=first(jnp.stack([px, py, theta], axis=1)), trap_xy_um=first(jnp.stack([trap_x, trap_y], axis=1))
     )
-    return new_state, report
+    return shard_environment_tree(new_state, 0), shard_environment_tree(report, 0)
 
 
 def _control_step_one(model: Model, state: PhysicsState, controls: Controls, key):
