@@ -36,7 +36,7 @@ def report_worker_error(error: Exception) -> None:
 
 
 def _register_commands() -> None:
-    from otgym.cli import chip, demo, evaluate, experiment, node, plan, play, replay, study, train
+    from otgym.cli import chip, demo, evaluate, experiment, node, plan, play, replay, study, sweep, train
 
     demo.register(app)
     plan.register(app)
@@ -48,6 +48,7 @@ def _register_commands() -> None:
     study.register(app)
     replay.register(app)
     node.register(app)
+    sweep.register(app)
 
 
 _registered = False
