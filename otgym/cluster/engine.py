@@ -65,12 +65,8 @@ def _run_on_ray(
         ray.init(address=address, logging_level=logging.WARNING, log_to_driver=False)
     try:
         # a cell with GPUs gets a fresh worker process: JAX keeps the devices it saw first
-        task = ray.remote(run_cell_on_ray).options(
-            num_cpus=cpus,
-            num_gpus=gpus,
-            max_retries=NODE_LOSS_RETRIES,
-            retry_exceptions=False,
-            max_calls=1 if gpus else 0,
+        task = ray.remote(max_calls=1 if gpus else 0)(run_cell_on_ray).options(
+            num_cpus=cpus, num_gpus=gpus, max_retries=NODE_LOSS_RETRIES, retry_exceptions=False
         )
         pending = {task.remote(entry_point, cell.name, cell.argv): cell for cell in cells}
         while pending:

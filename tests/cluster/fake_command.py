@@ -6,8 +6,7 @@ squared) and behaves as told:
 - ``--stop-if PATH``: the cell with value 2 raises KeyboardInterrupt while PATH exists
   (a sweep stopped by hand);
 - ``--calls DIR``: every run leaves a file DIR/<value>-<unique> (to count runs);
-- ``--barrier DIR --count N``: writes DIR/started-<value>@<node ip> and waits until N
-  such files exist (so N cells run at once, each on a CPU of its own);
+- ``--count N``: no effect (an option for sweeps to differ by);
 - ``--hold DIR``: writes DIR/holding-<value>@<node ip> and waits until DIR/release-<value>
   exists.
 Waits end with a deadline (``DEADLINE_S``) and fail the cell, never hang a test.
@@ -52,7 +51,6 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--fail-on", type=int)
     parser.add_argument("--stop-if", type=Path)
     parser.add_argument("--calls", type=Path)
-    parser.add_argument("--barrier", type=Path)
     parser.add_argument("--count", type=int, default=1)
     parser.add_argument("--hold", type=Path)
     args = parser.parse_args(argv)
@@ -64,9 +62,6 @@ def main(argv: list[str]) -> None:
     if args.value == args.fail_on:
         print(f"error: cell {args.value} was told to fail", file=sys.stderr)
         raise SystemExit(2)
-    if args.barrier:
-        (args.barrier / f"started-{args.value}@{_node_ip()}").touch()
-        _wait_for(lambda: len(list(args.barrier.glob("started-*"))) >= args.count, "the other cells to start")
     if args.hold:
         (args.hold / f"holding-{args.value}@{_node_ip()}").touch()
         _wait_for(lambda: (args.hold / f"release-{args.value}").exists(), "the release")

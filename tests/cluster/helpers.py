@@ -18,7 +18,6 @@ FAKE = CommandSpec(
         "fail-on": OptionSpec("fail-on", "--fail-on", "int"),
         "stop-if": OptionSpec("stop-if", "--stop-if", "text"),
         "calls": OptionSpec("calls", "--calls", "text"),
-        "barrier": OptionSpec("barrier", "--barrier", "text"),
         "count": OptionSpec("count", "--count", "int"),
         "hold": OptionSpec("hold", "--hold", "text"),
     },

@@ -15,9 +15,11 @@ import ipaddress
 import json
 import os
 import secrets
+import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -70,6 +72,8 @@ class LoopbackCluster:
             JAX_PLATFORMS="cpu",
         )
         self.processes: dict[str, subprocess.Popen] = {}
+        # Ray's socket paths grow under its temp dir and must stay under 108 bytes (AF_UNIX)
+        self.ray_temp = tempfile.mkdtemp(prefix="otgym-ray-", dir="/tmp")
 
     def _node_ports(self, ip: str, workers: tuple[int, int]) -> list[str]:
         ports = {
@@ -104,7 +108,7 @@ class LoopbackCluster:
                 "--dashboard-port",
                 str(free_port(HEAD_IP)),
                 "--temp-dir",
-                str(self.root / "ray"),
+                self.ray_temp,
                 "--disable-usage-stats",
                 *self._node_ports(HEAD_IP, (11000, 11999)),
             ],
@@ -142,11 +146,19 @@ class LoopbackCluster:
         nodes = self.state().get("nodes", [])
         return {node["node_ip"]: node["node_id"] for node in nodes if node["state"] == "ALIVE"}
 
-    def wait_for_alive_nodes(self, count: int) -> dict:
+    def check_running(self) -> None:
+        """Raise if a node's ``ray start --block`` has exited (it stays up while its node does)."""
         for name, process in self.processes.items():
             if process.poll() is not None:
                 raise RuntimeError(f"ray start of the {name} exited: see {self.root / (name + '.log')}")
-        return wait_for(lambda: (nodes := self.alive_nodes()) and len(nodes) == count and nodes, f"{count} nodes")
+
+    def wait_for_alive_nodes(self, count: int) -> dict:
+        def alive():
+            self.check_running()
+            nodes = self.alive_nodes()
+            return len(nodes) == count and nodes
+
+        return wait_for(alive, f"{count} alive nodes")
 
     def pids(self) -> set[int]:
         """Every live process of the cluster (the ``ray start`` processes and their descendants)."""
@@ -186,6 +198,7 @@ class LoopbackCluster:
         psutil.wait_procs(alive, timeout=30)
         for process in self.processes.values():
             process.wait(timeout=30)
+        shutil.rmtree(self.ray_temp, ignore_errors=True)
 
 
 def tcp_connections_outside_loopback(pids: set[int]) -> list[str]:

@@ -41,6 +41,25 @@ def start_driver(cluster, tmp_path, options):
     return driver, out
 
 
+def watching(driver, tmp_path, cluster, condition):
+    """``condition`` that raises as soon as the driver or (unless ``cluster`` is None) a
+    node has exited instead."""
+
+    def check():
+        if driver.poll() is not None:
+            raise RuntimeError("the sweep's driver exited early:\n" + (tmp_path / "driver.log").read_text())
+        if cluster is not None:
+            cluster.check_running()
+        return condition()
+
+    return check
+
+
+def running_cells(cluster):
+    tasks = [task for task in cluster.state().get("tasks", []) if task["state"] == "RUNNING"]
+    return len(tasks) == 2 and tasks
+
+
 def finish(driver, tmp_path):
     assert driver.wait(timeout=600) == 0, (tmp_path / "driver.log").read_text()
 
@@ -52,27 +71,27 @@ def stop(driver):
 
 
 def test_cells_land_on_both_nodes_and_stay_on_loopback(cluster, tmp_path):
-    """Two cells that wait for each other to start (so they run at once, one per
-    node's only CPU): the state API shows both running, on the two nodes; cells.csv
-    names both nodes; every TCP connection of the cluster and the driver stays in
-    127.0.0.0/8 (``ss -tnp``)."""
-    barrier = tmp_path / "barrier"
-    barrier.mkdir()
-    driver, out = start_driver(cluster, tmp_path, {"barrier": str(barrier), "count": 2})
+    """Two cells that hold until released, so they run at once, one per node's only
+    CPU: once both have started, the state API shows both running, on the two nodes,
+    and every TCP connection of the cluster and the driver is in 127.0.0.0/8
+    (``ss -tnp``); released, they finish and cells.csv names both nodes."""
+    hold = tmp_path / "hold"
+    hold.mkdir()
+    driver, out = start_driver(cluster, tmp_path, {"hold": str(hold)})
     nodes = cluster.wait_for_alive_nodes(2)
     try:
-        running = wait_for(
-            lambda: (
-                (tasks := [t for t in cluster.state().get("tasks", []) if t["state"] == "RUNNING"])
-                and len(tasks) == 2
-                and tasks
-            ),
-            "two cells running at once",
+        started = wait_for(
+            watching(driver, tmp_path, cluster, lambda: len(files := list(hold.glob("holding-*"))) == 2 and files),
+            "both cells to start",
         )
+        assert sorted(path.name.split("@")[1] for path in started) == [HEAD_IP, WORKER_IP]
+        running = wait_for(watching(driver, tmp_path, cluster, lambda: running_cells(cluster)), "the state API")
         assert {task["node_id"] for task in running} == set(nodes.values())
         pids = cluster.pids() | {driver.pid}
         assert connection_count(pids) > 0
         assert tcp_connections_outside_loopback(pids) == []
+        for value in (1, 2):
+            (hold / f"release-{value}").touch()
     except BaseException:
         stop(driver)
         raise
@@ -81,7 +100,6 @@ def test_cells_land_on_both_nodes_and_stay_on_loopback(cluster, tmp_path):
     assert {row["status"] for row in cells.values()} == {"done"}
     assert {row["node"] for row in cells.values()} == {HEAD_IP, WORKER_IP}
     assert {row["node_id"] for row in cells.values()} == set(nodes.values())
-    assert sorted(path.name.split("@")[1] for path in barrier.iterdir()) == [HEAD_IP, WORKER_IP]
     assert tcp_connections_outside_loopback(cluster.pids()) == []
 
 
@@ -94,15 +112,21 @@ def test_a_worker_node_killed_mid_sweep_loses_no_cell(cluster, tmp_path):
     hold.mkdir()
     driver, out = start_driver(cluster, tmp_path, {"hold": str(hold)})
     try:
-        started = wait_for(lambda: len(files := list(hold.glob("holding-*"))) == 2 and files, "both cells to start")
+        started = wait_for(
+            watching(driver, tmp_path, cluster, lambda: len(files := list(hold.glob("holding-*"))) == 2 and files),
+            "both cells to start",
+        )
         on_node = {path.name.split("@")[1]: path.name.split("@")[0].removeprefix("holding-") for path in started}
         assert set(on_node) == {HEAD_IP, WORKER_IP}
         (hold / f"release-{on_node[HEAD_IP]}").touch()
-        wait_for(lambda: (out / f"value-{on_node[HEAD_IP]}").is_dir(), "the head's cell to finish")
+        wait_for(
+            watching(driver, tmp_path, cluster, (out / f"value-{on_node[HEAD_IP]}").is_dir),
+            "the head's cell to finish",
+        )
         raylet = cluster.node_process("worker", "raylet")
         raylet.kill()
         rerun = hold / f"holding-{on_node[WORKER_IP]}@{HEAD_IP}"
-        wait_for(rerun.exists, "the lost cell to start again on the head")
+        wait_for(watching(driver, tmp_path, None, rerun.exists), "the lost cell to start again on the head")
         (hold / f"release-{on_node[WORKER_IP]}").touch()
     except BaseException:
         stop(driver)
