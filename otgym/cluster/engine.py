@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -23,6 +24,11 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from otgym.cluster import output
 from otgym.cluster.cell import CellOutcome, run_cell, run_cell_on_ray
 from otgym.cluster.sweep_file import Cell, Sweep
+
+LOCAL_NODE_IP = "127.0.0.4"
+"""The node address of a Ray started by the sweep itself on Linux (where all of
+127.0.0.0/8 is loopback): Ray replaces 127.0.0.1 and localhost with the machine's
+outward address, which would let its processes talk over the outward interface."""
 
 NODE_LOSS_RETRIES = 3
 """Reruns of a cell whose worker process or node died (Ray's ``max_retries``)."""
@@ -53,13 +59,13 @@ def _run_on_ray(
 ):
     import ray
 
-    if address is None:  # a Ray of our own, on the loopback interface only
+    if address is None:  # a Ray of our own, on a loopback address on Linux
         ray.init(
             num_cpus=workers,
             include_dashboard=False,
             logging_level=logging.WARNING,
             log_to_driver=False,
-            _node_ip_address="127.0.0.1",
+            _node_ip_address=LOCAL_NODE_IP if sys.platform == "linux" else None,
         )
     else:
         ray.init(address=address, logging_level=logging.WARNING, log_to_driver=False)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from otgym.cli.app import main
+from otgym.cluster.engine import LOCAL_NODE_IP
 from tests.cluster.helpers import REPO, read_cells, write_sweep_file
 
 
@@ -34,7 +35,7 @@ def test_a_training_sweep_writes_the_same_files_serially_and_on_ray(tmp_path, mo
     serial, ray = tmp_path / "serial", tmp_path / "ray"
     assert run_cli(["sweep", str(sweep), "--out", str(serial), "--serial"]) == 0
     assert run_cli(["sweep", str(sweep), "--out", str(ray), "--workers", "2"]) == 0
-    assert {row["node"] for row in read_cells(ray).values()} == {"127.0.0.1"}
+    assert {row["node"] for row in read_cells(ray).values()} == {LOCAL_NODE_IP}
     for cell in ("seed-0", "seed-1"):
         assert (serial / cell / "learning_curve.png").read_bytes() == (ray / cell / "learning_curve.png").read_bytes()
         with np.load(serial / cell / "policy.npz") as a, np.load(ray / cell / "policy.npz") as b:
