@@ -9,10 +9,12 @@ Reference, measured in the same run: the same dynamics written as a plain NumPy 
 spheres and environments). Before timing, both run 50 steps from the same state at
 T = 0 and must agree to float32 precision, so the reference is the same physics.
 
-XLA's own count of the compiled work (flops, transcendentals, bytes per env-substep of
-the standard scene at 64 environments) is printed too: unlike a timing it does not
-depend on what else the machine runs, so two commits can be compared on a busy machine
-(run the script at each).
+XLA's own count of the compiled work (flops, transcendentals, bytes per environment of
+a one-substep control step of the standard scene at 64 environments) is printed too:
+unlike a timing it does not depend on what else the machine runs, so two commits can be
+compared on a busy machine (run the script at each). (XLA counts a loop's body once,
+so the count of a many-substep step says little; figures printed before 2026-11-26 as
+"per env-substep" were mostly the up-front noise draw.)
 
 The transport scene's scratch memory per environment (XLA's memory analysis of the
 compiled batched step, ``--memory-sizes``) is printed last: it sets how many
@@ -173,19 +175,18 @@ def time_numpy(model, pose, n_env, min_seconds):
 
 
 def compiled_cost_per_env_substep(model, pose, n_env=64):
-    """XLA's cost analysis of one batched control step, divided by environments x substeps."""
+    """XLA's cost analysis of a batched control step of ONE substep, divided by
+    environments: the work of a substep plus a step's setup. XLA counts a loop's body
+    once, whatever its trip count, so a many-substep step's count is not its work (with
+    the noise drawn up front the count grew with the substeps only through the draw)."""
     state = jax.tree.map(lambda a: jnp.broadcast_to(a, (n_env,) + a.shape), ph.initial_state(model, pose))
+    one = model.replace(substeps=1)
     compiled = (
-        jax.jit(ph.control_step_batch)
-        .lower(model, state, ph.Controls.zeros(model, n_env), jax.random.PRNGKey(0))
-        .compile()
+        jax.jit(ph.control_step_batch).lower(one, state, ph.Controls.zeros(one, n_env), jax.random.PRNGKey(0)).compile()
     )
     cost = compiled.cost_analysis()
     cost = cost[0] if isinstance(cost, (list, tuple)) else cost
-    return {
-        name: cost.get(name, float("nan")) / (n_env * SUBSTEPS)
-        for name in ("flops", "transcendentals", "bytes accessed")
-    }
+    return {name: cost.get(name, float("nan")) / n_env for name in ("flops", "transcendentals", "bytes accessed")}
 
 
 def time_scene(n_env, min_seconds):
@@ -227,7 +228,7 @@ def main():
     )
     cost = compiled_cost_per_env_substep(model, pose)
     print(
-        "compiled work per env-substep (XLA cost analysis, 64 envs): "
+        "compiled work of a one-substep control step per env (XLA cost analysis, 64 envs): "
         + ", ".join(f"{value:,.0f} {name}" for name, value in cost.items())
     )
     print(f"{'envs':>6} {'otgym JAX env-substeps/s':>26} {'NumPy loop env-substeps/s':>27} {'ratio':>8}")
