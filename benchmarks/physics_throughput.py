@@ -9,10 +9,16 @@ Reference, measured in the same run: the same dynamics written as a plain NumPy 
 spheres and environments). Before timing, both run 50 steps from the same state at
 T = 0 and must agree to float32 precision, so the reference is the same physics.
 
-XLA's own count of the compiled work (flops, transcendentals, bytes per env-substep of
-the standard scene at 64 environments) is printed too: unlike a timing it does not
-depend on what else the machine runs, so two commits can be compared on a busy machine
-(run the script at each).
+XLA's own count of the compiled work (flops, transcendentals, bytes per environment of
+a one-substep control step of the standard scene at 64 environments) is printed too:
+unlike a timing it does not depend on what else the machine runs, so two commits can be
+compared on a busy machine (run the script at each). (XLA counts a loop's body once,
+so the count of a many-substep step says little; figures printed before 2026-11-26 as
+"per env-substep" were mostly the up-front noise draw.)
+
+The transport scene's scratch memory per environment (XLA's memory analysis of the
+compiled batched step, ``--memory-sizes``) is printed last: it sets how many
+environments fit on one GPU.
 
 Run: python benchmarks/physics_throughput.py [--quick]
 Targets: >= 1e5 substeps/s for one environment, >= 1e6 env-substeps/s batched (CPU),
@@ -169,19 +175,18 @@ def time_numpy(model, pose, n_env, min_seconds):
 
 
 def compiled_cost_per_env_substep(model, pose, n_env=64):
-    """XLA's cost analysis of one batched control step, divided by environments x substeps."""
+    """XLA's cost analysis of a batched control step of ONE substep, divided by
+    environments: the work of a substep plus a step's setup. XLA counts a loop's body
+    once, whatever its trip count, so a many-substep step's count is not its work (with
+    the noise drawn up front the count grew with the substeps only through the draw)."""
     state = jax.tree.map(lambda a: jnp.broadcast_to(a, (n_env,) + a.shape), ph.initial_state(model, pose))
+    one = model.replace(substeps=1)
     compiled = (
-        jax.jit(ph.control_step_batch)
-        .lower(model, state, ph.Controls.zeros(model, n_env), jax.random.PRNGKey(0))
-        .compile()
+        jax.jit(ph.control_step_batch).lower(one, state, ph.Controls.zeros(one, n_env), jax.random.PRNGKey(0)).compile()
     )
     cost = compiled.cost_analysis()
     cost = cost[0] if isinstance(cost, (list, tuple)) else cost
-    return {
-        name: cost.get(name, float("nan")) / (n_env * SUBSTEPS)
-        for name in ("flops", "transcendentals", "bytes accessed")
-    }
+    return {name: cost.get(name, float("nan")) / n_env for name in ("flops", "transcendentals", "bytes accessed")}
 
 
 def time_scene(n_env, min_seconds):
@@ -194,11 +199,24 @@ def time_scene(n_env, min_seconds):
     return rate * scene.model.substeps * n_env
 
 
+def scene_scratch_per_env_bytes(n_env):
+    """XLA's memory analysis of one compiled batched transport-scene step: scratch
+    (temporary) bytes divided by environments (the issue's limit: 0.25 MB)."""
+    from otgym.sim import scene as sc
+
+    scene = sc.build_scene(sc.SceneConfig(kind="transport"))
+    states = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), n_env))
+    velocity = jnp.zeros((n_env, scene.n_traps, 2))
+    compiled = jax.jit(sc.step_batch).lower(scene, states, velocity, jax.random.PRNGKey(1)).compile()
+    return compiled.memory_analysis().temp_size_in_bytes / n_env
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="shorter timings")
     parser.add_argument("--sizes", default="1,64,1024,4096")
     parser.add_argument("--scene-sizes", default="1,64,1024")
+    parser.add_argument("--memory-sizes", default="1024", help="batch sizes of the scratch-per-environment figure")
     args = parser.parse_args()
     seconds = 1.0 if args.quick else 3.0
     print(f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}), {jax.device_count()} device(s)")
@@ -210,7 +228,7 @@ def main():
     )
     cost = compiled_cost_per_env_substep(model, pose)
     print(
-        "compiled work per env-substep (XLA cost analysis, 64 envs): "
+        "compiled work of a one-substep control step per env (XLA cost analysis, 64 envs): "
         + ", ".join(f"{value:,.0f} {name}" for name, value in cost.items())
     )
     print(f"{'envs':>6} {'otgym JAX env-substeps/s':>26} {'NumPy loop env-substeps/s':>27} {'ratio':>8}")
@@ -223,6 +241,12 @@ def main():
     for n_env in [int(s) for s in args.scene_sizes.split(",")]:
         rate = time_scene(n_env, seconds)
         print(f"{n_env:>6} {rate:>16.3e} {rate / 2000:>36.1f}")
+    for n_env in [int(s) for s in args.memory_sizes.split(",") if s]:
+        scratch = scene_scratch_per_env_bytes(n_env)
+        print(
+            f"transport scene scratch per environment at {n_env} envs (XLA memory analysis of the compiled step): "
+            f"{scratch / 1e6:.3f} MB (limit 0.25 MB)"
+        )
 
 
 if __name__ == "__main__":

@@ -28,13 +28,15 @@ def bad_parameter_line(error: Exception) -> str:
     ("Input should be less than or equal to 65535"); a value outside a declared range
     is said with both ends of the range and the value given
     ("--port must lie in [0, 65535], not 70000"), a choice with the choices
-    ("--mode must be one of manual, shared, autonomous, not 'x'"). Any other message
-    (a missing file, an unknown option) is the library's, unchanged."""
+    ("--mode must be one of manual, shared, autonomous, not 'x'"), a missing path with the
+    path; any other message is the check's own, after the option's name."""
     message = error.format_message() if hasattr(error, "format_message") else str(error)
     param = getattr(error, "param", None)
     if param is None or not getattr(param, "opts", None):
         return message
     name = max(param.opts, key=len)
+    if getattr(param, "param_type_name", "") == "argument":
+        name = getattr(param, "metavar", None) or name.upper()
     cause = error.__cause__
     if cause is not None and hasattr(cause, "errors"):
         info = param.get_runtime_param().parameter_info if hasattr(param, "get_runtime_param") else None
@@ -61,5 +63,8 @@ def bad_parameter_line(error: Exception) -> str:
             return f"{name} {path} {plain}"
     if raw.endswith(" does not exist.") and "'" in raw:
         path = raw.split("'", 1)[1].rsplit("'", 1)[0]
-        return f"{name} {path} does not exist"
+        is_argument = getattr(param, "param_type_name", "") == "argument"
+        return f"{path} does not exist" if is_argument else f"{name} {path} does not exist"
+    if raw and not raw.startswith(name):
+        return f"{name}: {raw}"
     return message

@@ -185,6 +185,20 @@ check_host = _as_bad_parameter(_host)
 check_bus_names = _as_bad_parameter(_bus_names)
 
 
+def _ray_address(value: str) -> str:
+    """``auto`` or a Ray head's HOST:PORT (port 1-65535)."""
+    if value == "auto":
+        return value
+    host, colon, port = value.rpartition(":")
+    if not colon or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"{value!r} is neither auto nor a Ray head's HOST:PORT")
+    _host(host)
+    return value
+
+
+check_ray_address = _as_bad_parameter(_ray_address)
+
+
 def mode(default: str) -> typer.Option:
     """``--mode``: manual, shared or autonomous."""
     from otgym.shared import MODES

@@ -49,7 +49,9 @@ from otgym.physics.batching import batch_through
 from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
 from otgym.physics.model import Model, PhysicsState, sphere_positions_um, turn_to_body, turn_to_lab
+from otgym.physics.noise import substep_noise
 from otgym.physics.projection import project_overlaps
+from otgym.physics.sharding import shard_environment_tree
 
 
 @struct.dataclass
@@ -312,9 +314,13 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     """Advance E environments (leading batch axis on state and controls) by one
     control step of ``model.substeps`` Euler-Maruyama steps.
 
-    ``key`` is one PRNG key for the whole batch: the noise of all environments is drawn
-    in one call, directly in the batch-last layout (3x faster on CPU than one key per
-    environment, which is what ``vmap(control_step)`` does).
+    ``key`` is one PRNG key for the whole batch: the noise of all environments is that
+    of one draw of shape (substeps, 3, bodies, E), directly in the batch-last layout (3x
+    faster on CPU than one key per environment, which is what ``vmap(control_step)``
+    does). Each substep computes its own slice of that draw inside the loop
+    (``otgym.physics.noise``), so the step's scratch does not grow with the substeps.
+    With several local devices the environments are split over them
+    (``otgym.physics.sharding``).
     Returns (state, StepReport), both with a leading batch axis."""
     pose, trap_xy = state.pose, state.trap_xy_um
     if pose.ndim != 3 or pose.shape[1:] != (model.n_bodies, 3):
@@ -324,7 +330,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         raise ValueError(f"state.trap_xy_um must have shape {(n_env, model.n_traps, 2)}, got {trap_xy.shape}")
     _check_controls(model, controls, (n_env,))
     dtype = pose.dtype
-    noise = jax.random.normal(key, (model.substeps, 3, model.n_bodies, n_env), dtype)
+    noise = substep_noise(key, model.substeps, (3, model.n_bodies, n_env), dtype)
     last = lambda a: jnp.moveaxis(a, 0, -1)  # noqa: E731  (E, K, ...) -> (K, ..., E)
     pose_t, trap_t = last(pose), last(trap_xy)
     body_velocity, external = last(controls.body_velocity), last(controls.external_force)
@@ -350,6 +356,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         jnp.zeros((model.n_traps, n_env), dtype),
         jnp.zeros(n_env, dtype),
     )
+    carry = shard_environment_tree(carry, -1)  # split over every local device (one: unchanged)
     trap_start = (trap_t[:, 0], trap_t[:, 1])
     refresh = model.field_refresh
     blocks = model.substeps // refresh
@@ -360,21 +367,29 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         fields = _sample_fields(model, x, y)
         return fields, _body_frame_flow_drag(model, turn, fields)
 
+    def with_noise(inputs):
+        """A substep's scan inputs (noise inputs, index) -> (its noise, index). The noise
+        is materialised once per substep (the barrier), so XLA cannot duplicate its
+        threefry rounds into each fusion that reads one of its rows."""
+        return jax.lax.optimization_barrier(noise.draw(inputs[0])), inputs[1]
+
     def block(carry, inputs):
         fields, body_drag = sample(carry)
         return jax.lax.scan(
-            lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, i), carry, inputs
+            lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, with_noise(i)),
+            carry,
+            inputs,
         )
 
     if refresh == 1:  # one flat loop: a scan of one-step blocks costs a loop level per step
 
         def single(carry, inputs):
-            return _substep(model, step_controls, trap_start, *sample(carry), carry, inputs)
+            return _substep(model, step_controls, trap_start, *sample(carry), carry, with_noise(inputs))
 
-        carry, _ = jax.lax.scan(single, carry, (noise, jnp.arange(model.substeps)))
+        carry, _ = jax.lax.scan(single, carry, (noise.inputs, jnp.arange(model.substeps)))
     else:
         inputs = (
-            noise.reshape((blocks, refresh) + noise.shape[1:]),
+            jax.tree.map(lambda a: a.reshape((blocks, refresh) + a.shape[1:]), noise.inputs),
             jnp.arange(model.substeps).reshape(blocks, refresh),
         )
         carry, _ = jax.lax.scan(block, carry, inputs)
@@ -412,7 +427,7 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
     new_state = PhysicsState(
         pose=first(jnp.stack([px, py, theta], axis=1)), trap_xy_um=first(jnp.stack([trap_x, trap_y], axis=1))
     )
-    return new_state, report
+    return shard_environment_tree(new_state, 0), shard_environment_tree(report, 0)
 
 
 def _control_step_one(model: Model, state: PhysicsState, controls: Controls, key):

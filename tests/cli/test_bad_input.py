@@ -129,6 +129,7 @@ STRING_CASES = {
     "NAMESPACE": [Case("not a ROS 2 namespace", "/rig 1")],
     "TOPIC": [Case("not a ROS 2 topic", "/cmd vel")],
     "HOST": [Case("not an address", "no such host!")],
+    "ADDRESS": [Case("no port", "127.0.0.2"), Case("bad port", "127.0.0.2:99999"), Case("bad host", "no host!:6379")],
     "TEXT": [],
 }
 

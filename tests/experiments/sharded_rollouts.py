@@ -1,0 +1,74 @@
+"""Run by ``test_sharding.py`` in a fresh process (the device count is fixed when JAX
+starts): ``python -m tests.experiments.sharded_rollouts OUT.npz PART...`` with parts
+``physics`` (a batched physics rollout), ``training`` (a short DQN training) and
+``evaluation`` (an evaluation rollout), four environments each; saves their arrays to
+OUT.npz with ``devices_<part>``, the number of devices each result is split over."""
+
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+def devices_of(array) -> int:
+    return len(array.sharding.device_set)
+
+
+def physics_rollout():
+    from otgym import physics as ph
+    from tests.physics.helpers import batch_state, run_batch
+
+    config = ph.PhysicsConfig(dt_s=1e-4, substeps=20, field_refresh_substeps=5)
+    model = ph.build_model([ph.two_handle_robot("a"), ph.two_handle_robot("b"), ph.cell("c")], config)
+    state = batch_state(model, np.array([[0.0, -6.0, 0.0], [0.0, 6.0, 3.0], [0.0, 0.0, 0.0]]), 4)
+    controls = ph.Controls.zeros(model, 4).replace(trap_velocity_um_s=jnp.full((4, model.n_traps, 2), 3.0))
+    final, (states, reports) = run_batch(model, state, controls, jax.random.PRNGKey(5), 4)
+    return {"physics_pose": final.pose, "physics_trap_distance": reports.trap_distance_max_um}, devices_of(final.pose)
+
+
+def training():
+    from otgym.envs import speed_control as spc
+    from otgym.envs.presets import preset
+    from otgym.experiments.speed_control import make_env
+    from otgym.rl.dqn import DQNConfig, make_train
+
+    config = DQNConfig(n_envs=4, total_env_steps=4 * 40 * 2, chunk_iters=40, learning_starts=64, batch_size=16)
+    init, run_chunk, _ = make_train(config, make_env(spc.make_params(preset("paper"))))
+    runner = jax.jit(init)(jax.random.PRNGKey(0))
+    run_chunk = jax.jit(run_chunk)
+    metrics = []
+    for _ in range(config.n_chunks):
+        runner, chunk = run_chunk(runner)
+        metrics.append(chunk)
+    leaves = jax.tree_util.tree_leaves_with_path(runner.q_params)
+    out = {f"train_q{jax.tree_util.keystr(path)}": leaf for path, leaf in leaves}
+    out["train_obs"] = runner.obs
+    out["train_return_sum"] = jnp.concatenate([m["return_sum"] for m in metrics])
+    out["train_loss"] = jnp.concatenate([m["loss"] for m in metrics])
+    return out, devices_of(runner.obs)
+
+
+def evaluation():
+    from otgym.envs import speed_control as spc
+    from otgym.envs.transport import OBS_SIZE
+    from otgym.experiments.speed_control_eval import make_rollout
+    from otgym.rl.network import QNetwork
+
+    params = spc.make_params("paper")
+    hidden = (16,)
+    q_params = QNetwork(params.config.n_actions, hidden).init(jax.random.PRNGKey(1), jnp.zeros((1, OBS_SIZE)))
+    rollout = make_rollout(params, hidden, 2, policies=(0, 3))
+    (progress, success, time_s), (active, force, distance) = rollout(q_params, jax.random.PRNGKey(2))
+    out = {"eval_progress": progress, "eval_time_s": time_s, "eval_force": force, "eval_distance": distance}
+    return out, devices_of(force)
+
+
+PARTS = {"physics": physics_rollout, "training": training, "evaluation": evaluation}
+
+if __name__ == "__main__":
+    results, split = {}, {}
+    for name in sys.argv[2:]:
+        arrays, split[name] = PARTS[name]()
+        results.update({key: np.asarray(value) for key, value in arrays.items()})
+    np.savez(sys.argv[1], **results, **{f"devices_{name}": count for name, count in split.items()})
