@@ -136,14 +136,7 @@ def register(app: typer.Typer) -> None:
             mpc_config=mpc_config,
             mpc_stats=stats,
         )
-        checks = write_experiment(
-            frame, out, mpc_summary(stats, mpc_config, InteractiveConfig().tick_s) if stats else None
-        )
-        mark_report_files("shared-control", seed, [out / "summary.md"], [out / "acceptance.json"], trials=trials)
-        print((out / "summary.md").read_text())
-        for name, passed in checks.items():
-            print(f"{'PASS' if passed else 'FAIL'}  {name}")
-        bound = ""
+        bound, route_bound_s = "", None
         if "shared" in chosen and "autonomous" in chosen:
             from otgym.experiments.route_bound import ROUTE_SPEED_UM_S, run_route_bound, write_route_bound
 
@@ -153,12 +146,24 @@ def register(app: typer.Typer) -> None:
                 out,
             )
             best = summary[f"{ROUTE_SPEED_UM_S:g}"]
+            route_bound_s = float(best["earliest_mean_s"])
             print(
                 f"      at {ROUTE_SPEED_UM_S:g} um/s: {best['earliest_mean_s']:.1f} s on average, "
                 f"{best['earliest_over_free']:.3f}x the unobstructed route (see route_bound.md)"
             )
             bound = ", route_bound.csv/.json/.md"
             mark_report_files("route-bound", seed, [out / "route_bound.md"], trials=trials)
+        checks = write_experiment(
+            frame,
+            out,
+            mpc_summary(stats, mpc_config, InteractiveConfig().tick_s) if stats else None,
+            route_bound_s=route_bound_s,
+            shared_autonomy=shared_autonomy,
+        )
+        mark_report_files("shared-control", seed, [out / "summary.md"], [out / "acceptance.json"], trials=trials)
+        print((out / "summary.md").read_text())
+        for name, passed in checks.items():
+            print(f"{'PASS' if passed else 'FAIL'}  {name}")
         if note:
             print(note)
         print(
