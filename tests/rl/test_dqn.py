@@ -18,6 +18,9 @@ TINY = DQNConfig(
 )
 
 
+pytestmark = pytest.mark.xdist_group("dqn_trained")  # one worker trains the module fixture once
+
+
 @pytest.fixture(scope="module")
 def trained():
     params = spc.make_params("paper")
