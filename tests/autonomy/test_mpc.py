@@ -25,6 +25,9 @@ SMALL = MPCConfig(n_rollouts=16, plan_steps=8, knot_steps=4)
 STEP_S = SMALL.step_s
 
 
+pytestmark = pytest.mark.slow  # module fixtures that compile or solve for seconds
+
+
 def parked_scenario(points_um) -> Scenario:
     """Obstacles that stay where they start (their tracks depart in a million seconds)."""
     k = len(points_um)

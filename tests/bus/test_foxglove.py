@@ -80,6 +80,7 @@ def session(stamp_s: float):
     return task, task_messages.session_messages(task, [], stamp_s)
 
 
+@pytest.mark.slow
 def test_the_foxglove_node_serves_the_scene_of_the_running_session(children):  # noqa: F811
     endpoint = free_endpoint()
     children.append(spawn("-m", "otgym", "node", "foxglove", "--port", "0", "--connect", endpoint))

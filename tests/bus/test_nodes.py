@@ -123,6 +123,7 @@ def device_node(endpoint: str, csv: Path) -> subprocess.Popen:
     )
 
 
+@pytest.mark.slow
 def test_device_node_killed_its_input_is_zero_at_once_and_the_traps_hold(tmp_path, children):
     from tests.task import fast_scenario, shared_task
 
@@ -212,6 +213,7 @@ def test_sim_killed_the_device_force_is_zeroed_and_the_restarted_sim_is_found(ch
     assert np.all(spy.forces[-1] == 0.0)  # zero force when the node stops
 
 
+@pytest.mark.slow
 def test_recorder_node_killed_with_sigkill_keeps_all_but_its_last_moments(tmp_path, children):
     """Messages at 50 Hz until the recorder's file on disk holds 50 of them (its chunks
     are flushed as it goes), then SIGKILL: the file reads as incomplete and holds an
@@ -298,6 +300,7 @@ def test_malformed_messages_are_dropped_and_counted_never_applied():
         np.testing.assert_allclose(remote.read().velocity_mm_s, [1.0, 0.0, tries / 8])  # the last good one
 
 
+@pytest.mark.slow
 def test_sim_node_publishes_every_tick_and_the_trial_events():
     from otgym.bus.sim_node import run_sim_node
     from tests.task import shared_task
@@ -322,6 +325,7 @@ def test_sim_node_publishes_every_tick_and_the_trial_events():
     assert len(msg.xy_um(seen[msg.TRAPS][-1])) == shared_task().n_traps
 
 
+@pytest.mark.slow
 def test_autonomy_node_drives_shared_control_and_its_death_falls_back_to_manual_with_a_cue(children):
     """The sim (in this process, shared mode, no device) takes dP_r from an autonomy node
     process: the traps move as the in-process navigator would move them. Killed by its
@@ -453,6 +457,7 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
         (["device", "--device", "replay"], "--device replay needs --replay FILE"),
     ],
 )
+@pytest.mark.slow
 def test_bad_node_arguments_end_in_one_line_and_exit_2(args, message):
     run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2 and "Traceback" not in run.stderr

@@ -24,6 +24,7 @@ from tests.experiments.test_speed_control_eval import EPISODES
 SHORT_LEG = TransportDemo(start_um=(15.0, 40.0), goal_um=(60.0, 40.0), n_runs=2)
 
 
+@pytest.mark.slow
 def test_transport_demo_carries_the_cell_to_the_goal_and_writes_its_files(tmp_path):
     """A short leg of the top-left branch (45 um at 4 um/s, two runs at once): the cell
     ends within 1 um of the goal in the run shown, carried only by contact."""
@@ -40,6 +41,7 @@ def test_transport_demo_carries_the_cell_to_the_goal_and_writes_its_files(tmp_pa
     assert json.loads((tmp_path / "summary.json").read_text()) == summary
 
 
+@pytest.mark.slow
 def test_transport_figure_shows_the_shown_run_where_it_stopped(tmp_path, monkeypatch):
     """The demo's whole-path transport (2 runs at 4 um/s, seed 1), in which the shown
     run is stopped by an obstacle halfway while the batch goes on stepping: the figure
@@ -127,6 +129,7 @@ def _recomputed_rows(trials: pd.DataFrame) -> dict:
     return rows
 
 
+@pytest.mark.slow
 def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, capsys, monkeypatch, fixed_action_q_params):
     """The whole main job from the command line, small: a short leg of the transport, 4
     episodes with a policy that always drives at the slowest level (its Table II row
@@ -223,6 +226,7 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     assert [row["mode"] for row in summary["shared_control"]["modes"]] == ["manual", "autonomous", "shared"]
 
 
+@pytest.mark.slow
 def test_a_failing_stage_stops_the_background_study_and_is_the_error_reported(tmp_path, monkeypatch):
     """The study thread (here a stand-in that reports until told to stop) is stopped at
     its next report when the speed-control stage fails, and the demo raises that

@@ -14,6 +14,7 @@ from tests.study.test_analyze import PARTICIPANTS, write_answers, write_trials
 COMMAND = ["study", "analyze"]
 
 
+@pytest.mark.slow
 def test_analyze_end_to_end(tmp_path):
     write_trials(tmp_path / "s1", PARTICIPANTS[:2])
     write_trials(tmp_path / "s2", PARTICIPANTS[2:])
@@ -79,6 +80,7 @@ def record_trials(path, frame: pd.DataFrame) -> None:
             write(m.EVENTS, m.event("trial_end", **{k: v.item() if hasattr(v, "item") else v for k, v in row.items()}))
 
 
+@pytest.mark.slow
 def test_recordings_give_the_same_analysis_as_trials_csv(tmp_path, capsys):
     """The CSV path and the MCAP path (one file per folder, and a folder of two
     sessions with its questionnaires.csv) write identical summaries and tests."""

@@ -20,6 +20,7 @@ def run_cli(arguments) -> int:
     return exit_info.value.code
 
 
+@pytest.mark.slow
 def test_train_writes_a_loadable_policy_curve_and_summary(tmp_path, capsys):
     """16 environments x 200 iterations (3200 steps): short, but episodes end (a random
     speed finishes a 15 um segment in at most 278 steps) and the learning curve has them."""
@@ -32,6 +33,7 @@ def test_train_writes_a_loadable_policy_curve_and_summary(tmp_path, capsys):
     assert "3200 steps" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params, capsys):
     policy = save_policy(
         tmp_path / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(FIXED_POLICY_HIDDEN)}

@@ -62,9 +62,9 @@ def test_a_bad_sweep_file_is_one_line_and_writes_nothing(tmp_path, capsys, text,
     "extra, message",
     [
         (["--serial", "--address", "auto"], "--serial runs without Ray"),
-        (["--workers", "0"], "--workers must be at least 1"),
+        (["--workers", "0"], "--workers must lie in [1, 1024], not 0"),
         (["--workers", "2", "--address", "auto"], "only sizes a Ray started here"),
-        (["--cpus-per-cell", "0"], "--cpus-per-cell must be positive"),
+        (["--cpus-per-cell", "0"], "--cpus-per-cell must lie in [0.01, 1024.0], not 0"),
     ],
 )
 def test_bad_sweep_options_are_one_line_and_write_nothing(tmp_path, capsys, extra, message):
@@ -94,6 +94,11 @@ def test_failing_cells_end_the_sweep_with_exit_1_and_one_summary_line(tmp_path, 
     out = tmp_path / "out"
     assert run_cli(["sweep", str(path), "--out", str(out), "--serial"]) == 1
     error = one_error_line(capsys)
-    assert error.startswith("error: 2 of 2 cells failed (preset-nope: error: unknown preset 'nope'")
+    assert error.startswith(
+        "error: 2 of 2 cells failed (preset-nope: error: --preset must be one of paper, realistic, not 'nope'"
+    )
     cells = read_cells(out)
-    assert cells["preset-none"]["status"] == "failed" and "unknown preset 'none'" in cells["preset-none"]["error"]
+    assert (
+        cells["preset-none"]["status"] == "failed"
+        and "--preset must be one of paper, realistic, not 'none'" in cells["preset-none"]["error"]
+    )

@@ -9,6 +9,7 @@ import otgym.envs  # noqa: F401  (registers the ids)
 
 
 @pytest.mark.parametrize("env_id", ["otgym/SpeedControl-v0", "otgym/CellTransport-v0"])
+@pytest.mark.slow
 def test_env_checker_passes_and_renders(env_id):
     env = gym.make(env_id, render_mode="rgb_array")
     check_env(env.unwrapped, skip_render_check=False)
@@ -40,6 +41,7 @@ def test_cell_transport_rejects_nan_wrong_shape_and_out_of_bounds():
         env.step(np.full((2, 2), 5.0))
 
 
+@pytest.mark.slow
 def test_same_seed_same_episode():
     env = gym.make("otgym/SpeedControl-v0").unwrapped
     first = [env.reset(seed=3)[0]] + [env.step(4)[0] for _ in range(3)]

@@ -53,6 +53,7 @@ def test_make_vec_returns_the_native_vector_env_and_make_the_single_one(env_id, 
     assert other._step is env._step and other.params is env.params  # compiled once per (task, preset)
 
 
+@pytest.mark.slow
 def test_reset_shapes_dtypes_and_seed_reproducibility(speed_env):
     obs, info = speed_env.reset(seed=7)
     assert obs.shape == (N, 21) and obs.dtype == np.float32 and info == {} and obs.flags.writeable
@@ -70,6 +71,7 @@ def test_reset_shapes_dtypes_and_seed_reproducibility(speed_env):
     assert not np.array_equal(speed_env.reset(seed=8)[0], obs)
 
 
+@pytest.mark.slow
 def test_one_step_advances_progress_by_the_chosen_speed(speed_env):
     config = speed_env.params.config
     period = config.scene.control_period_s
@@ -130,6 +132,7 @@ def test_same_step_autoreset_returns_a_fresh_episode_and_the_final_obs_in_infos(
     assert np.all(obs[~done, 0] > before[~done])
 
 
+@pytest.mark.slow
 def test_cell_transport_step_shapes_and_reproducibility(cell_env):
     first, _ = cell_env.reset(seed=5)
     action = np.zeros((N, 2, 2), np.float32)

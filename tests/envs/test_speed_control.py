@@ -15,6 +15,7 @@ reset_batch = jax.jit(spc.reset_batch, static_argnums=2)
 step_batch = jax.jit(spc.step_batch)
 
 
+@pytest.mark.slow
 def test_reset_and_step_shapes_and_determinism(paper_params):
     obs, state = reset_batch(jax.random.PRNGKey(0), paper_params, N_ENVS)
     again, _ = reset_batch(jax.random.PRNGKey(0), paper_params, N_ENVS)
@@ -56,6 +57,7 @@ def test_reset_and_step_shapes_and_determinism(paper_params):
     assert weights.cell_margin < 0 and np.asarray(shaped["cell_margin"])[-1] < 0
 
 
+@pytest.mark.slow
 def test_single_env_is_the_batch_of_one(paper_params):
     obs, state = spc.reset(jax.random.PRNGKey(3), paper_params)
     batch_obs, _ = reset_batch(jax.random.PRNGKey(3), paper_params, 1)
@@ -67,6 +69,7 @@ def test_single_env_is_the_batch_of_one(paper_params):
 TREND_EPISODES = 128
 
 
+@pytest.mark.slow
 def test_slow_episodes_reach_the_goal_and_fast_ones_lose_traps(paper_params):
     """Carry 128 segments at the slowest and 128 at the fastest paper speed to the end.
     Measured when the preset was re-derived (issue 10; 128 segments per speed, seed 101):

@@ -12,6 +12,7 @@ COMMAND = ["experiment", "route-bound"]
 GRID_S = 2 * 0.25 / 5.0  # two arc steps of 0.25 um at the slower limit
 
 
+@pytest.mark.slow
 def test_route_bound_writes_its_files_and_a_faster_limit_never_arrives_later(tmp_path):
     """Fails if a file or row is missing, if the unobstructed time is not the route's
     length to the goal tolerance over the speed (the autonomous mode's 60.7 s at

@@ -50,6 +50,7 @@ def check_same(tmp_path, parts):
             assert two[name].tobytes() == one[name].tobytes(), f"{name} differs when split over 2 devices"
 
 
+@pytest.mark.slow
 def test_physics_rollout_split_over_two_devices_is_bitwise_the_one_device_rollout(tmp_path):
     """Four environments, four control steps of 20 substeps with moving traps."""
     check_same(tmp_path, ["physics"])

@@ -12,6 +12,7 @@ from tests.otgym_cli import run_otgym
 COMMAND = ["experiment", "shared-control"]
 
 
+@pytest.mark.slow
 def test_small_experiment_writes_every_file(tmp_path):
     """Fails if a file is missing, a trial is lost or a column renamed, if modes do not
     share their scenarios, or if the autonomy does not move off the start in 6 s
@@ -50,6 +51,7 @@ def test_small_experiment_writes_every_file(tmp_path):
     assert json.loads((out / "acceptance.json").read_text())["seed_status"] == "development seed"
 
 
+@pytest.mark.slow
 def test_mpc_mode_alone_with_one_participant(tmp_path):
     """Mode mpc from the command line, small (12 rollouts, 5 steps of 0.1 s), one
     participant, cut at 4 s: fails if the MPC's trials are not written as mpc with the

@@ -21,6 +21,9 @@ from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 EPISODES = 4  # shared with the demo test, so both run one compiled rollout
 
 
+pytestmark = pytest.mark.slow  # module fixtures that compile or solve for seconds
+
+
 def steps_to_goal(params, speed_um_s):
     """Control steps a constant speed needs for a whole segment (float32 arcs round the last step)."""
     period = params.config.scene.control_period_s

@@ -313,6 +313,7 @@ def carry_past_an_oncoming_obstacle(participants, walls_below_um, seconds=25.0):
     return closest_um, wall_um
 
 
+@pytest.mark.slow
 def test_the_person_steps_aside_from_an_obstacle_coming_down_the_route(monkeypatch):
     """An obstacle coming head on along the route (3 um/s, 2 um left of it; a wall 10 um
     below the route, 3.5 um from robot 0's handles): neither waiting nor backing at the

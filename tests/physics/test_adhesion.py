@@ -105,6 +105,7 @@ def _cell_gap_after_release(adhesion, seed):
     return np.stack([gaps[:, body == robot].min(axis=1) for robot in (0, 2)], axis=1)
 
 
+@pytest.mark.slow
 def test_robots_can_let_go_of_a_cell():
     """After backing 2 um away, each robot is clear of the cell in all 8 runs: the cell
     diffuses (0.55 um rms over the 2.5 s) between robots 4 um apart, and a stuck cell

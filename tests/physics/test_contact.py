@@ -122,6 +122,7 @@ def run_dense(seed, box_um, trap_speed_um_s, obstacle_speed_um_s, n_steps=20, mo
 
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), box_um=st.floats(14.0, 24.0))
+@pytest.mark.slow
 def test_free_bodies_in_dense_random_configurations_do_not_penetrate(seed, box_um):
     """Three robots, two cells, a bead and an immovable obstacle packed at random into
     a small box, free (no trap pulls, the obstacle still): over 0.1 s no overlap
@@ -132,6 +133,7 @@ def test_free_bodies_in_dense_random_configurations_do_not_penetrate(seed, box_u
 
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), box_um=st.floats(14.0, 24.0), speed=st.floats(20.0, 200.0))
+@pytest.mark.slow
 def test_traps_driving_bodies_into_each_other_stay_within_the_contact_compliance(seed, box_um, speed):
     """The same packings with every trap moving off in a random direction, dragging
     the robots and the bead into their neighbours with up to the traps' maximum force,
@@ -167,6 +169,7 @@ iterations that jam reached 1.54, with 32 1.08); allowed 1.5."""
 
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), box_um=st.floats(14.0, 24.0), speed=st.floats(20.0, 200.0))
+@pytest.mark.slow
 def test_projected_contact_keeps_every_overlap_within_its_cap(seed, box_um, speed):
     """The driven packings above with the overlap projection on (cap: 2 % of the
     smaller radius of each pair). Over every step no overlap exceeds the largest cap

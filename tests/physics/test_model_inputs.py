@@ -68,6 +68,7 @@ def test_uniform_flow_advects_a_free_bead_and_kinematic_bodies_follow_their_velo
     assert pose[1] == pytest.approx([50.0, 0.2, 0.05], abs=1e-5)
 
 
+@pytest.mark.slow
 def test_simulation_runs_in_float64_when_enabled():
     with jax.enable_x64(True):
         model = ph.build_model([ph.two_handle_robot()], ph.PhysicsConfig(dtype="float64", substeps=4))
@@ -77,6 +78,7 @@ def test_simulation_runs_in_float64_when_enabled():
         assert np.all(np.isfinite(np.asarray(state.pose)))
 
 
+@pytest.mark.slow
 def test_vmap_of_control_step_runs_the_batched_kernel_with_the_same_physics():
     """vmap over states and keys goes through control_step_batch (custom batching rule):
     at T = 0 it must give exactly the deterministic motion of separate calls, and with

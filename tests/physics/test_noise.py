@@ -51,6 +51,7 @@ def up_front(key, substeps, shape, dtype):
 
 
 @pytest.mark.parametrize("n_env", [1, 5])
+@pytest.mark.slow
 def test_steps_match_those_with_the_noise_drawn_up_front(monkeypatch, n_env):
     """30 substeps in field-refresh blocks of 10 at room temperature, against the same
     step with its noise drawn up front. One environment: bitwise. Five: to float32

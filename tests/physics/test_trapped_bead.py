@@ -20,6 +20,9 @@ DIAMETER, STIFFNESS, RATE, DURATION = 1.0, 10.0, 10_000.0, 40.0
 GAMMA = 6 * np.pi * 8.9e-4 * DIAMETER / 2
 
 
+pytestmark = pytest.mark.slow  # module fixtures that compile or solve for seconds
+
+
 @pytest.fixture(scope="module")
 def trace():
     return simulate_trapped_bead(DIAMETER, STIFFNESS, sample_rate_hz=RATE, duration_s=DURATION, seed=3)

@@ -34,6 +34,7 @@ def _corridor_png(tmp_path):
     return path
 
 
+@pytest.mark.slow
 def test_plan_on_the_default_chip_writes_table_and_figures(tmp_path, capsys):
     code, output = _run(
         ["plan", "--chip", "default", "--start", "5,40", "--goal", "295,160", "--out", str(tmp_path)], capsys

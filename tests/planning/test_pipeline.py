@@ -34,6 +34,7 @@ def test_smoothed_path_is_free_and_beats_astar_on_every_table_metric(chip_plan):
     assert spline_row.hf_curvature_rms_per_um < astar_row.hf_curvature_rms_per_um
 
 
+@pytest.mark.slow
 def test_table_has_the_paper_ordering_with_the_simulated_operator(default_chip, tmp_path):
     from otgym.human.operator import simulate_operator
 

@@ -18,7 +18,7 @@ TINY = DQNConfig(
 )
 
 
-pytestmark = pytest.mark.xdist_group("dqn_trained")  # one worker trains the module fixture once
+pytestmark = [pytest.mark.xdist_group("dqn_trained"), pytest.mark.slow]  # one worker trains the module fixture once
 
 
 @pytest.fixture(scope="module")

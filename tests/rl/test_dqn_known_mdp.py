@@ -13,6 +13,7 @@ margin is real (Q gaps 0.5-1.1) everywhere but cell 1, where the two are within 
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from otgym.rl.dqn import DQNConfig, Env, make_train
 from otgym.rl.network import QNetwork
@@ -110,6 +111,7 @@ def test_value_iteration_gives_a_mixed_optimal_policy():
     assert list(q.argmax(axis=1)[clear]) == [1, 1, 0, 0, 1, 0]  # cells 0, 2, 3, 4, 5, 6
 
 
+@pytest.mark.slow
 def test_dqn_finds_the_optimal_policy_and_values():
     """Five training seeds (vmapped, one compile). The issue's bar for training
     reliability is 4 of 5 seeds; each passing seed must choose the optimal action in

@@ -16,6 +16,8 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
+
 from otgym.runtime.latest_bytes import LatestBytes
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -101,6 +103,7 @@ def gone(pid: int) -> bool:
         return True
 
 
+@pytest.mark.slow
 def test_a_worker_whose_parent_is_killed_saves_its_trial_as_aborted_and_exits(tmp_path):
     """A parent starts a session worker and says when the worker's snapshot has reached
     1 s of trial 1 (and how many ticks that is); then it is killed with SIGKILL. The

@@ -5,9 +5,12 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from scipy.interpolate import RegularGridInterpolator
 
 from otgym.sim.fields import fields_from
+
+pytestmark = pytest.mark.slow  # module fixtures that compile or solve for seconds
 
 
 def _interpolator(grid, origin, spacing):

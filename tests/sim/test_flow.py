@@ -12,6 +12,9 @@ from otgym.sim.flow import mid_height_factor, rectangular_duct_velocity, solve_f
 WIDTH, HEIGHT, RATE = 25.0, 50.0, 5000.0
 
 
+pytestmark = pytest.mark.slow  # module fixtures that compile or solve for seconds
+
+
 def _exact_profiles(y_um):
     """Exact depth-averaged and mid-height profiles of a 25 x 50 um duct carrying RATE."""
     z = np.linspace(0.0, HEIGHT, 201)

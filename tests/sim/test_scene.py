@@ -101,6 +101,7 @@ def random_walk(scene, states, key, n_steps):
     return jax.lax.scan(body, states, jax.random.split(key, n_steps))
 
 
+@pytest.mark.slow
 def test_no_body_crosses_a_wall_over_1e5_random_steps(transport_paper):
     """500 environments x 200 random control steps = 1e5 steps (1e7 physics steps):
     no sphere centre of any body (robots, cell, obstacles) ever gets within half its
@@ -140,6 +141,7 @@ def drive_into_walls(scene, n_env):
     return np.asarray(clearance)
 
 
+@pytest.mark.slow
 def test_stiff_traps_do_not_push_bodies_through_walls(transport):
     """The literature traps (Gaussian, 50 pN/um, up to 9.1 pN each) drag the assembly at
     15 um/s in a random direction per environment for 4 s (60 um: every run meets a
@@ -166,6 +168,7 @@ def test_stiff_traps_do_not_push_bodies_through_walls(transport):
     assert np.mean(clearance.min(axis=0) < 1.2) > 0.5  # most runs pressed a sphere against a wall
 
 
+@pytest.mark.slow
 def test_overlap_projection_holds_bodies_off_walls_within_its_cap():
     """The drive above (literature traps, 15 um/s, 32 environments, 4 s) in the same
     scene with the overlap projection on (cap 2 % of a radius): no sphere centre comes
@@ -178,6 +181,7 @@ def test_overlap_projection_holds_bodies_off_walls_within_its_cap():
     assert np.mean(clearance.min(axis=0) < 1.2) > 0.5  # most runs pressed a sphere against a wall
 
 
+@pytest.mark.slow
 def test_navigation_and_bead_scenes_run():
     for kind in ("navigation", "bead"):
         scene = sc.build_scene(sc.SceneConfig(kind=kind, n_obstacles=2, **PAPER_LIKE))
@@ -209,6 +213,7 @@ def test_a_chip_too_narrow_for_the_assembly_is_refused():
         sc.build_scene(sc.SceneConfig(chip=straight_duct(width_um=12.0)))
 
 
+@pytest.mark.slow
 def test_sampling_fields_every_ten_steps_changes_nothing_that_matters(transport):
     """At T = 0, the same control step with fields sampled every step and every 10
     steps (1 ms): the robots and the cell end within 1 nm of each other."""
@@ -225,6 +230,7 @@ def test_sampling_fields_every_ten_steps_changes_nothing_that_matters(transport)
     assert np.abs(ends[0] - ends[1]).max() < 1e-3
 
 
+@pytest.mark.slow
 def test_vmap_of_step_is_step_batch_with_the_batch_key(transport_paper):
     """vmap(step) routes to step_batch (custom batching rule) with one key derived from
     all the batch's keys: both must agree exactly."""

@@ -5,6 +5,7 @@ environments; with the noise of the step's 2000 substeps drawn up front it was 0
 
 import jax
 import jax.numpy as jnp
+import pytest
 
 from otgym.sim import scene as sc
 
@@ -12,6 +13,7 @@ LIMIT_BYTES_PER_ENV = 250_000
 N_ENV = 32
 
 
+@pytest.mark.slow
 def test_transport_step_scratch_per_environment_is_under_a_quarter_megabyte():
     scene = sc.build_scene(sc.SceneConfig(kind="transport"))
     states = jax.vmap(sc.reset, in_axes=(None, 0))(scene, jax.random.split(jax.random.PRNGKey(0), N_ENV))

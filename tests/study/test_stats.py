@@ -58,6 +58,7 @@ def test_holm_is_the_step_down_correction_of_the_unadjusted_p_values():
     assert all(pair["p_holm"] >= pair["p_unc"] for pair in pairs)
 
 
+@pytest.mark.slow
 def test_no_effect_gives_the_nominal_false_positive_rate():
     """Under H0 an exact test rejects at p < 0.05 in 5 % of data sets; 200 seeded data
     sets must give a count inside the binomial(200, 0.05) 99.9 % range. Holm keeps the

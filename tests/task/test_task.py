@@ -24,6 +24,9 @@ E = len(SEEDS)
 CARRY_TICKS = 250  # 5 s at 50 Hz
 
 
+pytestmark = pytest.mark.slow  # module fixtures that compile or solve for seconds
+
+
 @pytest.fixture(scope="module")
 def task():
     return shared_task()

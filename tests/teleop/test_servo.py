@@ -114,6 +114,7 @@ def _ended(pid: int) -> bool:
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads process states from /proc")
+@pytest.mark.slow
 def test_the_servo_process_ends_when_its_parent_dies():
     context = multiprocessing.get_context("spawn")
     receiver, sender = context.Pipe(duplex=False)

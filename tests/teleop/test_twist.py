@@ -74,6 +74,7 @@ def twist_cdr(vx_m_s: float, vy_m_s: float) -> bytes:
     return b"\x00\x01\x00\x00" + struct.pack("<6d", vx_m_s, vy_m_s, 0.0, 0.0, 0.0, 0.5)
 
 
+@pytest.mark.slow
 def test_a_ros2_teleop_twist_on_cmd_vel_moves_the_robot_and_silence_holds_the_traps():
     from otgym.bus.nodes import RemoteDevice, run_device_node
     from otgym.runtime.loop import DeviceBinding, InteractiveLoop

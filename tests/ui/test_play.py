@@ -190,6 +190,7 @@ def test_mouse_drag_moves_the_robots_traps_toward_the_pointer(session, task):
     assert np.linalg.norm(view.trap_centre_um(simulation.snapshot, 0) - robot0) < 0.2  # robot 0 held still
 
 
+@pytest.mark.slow
 def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
     from otgym.cli.app import main
 
@@ -360,6 +361,7 @@ def test_the_keyboard_moves_both_robots_as_a_formation(task):
     assert abs(first[0] - second[0]) < 0.1 * first[0] and abs(first[1]) < 0.1 * first[0], moved
 
 
+@pytest.mark.slow
 def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_path):
     """``otgym play``'s arrangement: the session in a worker process, the keyboard read
     by the window and its samples forwarded. Holding the right arrow moves both robots'

@@ -71,6 +71,7 @@ def wait_gone(marker: str, timeout_s: float = 60.0) -> list[int]:
     return marked(marker)
 
 
+@pytest.mark.slow
 def test_a_distributed_session_records_its_trial_and_leaves_nothing_running(tmp_path):
     """A 3 s shared-mode session: the window's trials.csv has the one trial's row (D1,
     ended by its duration at 3.0 s of simulated time) and the recorder's session.mcap is
@@ -116,6 +117,7 @@ def test_a_distributed_session_records_its_trial_and_leaves_nothing_running(tmp_
     assert counts["/otgym/device/device0/twist"] > 0 and counts["/otgym/autonomy/increments"] > 0
 
 
+@pytest.mark.slow
 def test_a_node_that_dies_stops_them_all_with_one_error_line(tmp_path):
     """A manual session whose device node is killed (SIGKILL) once the session runs (its
     recording holds a tick's traps: waited for, 300 s at most): the launcher ends with
