@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
-from otgym.cli.app import _register_commands, app, main
+from otgym.cli.app import app, main, register_commands
 from otgym.cli.sweep import command_specs
 from otgym.cluster.engine import run_sweep
 from otgym.cluster.sweep_file import CommandSpec, OptionSpec, load_sweep
@@ -85,7 +85,7 @@ def main_benchmark() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--noop-cells", type=int, default=40)
     args = parser.parse_args()
-    _register_commands()
+    register_commands()
     print(f"machine: {os.cpu_count()} CPU cores; load average (1 min) at start {load()}")
     with tempfile.TemporaryDirectory(prefix="otgym-sweep-bench-") as folder:
         folder = Path(folder)
