@@ -25,7 +25,7 @@ SMALL = MPCConfig(n_rollouts=16, plan_steps=8, knot_steps=4)
 STEP_S = SMALL.step_s
 
 
-pytestmark = pytest.mark.slow  # module fixtures that compile or solve for seconds
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("mpc")]  # one worker builds the navigator once
 
 
 def parked_scenario(points_um) -> Scenario:
@@ -43,12 +43,12 @@ def parked_scenario(points_um) -> Scenario:
     )
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def task():
     return InteractiveTask()
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def navigator(task):
     return MPCNavigator(task, SMALL, chunk_envs=1)
 
@@ -57,7 +57,7 @@ def far_obstacles(task):
     return route_point(task.route_um, task.route_arc_um, np.array([240.0, 255.0, 270.0, 285.0]))
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def gripped(task):
     """The assembly gripped at the route's start (0.8 s of the route navigator), the
     obstacles parked far down the route."""

@@ -189,7 +189,7 @@ class LoopbackCluster:
                 process.terminate()
             except psutil.NoSuchProcess:
                 pass
-        _, alive = psutil.wait_procs(processes, timeout=30)
+        _, alive = psutil.wait_procs(processes, timeout=5)  # some of Ray's processes ignore SIGTERM
         for process in alive:
             try:
                 process.kill()

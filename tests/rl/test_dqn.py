@@ -21,7 +21,7 @@ TINY = DQNConfig(
 pytestmark = [pytest.mark.xdist_group("dqn_trained"), pytest.mark.slow]  # one worker trains the module fixture once
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept if the worker runs another module between its tests
 def trained():
     params = spc.make_params("paper")
     _, _, train = make_train(TINY, make_env(params))
