@@ -368,13 +368,14 @@ def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_pa
     traps along +x (manual mode: nothing else moves them; the window draws frames until
     every trap has moved 1 um, 120 s at most, then the motion must point along x);
     closing the window mid-trial saves the trial as aborted, and its recording ends with
-    it, holding the forwarded key samples (the keyboard's 2 mm/s along x)."""
+    it, holding the forwarded key samples (the keyboard's 2 mm/s along x). While it
+    starts, the worker reports its stages in order (what the start-up screen shows)."""
     import functools
 
     from otgym.bus import messages as msg
     from otgym.record.mcap_file import read_recording
     from otgym.record.replay import summary
-    from otgym.runtime.worker import SessionProcess, WorkerSpec
+    from otgym.runtime.worker import STATUS_COMPILING, SessionProcess, WorkerSpec
     from otgym.teleop.device import start_devices
     from otgym.ui.bindings import window_devices
     from otgym.ui.play_worker import play_setup
@@ -382,6 +383,7 @@ def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_pa
     pygame.init()
     windowed = window_devices("keyboard")
     start_devices(windowed)
+    statuses = []
     session = SessionProcess(
         WorkerSpec(
             functools.partial(play_setup, "default", "keyboard", tmp_path / "session.mcap"),
@@ -389,9 +391,12 @@ def test_the_window_drives_a_session_in_its_own_process_with_the_keyboard(tmp_pa
             "manual",
             3,
             forwarded_caps=tuple(d.caps for d in windowed),
-        )
+        ),
+        on_status=statuses.append,
     )
     session.start()
+    # what the start-up screen showed: each stage of the worker, before the session ran
+    assert statuses == ["building the task: chip, route, robots and cell", STATUS_COMPILING], statuses
     try:
         app = PlayApp(session, tmp_path, window_devices=windowed, questionnaire=False)
         frames_until(app, lambda: session.snapshot is not None and session.snapshot.observation.time_s[0] > 0)
