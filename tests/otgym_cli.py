@@ -23,3 +23,13 @@ def run_otgym(argv) -> subprocess.CompletedProcess:
         except SystemExit as exit_:
             code = exit_.code if isinstance(exit_.code, int) else (0 if exit_.code is None else 1)
     return subprocess.CompletedProcess(["otgym", *argv], code, out.getvalue(), err.getvalue())
+
+
+def run_cli(argv) -> int:
+    """``otgym ARGV...`` in-process, its output left to pytest's capsys: the exit code
+    (``main`` always exits: 0 on success, 1 for a failed run, 2 for bad input)."""
+    try:
+        main([str(a) for a in argv])
+    except SystemExit as exit_:
+        return exit_.code if isinstance(exit_.code, int) else (0 if exit_.code is None else 1)
+    raise AssertionError("otgym's main returned without exiting")

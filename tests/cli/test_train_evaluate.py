@@ -6,18 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from otgym.cli.app import main
 from otgym.envs import transport as tr
 from otgym.rl.policy import load_policy, save_policy
 from tests.conftest import FIXED_POLICY_HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
-
-
-def run_cli(arguments) -> int:
-    """Run ``otgym`` in-process; its exit code (typer exits 0 on success)."""
-    with pytest.raises(SystemExit) as exit_info:
-        main(arguments)
-    return exit_info.value.code
+from tests.otgym_cli import run_cli
 
 
 @pytest.mark.slow

@@ -9,15 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from otgym.cli.app import main
 from otgym.cluster.engine import LOCAL_NODE_IP
 from tests.cluster.helpers import REPO, read_cells, write_sweep_file
-
-
-def run_cli(arguments) -> int:
-    with pytest.raises(SystemExit) as exit_info:
-        main(arguments)
-    return exit_info.value.code
+from tests.otgym_cli import run_cli
 
 
 @pytest.mark.slow

@@ -4,14 +4,8 @@
 
 import pytest
 
-from otgym.cli.app import main
 from tests.cluster.helpers import read_cells, write_sweep_file
-
-
-def run_cli(arguments) -> int:
-    with pytest.raises(SystemExit) as exit_info:
-        main(arguments)
-    return exit_info.value.code
+from tests.otgym_cli import run_cli
 
 
 def one_error_line(capsys) -> str:
