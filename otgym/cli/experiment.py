@@ -57,9 +57,11 @@ def register(app: typer.Typer) -> None:
         help="The paper's experiments: Fig. 8 with simulated participants, Table II as a front.", no_args_is_help=True
     )
     app.add_typer(experiment, name="experiment")
+    from otgym.cli.calibrate import register as register_calibrate
     from otgym.cli.speed_front import register as register_speed_front
 
     register_speed_front(experiment)
+    register_calibrate(experiment)
 
     @experiment.command("shared-control")
     def shared_control(
