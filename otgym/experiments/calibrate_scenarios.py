@@ -272,7 +272,7 @@ def _plot(summary: pd.DataFrame, name: str, path: Path, command: str, seed: int)
     )
     for row in summary.itertuples():
         ax.annotate(
-            f"n={row.obstacles_encountered}",
+            f"{row.obstacles_encountered} met",
             (row.value, row.avoided_rate),
             textcoords="offset points",
             xytext=(4, -12),
