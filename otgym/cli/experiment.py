@@ -41,14 +41,27 @@ def _check_modes(value: str) -> str:
     return value
 
 
+def _check_trace(value: str | None) -> str | None:
+    from otgym.experiments.trace_files import parse_trace
+
+    if value is not None:
+        try:
+            parse_trace(value)
+        except ValueError as error:
+            raise typer.BadParameter(str(error), param_hint="--trace") from None
+    return value
+
+
 def register(app: typer.Typer) -> None:
     experiment = typer.Typer(
         help="The paper's experiments: Fig. 8 with simulated participants, Table II as a front.", no_args_is_help=True
     )
     app.add_typer(experiment, name="experiment")
+    from otgym.cli.calibrate import register as register_calibrate
     from otgym.cli.speed_front import register as register_speed_front
 
     register_speed_front(experiment)
+    register_calibrate(experiment)
 
     @experiment.command("shared-control")
     def shared_control(
@@ -89,6 +102,13 @@ def register(app: typer.Typer) -> None:
             24, "--mpc-plan-steps", min=1, max=1000, help="The MPC's plan length in 0.1 s steps (horizon: one more)."
         ),
         out: Path = options.out_dir(..., "Folder for trials.csv, summary.*, stats.json, fig8.png."),
+        trace: str = typer.Option(
+            None,
+            "--trace",
+            metavar="P:T",
+            callback=_check_trace,
+            help="Also write participant P's trial T (from 0) tick by tick, per mode: trace_pP_tT_MODE.csv.",
+        ),
     ) -> None:
         """Manual, autonomous, shared and model-predictive control on the same seeded
         scenarios: success (obstacles avoided / encountered) and completion time per
@@ -109,6 +129,14 @@ def register(app: typer.Typer) -> None:
 
         chosen = parse_modes(modes)
         check_arguments(participants, trials, seed)
+        traced = None
+        if trace is not None:
+            from otgym.experiments.trace_files import check_trace
+
+            try:
+                traced = check_trace(trace, participants, trials)
+            except ValueError as error:
+                raise typer.BadParameter(str(error), param_hint="--trace") from None
         if not 0 < time_limit_s <= 3600:
             raise ValueError(f"--time-limit-s must lie in (0, 3600], got {time_limit_s}")
         if shared_autonomy not in ("route", "mpc"):
@@ -123,7 +151,7 @@ def register(app: typer.Typer) -> None:
         note = development_note("shared-control", seed, trials=trials)
         if note:
             print(note, flush=True)
-        stats = {}
+        stats, traces = {}, {}
         frame = run_experiment(
             participants,
             trials,
@@ -135,6 +163,8 @@ def register(app: typer.Typer) -> None:
             shared_autonomy=shared_autonomy,
             mpc_config=mpc_config,
             mpc_stats=stats,
+            trace=traced,
+            traces=traces,
         )
         bound, route_bound_s = "", None
         if "shared" in chosen and "autonomous" in chosen:
@@ -161,6 +191,11 @@ def register(app: typer.Typer) -> None:
             shared_autonomy=shared_autonomy,
         )
         mark_report_files("shared-control", seed, [out / "summary.md"], [out / "acceptance.json"], trials=trials)
+        if traced is not None:
+            from otgym.experiments.trace_files import write_traces
+
+            written = write_traces(traces, out, *traced)
+            print(f"traced participant {traced[0]}'s trial {traced[1]}: " + ", ".join(p.name for p in written))
         print((out / "summary.md").read_text())
         for name, passed in checks.items():
             print(f"{'PASS' if passed else 'FAIL'}  {name}")

@@ -111,7 +111,12 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     _one("study", 13, "the MPC navigator's acceptance, 128 scenarios (130000-130127)"),
     _one("study", 14, "the distilled MPC clone's evaluation, 64 scenarios (140000-140063)"),
     _one("study", 15, "the chosen DAgger clone's evaluation, 64 scenarios (150000-150063)"),
-    _one("study", 90, "scenario calibration (crossing-time spread) and route bound on 900000-900063"),
+    _one(
+        "study",
+        90,
+        "scenario calibration (crossing-time spread) and route bound on 900000-900063; "
+        "otgym experiment calibrate-scenarios' default and docs examples (900000-900015, the default's check on -900063)",
+    ),
     _one("study", 91, "DAgger round selection on 910000-910015"),
     # scenarios reached outside their study seed's own runs
     _one("scenarios", 10001, "shared diagnosis of an obstacle held against a wall (side-step before waiting)"),
@@ -126,6 +131,7 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     SeedUse("scenarios", 910000, 910015, "grip-place fix on 64 manual trials (910000-910007), DAgger selection"),
     # simulated participants
     SeedUse("population", 2, 3, "diagnosis of squeeze losses at the grip (pop-seed 3: 12 x 12 s, 2: 8 x 30 s)"),
+    _one("population", 90, "the --trace example of docs/study.md (shared-control --seed 90 --trace 0:0)"),
     _one("population", 4242, "participant model development (scenarios 900000-900003, 910000-910007)"),
     # the demo's transport
     _one("transport", 1, "the demo's whole-path transport (otgym demo --runs 8 --seed 1)"),

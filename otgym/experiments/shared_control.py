@@ -20,6 +20,7 @@ import pandas as pd
 
 from otgym.autonomy.mpc import MPCConfig
 from otgym.human.params import sample_population
+from otgym.runtime.trace import TraceRecorder
 from otgym.runtime.trials import AUTONOMIES, TRIAL_COLUMNS, TRIAL_MODES, TrialSpec, run_trials
 from otgym.study import plot_fig8, write_summary
 from otgym.study.summary import json_safe
@@ -65,6 +66,8 @@ def run_experiment(
     mpc_stats: dict | None = None,
     one_batch: bool = False,
     scenario_per_participant: bool = False,
+    trace: tuple[int, int] | None = None,
+    traces: dict | None = None,
 ) -> pd.DataFrame:
     """All trials, one batch per mode (a batch runs until its slowest trial is done,
     mode ``i``'s with random seed ``seed + i``), or with ``one_batch`` every mode's
@@ -76,7 +79,9 @@ def run_experiment(
     ``scenario_per_participant`` participant p's trial t meets ``seed * 10000 + p *
     trials + t``: every mode still meets the same scenarios, and a small study sees as
     many scenarios as it has trials per mode. ``mpc_stats`` (a dict) receives, per batch
-    that used the MPC (keyed by its modes, joined by ``+``), its replan statistics."""
+    that used the MPC (keyed by its modes, joined by ``+``), its replan statistics.
+    ``trace`` (participant, trial) records that trial tick by tick in every mode
+    (``otgym.runtime.trace``): ``traces`` (a dict) receives a DataFrame per mode."""
     check_arguments(participants, trials, seed)
     if shared_autonomy not in AUTONOMIES:
         raise ValueError(f"--shared-autonomy must be one of {', '.join(AUTONOMIES)}, got {shared_autonomy!r}")
@@ -104,6 +109,8 @@ def run_experiment(
                 report(f"      {name}: {fraction:.0%} of trials done")
 
         stats = {}
+        traced = {i: spec.mode for i, spec in enumerate(specs) if trace == (spec.participant, spec.trial)}
+        recorder = TraceRecorder(traced) if traced else None
         rows += run_trials(
             task,
             specs,
@@ -113,7 +120,10 @@ def run_experiment(
             shared_autonomy=shared_autonomy,
             mpc_config=mpc_config,
             mpc_stats=stats,
+            recorder=recorder,
         )
+        if recorder is not None and traces is not None:
+            traces.update({mode: pd.DataFrame(recorder.rows[env]) for env, mode in traced.items()})
         if stats and mpc_stats is not None:
             mpc_stats[name] = stats
     frame = pd.DataFrame(rows)

@@ -32,7 +32,9 @@ from otgym.human.params import HumanParams
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
 from otgym.runtime.tick import control_tick
+from otgym.runtime.trace import TickView
 from otgym.shared import MODES, ArbitrationConfig
+from otgym.task.scenario import Scenario
 from otgym.task.task import InteractiveTask
 from otgym.teleop.feedback import FeedbackConfig, stable_newtons_per_pn
 from otgym.teleop.retarget import RetargetConfig
@@ -115,6 +117,8 @@ def run_trials(
     mpc_costs: MPCCosts = MPCCosts(),
     mpc_stats: dict | None = None,
     mpc_navigator: Callable[..., Navigator] | None = None,
+    scenarios: list[Scenario] | None = None,
+    recorder: Callable[[TickView], None] | None = None,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The
@@ -122,7 +126,11 @@ def run_trials(
     ``shared_autonomy="mpc"``, to shared ones; ``mpc_stats`` (a dict) receives its
     replan count and wall times; ``mpc_navigator`` (default ``MPCNavigator``) builds
     the navigator from ``(task, config, costs, seed=...)``, e.g. a recording or
-    distilled one (``otgym.autonomy.mpc_policy``)."""
+    distilled one (``otgym.autonomy.mpc_policy``). ``scenarios`` (one per spec) replaces
+    ``task.scenario(spec.scenario)``, e.g. scenarios made with another
+    ``ScenarioConfig``; ``recorder`` is called after every tick with a ``TickView`` of
+    the batch (``otgym.runtime.trace.TraceRecorder`` copies chosen rows; it must not
+    change what it sees)."""
     if not specs:
         raise ValueError("no trials to run")
     if shared_autonomy not in AUTONOMIES:
@@ -131,7 +139,10 @@ def run_trials(
     modes = np.array([s.mode for s in specs])
     uses_mpc = (modes == "mpc") | ((modes == "shared") & (shared_autonomy == "mpc"))
     mpc_rows = np.flatnonzero(uses_mpc)
-    scenarios = [task.scenario(s.scenario) for s in specs]
+    if scenarios is None:
+        scenarios = [task.scenario(s.scenario) for s in specs]
+    elif len(scenarios) != len(specs):
+        raise ValueError(f"{len(scenarios)} scenarios for {len(specs)} trials")
     key = jax.random.PRNGKey(seed)
     key, reset_key = jax.random.split(key)
     state = task.reset(scenarios, reset_key)
@@ -176,9 +187,13 @@ def run_trials(
             max_step,
         )
         key, step_key = jax.random.split(key)
+        seen = obs
         obs = task.step(state, command.shared_um, step_key, command.alpha)
         people.moved(command.shared_um, arbitration.tau * command.alpha, task.trap_robot)
         people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
+        if recorder is not None:
+            lapsed = people.motor.lapsed.reshape(len(specs), -1).any(axis=1)
+            recorder(TickView(seen, obs, command, robot, state, lapsed))
         if progress is not None and index % 50 == 0:
             progress(float(state.metrics.done.mean()))
         if state.metrics.done.all():

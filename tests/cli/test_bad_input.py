@@ -14,7 +14,8 @@ bad value chosen from the option's declaration:
   ``NAME`` (an unknown name of a closed set), ``POLICY`` (unknown, a folder, a broken
   file), ``X,Y`` (three numbers, NaN, words), ``NUMBERS`` (NaN, empty), ``ENDPOINT``,
   ``NAMES`` (a name otgym's bus refuses), ``NAMESPACE``/``TOPIC`` (a name ROS 2 would
-  refuse), ``HOST``; ``TEXT`` is free text and left alone;
+  refuse), ``HOST``, ``NAME=NUMBERS`` (an unknown parameter, NaN, no value, a value the
+  parameter refuses), ``P:T`` (not two integers, one beyond the run's participants); ``TEXT`` is free text and left alone;
 - options that only make sense together (``COMBINATIONS`` below).
 
 "Before any expensive work" is checked, not timed: while a case runs, a JAX compilation,
@@ -130,6 +131,13 @@ STRING_CASES = {
     "TOPIC": [Case("not a ROS 2 topic", "/cmd vel")],
     "HOST": [Case("not an address", "no such host!")],
     "ADDRESS": [Case("no port", "127.0.0.2"), Case("bad port", "127.0.0.2:99999"), Case("bad host", "no host!:6379")],
+    "NAME=NUMBERS": [
+        Case("unknown parameter", "no_such_s=1,2"),
+        Case("nan", "timing_jitter_s=5,nan"),
+        Case("no values", "timing_jitter_s="),
+        Case("refused value", "timing_jitter_s=-1"),
+    ],
+    "P:T": [Case("not P:T", "3"), Case("negative", "-1:0"), Case("beyond the run", "99:0")],
     "TEXT": [],
 }
 
