@@ -1,5 +1,5 @@
 """The paper's published numbers (Tables I and II, the safety claims of Fig. 7), quoted
-from ``shared/paper/interactive-ot-gym.tex``, and Table II as markdown with them beside
+from the paper, and Table II as markdown with them beside
 ours."""
 
 from __future__ import annotations

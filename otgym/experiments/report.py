@@ -3,7 +3,7 @@ figures beside the paper's (its Tables I and II, the safety claims of its Fig. 7
 its Fig. 8), each with its sample size.
 
 Pure text formatting of results computed elsewhere; the paper's numbers are quoted
-from ``shared/paper/interactive-ot-gym.tex`` (``paper_tables``, ``otgym.study.paper_fig8``).
+from the paper (``paper_tables``, ``otgym.study.paper_fig8``).
 """
 
 from __future__ import annotations

@@ -4,8 +4,7 @@ A body is a rigid cluster of spheres given by local offsets (um) and radii (um) 
 its own frame, with a planar pose (x, y, theta) in the focal plane. Some spheres of a
 microrobot are *handles*: the spheres optical traps hold. This is the "multi-sphere"
 model of optical microrobots used by the paper's group (Zhang et al., two-photon
-polymerised robots about 10 um across with 2-3 um spherical handles; see
-shared/reference/original-release.md).
+polymerised robots about 10 um across with 2-3 um spherical handles).
 
 Kinds: robot, cell (a soft sphere), obstacle, bead.
 Obstacles are kinematic by default: they move with a prescribed velocity and are

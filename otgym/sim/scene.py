@@ -1,5 +1,5 @@
 """Scenes built from a chip: bodies, traps, walls, flow and moving obstacles, with the
-events the tasks need (paper section II-B; shared/reference/original-release.md).
+events the tasks need (paper section II-B).
 
 Kinds:
 * ``transport``: the paper's cooperative transport. Two two-handle microrobots (four

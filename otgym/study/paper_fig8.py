@@ -1,4 +1,4 @@
-"""The paper's Fig. 8 (a, b) values, quoted from ``shared/paper/interactive-ot-gym.tex``,
+"""The paper's Fig. 8 (a, b) values, quoted from the paper,
 Sec. III-C "Quantitative Results" (8 participants, each mode tested eight times):
 
     "manual control had the longest completion time ($163.5 \\pm 8.3$~s), while
