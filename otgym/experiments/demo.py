@@ -263,7 +263,7 @@ def run_demo(
     from otgym.envs import speed_control as spc
     from otgym.envs import transport as tr
     from otgym.envs.presets import preset
-    from otgym.experiments import report
+    from otgym.experiments import report, shipped_results
     from otgym.experiments.speed_control_eval import evaluate, write_results
     from otgym.experiments.transport import run as run_transport
     from otgym.human.operator import simulate_operator
@@ -349,7 +349,7 @@ def run_demo(
             *limits,
             task.name,
             full_episodes=FULL_EPISODES,
-            front=report.shipped_front() if policy_path == PRETRAINED_POLICY else None,
+            front=shipped_results.shipped_front() if policy_path == PRETRAINED_POLICY else None,
         ),
         report.planning_section(metrics),
         report.transport_section(transport_summary),
@@ -357,7 +357,9 @@ def run_demo(
     study_summary = None
     if config.study is not None:
         study_summary, timings["shared_control_s"] = study_result
-        sections.append(report.shared_control_section(study_summary["modes"], study_summary["size"]))
+        sections.append(
+            report.shared_control_section(study_summary["modes"], study_summary["size"], shipped_results.shipped_fig8())
+        )
     total = time.perf_counter() - began
     beside = " (the study ran beside the planning, the speed control and the transport)" if study is not None else ""
     header = (

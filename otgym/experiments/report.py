@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from otgym.experiments.paper_tables import PAPER_SAFETY, PAPER_TABLE_I, number, table_ii_markdown
+from otgym.experiments.shipped_results import fig8_lines, front_lines
 from otgym.planning.metrics import PathMetrics
 from otgym.study import PAPER_FIG8, wilson_interval
 
@@ -75,7 +76,7 @@ def speed_control_section(
 ) -> list[str]:
     """Table II (ours beside the paper's), the comparison with the fastest constant speed
     as safe as RL (``checks``: ``speed_control_eval.acceptance``), the shipped policy on
-    the measured front (``front``: see ``front_lines``) and the safety figures of the
+    the measured front (``front``: see ``shipped_results.front_lines``) and the safety figures of the
     trained policy; ``full_episodes``: the size of the full evaluation (``otgym
     evaluate``), named when this one is smaller."""
     rl = next(row for row in rows if row["policy"] == "RL")
@@ -157,67 +158,6 @@ def speed_control_section(
     return lines
 
 
-SHIPPED_FRONT = Path(__file__).resolve().parent.parent / "data" / "results" / "speed_front.json"
-"""``front.json`` of the report run of ``otgym experiment speed-front`` that measured the
-shipped policy (copied here by hand after the run; see docs/results-table2.md)."""
-
-
-def shipped_front() -> dict | None:
-    """The shipped policy's measured front (``SHIPPED_FRONT``), or None if absent."""
-    import json
-
-    return json.loads(SHIPPED_FRONT.read_text()) if SHIPPED_FRONT.is_file() else None
-
-
-def front_lines(front: dict | None) -> list[str]:
-    """How the shipped policy stands against the constant speeds on the front measured by
-    ``otgym experiment speed-front`` (its ``front.json``, shipped as
-    ``otgym/data/results/speed_front.json``): its success with the 95 % interval and
-    ATCT, and per constant speed the paired tests, with the command, seed and sample size.
-    Empty when no front is given."""
-    if not front:
-        return []
-    rows = {row["name"]: row for row in front["rows"]}
-    shipped = rows.get("pretrained")
-    if shipped is None:
-        return []
-    n = front["episodes"]
-    held = "held-out seed" if front["seed_status"] == "held out" else "development seed"
-    lines = [
-        "### The shipped policy on the front (Table II as a front)",
-        "",
-        f"Measured by `{front['command']}` ({held} {front['seed']}, {n} episodes, the same for every policy; "
-        f"not by this demo): the shipped policy completed {shipped['successes']} of {n} "
-        f"({shipped['success_rate']:.3f}, 95 % interval [{shipped['success_ci95_low']:.3f}, "
-        f"{shipped['success_ci95_high']:.3f}]) in {shipped['ATCT_s']:.2f} s on average.",
-        "",
-        "| constant | success [95 % CI] | ATCT (s) | shipped policy: ATCT ratio | only shipped lost / only "
-        "constant lost (McNemar p) | as safe | >= 10 % faster (sign p) |",
-        "|---|---|---:|---:|---:|:---:|:---:|",
-    ]
-    for test in front["pretrained_tests"]:
-        row = rows[test["constant"]]
-        ratio = "-" if test["time_ratio"] is None else f"{test['time_ratio']:.3f}"
-        atct = "-" if row["ATCT_s"] is None else f"{row['ATCT_s']:.2f}"
-        lines.append(
-            f"| {row['name']} | {row['success_rate']:.3f} [{row['success_ci95_low']:.3f}, "
-            f"{row['success_ci95_high']:.3f}] | {atct} | {ratio} | {test['policy_only_lost']} / "
-            f"{test['constant_only_lost']} ({test['less_safe_p']:.2g}) | {'yes' if test['as_safe'] else 'no'} | "
-            f"{'yes' if test['faster'] else 'no'} ({test['faster_p']:.2g}) |"
-        )
-    covered = [t["constant"] for t in front["pretrained_tests"] if t["covers"]]
-    goals = front["goals"]
-    lines += [
-        "",
-        f"It covers (at least as safe and at least 10 % faster): {', '.join(covered) or 'none'}. "
-        f"Constant speeds exempt from the goal (success < 0.90): {', '.join(goals['exempt']) or 'none'}; "
-        f"every other one covered by some policy of the front's family: "
-        f"{'yes' if goals['every_eligible_covered'] else 'no'}.",
-        "",
-    ]
-    return lines
-
-
 def transport_section(summary: dict) -> list[str]:
     """The whole-path transport at constant speed (realistic preset)."""
     return [
@@ -286,8 +226,10 @@ def _study_design(size: dict) -> str:
     )
 
 
-def shared_control_section(modes: list[dict], size: dict) -> list[str]:
-    """The demo's small shared-control study beside the paper's Fig. 8. ``modes``: the
+def shared_control_section(modes: list[dict], size: dict, shipped: dict | None = None) -> list[str]:
+    """The demo's small shared-control study beside the paper's Fig. 8, then the shipped
+    full-size report runs (``shipped``: ``shipped_results.shipped_fig8()``; see
+    ``shipped_results.fig8_lines``). ``modes``: the
     per-mode rows of ``summary.csv`` (``otgym.study.summarize``; None for NaN);
     ``size``: participants, trials_per_mode, time_limit_s, scenarios and optionally
     scenario_per_participant and one_batch (how ``run_experiment`` of
@@ -353,7 +295,7 @@ def shared_control_section(modes: list[dict], size: dict) -> list[str]:
         "paper's ordering, checked on this small sample).",
         "",
     ]
-    return lines
+    return lines + fig8_lines(shipped)
 
 
 def _success_sentences(rates: dict) -> list[str]:

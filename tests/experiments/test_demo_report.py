@@ -320,7 +320,7 @@ def test_the_shipped_policy_on_the_front_names_its_run_and_what_it_covers():
     with its interval, and the constant speeds it covers; fails if a covered constant is
     missing, an uncovered one is listed, or a development seed passes as held out."""
     from otgym.experiments.front_stats import Outcomes
-    from otgym.experiments.report import front_lines
+    from otgym.experiments.shipped_results import front_lines
     from otgym.experiments.speed_front_report import summarize
 
     n = 200
