@@ -57,7 +57,10 @@ class RemoteDevice(Device):
     """A device node's device, seen from the simulator through ``node``: ``read`` gives
     the latest twist and buttons of device ``name`` stamped with this process's
     ``clock`` on arrival (each new sample, and the rest sample of a lost node, also
-    goes to ``on_sample``); ``set_force`` publishes the feedback. With
+    goes to ``on_sample``); once the node's liveliness token has gone, its twists are
+    dropped until it is back, so a twist still in flight when the node is lost cannot
+    move the traps after its rest sample (a raw peer that never declared a token is
+    taken as it is); ``set_force`` publishes the feedback. With
     ``answer_twists`` every twist is answered at once with the latest force, stamped
     with the twist's own stamp (the device's lowest-latency feedback, and its round
     trip), besides the force published at each tick."""
@@ -98,6 +101,8 @@ class RemoteDevice(Device):
 
     def _on_twist(self, topic, message, data) -> None:
         with self._lock:
+            if self.losses and not self.alive:
+                return  # delivered after the node's token went away: must not undo its rest sample
             self._sequence += 1
             sample = self._sample = msg.sample_from(message, self._buttons, self.clock(), self._sequence)
             answer = self._force_n if self.answer_twists and self.alive else None
