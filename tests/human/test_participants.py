@@ -3,7 +3,7 @@ straight route along x, two robots of two traps each, no physics (the observatio
 held or moved by hand), so each test isolates one decision of the model.
 
 "Steady" participants have every motor error switched off (no extent, direction or
-signal-dependent noise, no tremor, no lapses): their motion is then the model's
+signal-dependent noise, no tremor or drift, no lapses): their motion is then the model's
 intention through its delays, lags and the retargeting filter, deterministic."""
 
 import numpy as np
@@ -15,8 +15,9 @@ from otgym.human.params import HumanParams, sample_population
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
 from otgym.runtime.trials import TASK_RETARGET
-from otgym.task.task import APPROACH, CARRY, Observation
+from otgym.task.task import APPROACH, CARRY, FINE_TUNE_ALPHA, Observation
 from otgym.teleop.feedback import FeedbackConfig
+from otgym.ui import cues
 
 TICK_S = 0.02
 OFFSETS_UM = np.array([[-3.5, -6.5], [3.5, -6.5], [3.5, 6.5], [-3.5, 6.5]])  # robot 0 below the cell, robot 1 above
@@ -26,6 +27,7 @@ STEADY = HumanParams(
     direction_error_deg=0.0,
     signal_dependent_noise=0.0,
     tremor_rms_mm=0.0,
+    drift_rms_mm=0.0,
     lapse_rate_per_h=0.0,
 )
 TASK = ParticipantTask()
@@ -279,6 +281,29 @@ def test_shared_mode_rests_until_the_cue_then_overrides_the_autonomy():
         participants.moved(0.5 * step[:, TRAP_ROBOT] + 0.5 * autonomy[1:], np.array([0.5]), TRAP_ROBOT)
         hands += step
     assert np.all(hands[0, :, 0] < -0.5), hands
+
+
+@pytest.mark.parametrize("below", [True, False])
+def test_participants_take_over_exactly_where_the_window_cue_shows(below):
+    """The obstacle crossing ahead of the shared-mode test above, with alpha just below
+    the window's fine-tune threshold (``FINE_TUNE_ALPHA`` - 0.01: the cue not shown) the
+    hands rest (exactly still); at the threshold (the cue shown) they push back."""
+    alpha = np.array([FINE_TUNE_ALPHA - 0.01 if below else FINE_TUNE_ALPHA])
+    assert cues.fine_tune_prompt(float(alpha[0]), "shared") is not below
+    cell = np.array([[10.0, 0.0]])
+    autonomy = np.full((1, 4, 2), [5.0 * TICK_S, 0.0])
+    threat = scene(cell, cell[:, None] + OFFSETS_UM, CARRY, obstacle_xy=((22.0, -12.0),))
+    participants = people([STEADY])
+    hands = np.zeros((1, 2, 2))
+    for tick in range(60):
+        threat.obstacle_xy_um = np.array([[[22.0, -12.0 + 2.0 * TICK_S * tick]]])
+        step = participants.intend(threat, np.array(["shared"]), alpha, autonomy, TRAP_ROBOT)
+        participants.moved(alpha[0] * step[:, TRAP_ROBOT] + (1 - alpha[0]) * autonomy, alpha, TRAP_ROBOT)
+        hands += step
+    if below:
+        np.testing.assert_array_equal(hands, 0.0)
+    else:
+        assert np.all(hands[0, :, 0] < -0.5), hands
 
 
 def test_shared_mode_at_the_cue_with_no_threat_keeps_the_autonomy_pace():
