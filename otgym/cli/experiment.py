@@ -46,9 +46,11 @@ def register(app: typer.Typer) -> None:
         help="The paper's experiments: Fig. 8 with simulated participants, Table II as a front.", no_args_is_help=True
     )
     app.add_typer(experiment, name="experiment")
+    from otgym.cli.human_sensitivity import register as register_human_sensitivity
     from otgym.cli.speed_front import register as register_speed_front
 
     register_speed_front(experiment)
+    register_human_sensitivity(experiment)
 
     @experiment.command("shared-control")
     def shared_control(

@@ -19,7 +19,7 @@ tested), and the interactive loop (``otgym.runtime.loop``) feeds the real sensor
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import jax
 import numpy as np
@@ -29,6 +29,7 @@ from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
 from otgym.autonomy.navigator import RouteNavigator
 from otgym.autonomy.protocol import Navigator
 from otgym.human.params import HumanParams
+from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
 from otgym.runtime.tick import control_tick
@@ -115,6 +116,7 @@ def run_trials(
     mpc_costs: MPCCosts = MPCCosts(),
     mpc_stats: dict | None = None,
     mpc_navigator: Callable[..., Navigator] | None = None,
+    participant_tasks: Sequence[ParticipantTask] | None = None,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The
@@ -122,7 +124,9 @@ def run_trials(
     ``shared_autonomy="mpc"``, to shared ones; ``mpc_stats`` (a dict) receives its
     replan count and wall times; ``mpc_navigator`` (default ``MPCNavigator``) builds
     the navigator from ``(task, config, costs, seed=...)``, e.g. a recording or
-    distilled one (``otgym.autonomy.mpc_policy``)."""
+    distilled one (``otgym.autonomy.mpc_policy``). ``participant_tasks`` (one per spec)
+    gives each trial's participant its own task parameters instead of
+    ``participant_task`` (``otgym.human.participant_groups``)."""
     if not specs:
         raise ValueError("no trials to run")
     if shared_autonomy not in AUTONOMIES:
@@ -149,7 +153,7 @@ def run_trials(
         mpc.reset(len(mpc_rows))
     law = task.config.scene.trap_law
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
-    people = SimulatedParticipants(
+    people = (SimulatedParticipants if participant_tasks is None else ParticipantGroups)(
         [participants[s.participant] for s in specs],
         tick,
         seed,
@@ -157,7 +161,7 @@ def run_trials(
         retarget,
         feedback,
         law.escape_distance,
-        participant_task,
+        participant_task if participant_tasks is None else list(participant_tasks),
         task.wall_distance_um,
     )
     max_step = retarget.max_trap_speed_um_s * tick
