@@ -36,12 +36,13 @@ def register(experiment: typer.Typer) -> None:
         ),
         trials: int = typer.Option(1, "--trials", min=1, max=100, help="Trials per participant, mode and variant."),
         parameters: str = typer.Option(
-            "all",
+            "motor",
             "--parameters",
             metavar="NAMES",
             callback=_check_parameters,
-            help="'all' or comma-separated assumed parameters (HumanParams and ParticipantTask fields, "
-            "population_cv for the population's spread).",
+            help="motor (the assumed HumanParams and population_cv, the population's spread), task (the "
+            "ParticipantTask fields, each a group of its own: about 40 times slower), all, or comma-separated "
+            "names.",
         ),
         seed: int = options.seed(
             DEVELOPMENT_SEED,

@@ -61,15 +61,27 @@ ASSUMED = ASSUMED_MOTOR + (POPULATION_SPREAD,) + ASSUMED_TASK
 """Every assumed parameter, in the order the command runs and reports them."""
 
 
+GROUPS = {
+    "all": ASSUMED,
+    "motor": ASSUMED_MOTOR + (POPULATION_SPREAD,),
+    "task": ASSUMED_TASK,
+}
+"""Names for sets of parameters. ``motor`` runs as one group of participants; each task
+parameter's scale adds a group (``otgym.human.participant_groups``) whose per-tick cost
+is the participants' own, so ``task`` and ``all`` cost about 40 times ``motor``'s
+participant time."""
+
+
 def parse_parameters(text: str) -> list[str]:
-    """``"all"`` or comma-separated names from ``ASSUMED`` (each once)."""
-    if text.strip() == "all":
-        return list(ASSUMED)
+    """A name from ``GROUPS`` or comma-separated names from ``ASSUMED`` (each once)."""
+    if text.strip() in GROUPS:
+        return list(GROUPS[text.strip()])
     names = [name.strip() for name in text.split(",") if name.strip()]
     unknown = [name for name in names if name not in ASSUMED]
     if unknown or not names:
         raise ValueError(
-            f"unknown parameter(s) {', '.join(unknown) or '(none)'}; 'all' or names from: {', '.join(ASSUMED)}"
+            f"unknown parameter(s) {', '.join(unknown) or '(none)'}; {', '.join(GROUPS)} or names from: "
+            f"{', '.join(ASSUMED)}"
         )
     if len(set(names)) != len(names):
         raise ValueError(f"--parameters names a parameter twice: {text}")

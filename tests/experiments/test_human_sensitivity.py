@@ -51,6 +51,7 @@ def test_d_is_shared_minus_manual_per_participant_and_its_move_is_paired():
 
 def test_parameters_are_the_assumed_ones_each_once():
     assert parse_parameters("all") == list(ASSUMED)
+    assert parse_parameters("motor") + parse_parameters("task") == list(ASSUMED)
     assert "carry_speed_um_s" in ASSUMED_TASK and "bimanual" not in ASSUMED
     assert "reaction_time_s" not in ASSUMED and "tremor_rms_mm" not in ASSUMED  # sourced
     assert parse_parameters("hurry_factor, population_cv") == ["hurry_factor", "population_cv"]

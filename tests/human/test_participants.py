@@ -12,6 +12,7 @@ import pytest
 from otgym.autonomy.navigator import RouteNavigator
 from otgym.human.avoidance import choose_velocity, miss_um
 from otgym.human.params import HumanParams, sample_population
+from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
 from otgym.runtime.trials import TASK_RETARGET
@@ -417,3 +418,30 @@ def test_grip_heading_is_the_robots_own_turn_not_the_tilt_of_a_shear_between_the
     np.testing.assert_allclose(robots_heading(sheared, offsets, trap_robot), [0.4], atol=1e-6)  # offsets are float32
     across = sheared[0, trap_robot == 1].mean(axis=0) - sheared[0, trap_robot == 0].mean(axis=0)
     assert abs(np.arctan2(-across[0], across[1]) - 0.4) > 0.1  # what the line between the robots would say
+
+
+@pytest.mark.slow
+def test_participant_groups_give_each_environment_its_own_task():
+    """``ParticipantGroups``: with one task for all it is that ``SimulatedParticipants``
+    (the same seed: identical hands); with two carry paces, 2 and 4 um/s, the steady
+    participant with the faster pace carries about twice as far in 4 s (ratio within
+    1.6-2.4: the reaction time and lags take the same time off both), the slower one
+    exactly as its group alone would."""
+    gripped = np.array([[10.0, 0.0]] * 2)
+    obs = lambda: scene(gripped, gripped[:, None] + OFFSETS_UM, CARRY)  # noqa: E731
+    fast = ParticipantTask(carry_speed_um_s=4.0)
+
+    def groups(tasks):
+        return ParticipantGroups(
+            [STEADY] * 2, TICK_S, 0, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, tasks, None
+        )
+
+    alone = drive(people([STEADY] * 2), obs(), ["manual"] * 2, 200)
+    np.testing.assert_array_equal(drive(groups([TASK, TASK]), obs(), ["manual"] * 2, 200), alone)
+    mixed = drive(groups([TASK, fast]), obs(), ["manual"] * 2, 200)
+    # group 0 is the first task's environments alone (seed 0); their motor jitter is drawn
+    # from that group's own stream
+    first = drive(people([STEADY]), scene(gripped[:1], gripped[:1, None] + OFFSETS_UM, CARRY), ["manual"], 200)
+    np.testing.assert_array_equal(mixed[0], first[0])
+    ratio = mixed[1, :, 0].mean() / mixed[0, :, 0].mean()
+    assert 1.6 < ratio < 2.4, ratio
