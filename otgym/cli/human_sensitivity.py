@@ -41,7 +41,7 @@ def register(experiment: typer.Typer) -> None:
             metavar="NAMES",
             callback=_check_parameters,
             help="motor (the assumed HumanParams and population_cv, the population's spread), task (the "
-            "ParticipantTask fields, each a group of its own: about 40 times slower), all, or comma-separated "
+            "ParticipantTask fields, each scale a group of its own: far slower), all, or comma-separated "
             "names.",
         ),
         seed: int = options.seed(
