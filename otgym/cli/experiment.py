@@ -58,10 +58,12 @@ def register(app: typer.Typer) -> None:
     )
     app.add_typer(experiment, name="experiment")
     from otgym.cli.calibrate import register as register_calibrate
+    from otgym.cli.human_sensitivity import register as register_human_sensitivity
     from otgym.cli.speed_front import register as register_speed_front
 
     register_speed_front(experiment)
     register_calibrate(experiment)
+    register_human_sensitivity(experiment)
 
     @experiment.command("shared-control")
     def shared_control(

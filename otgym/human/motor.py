@@ -8,7 +8,8 @@ displacement and lets this model turn it into the hand's actual stylus velocity,
 tick at a time. Units: mm and mm/s at the stylus tip, s, newton (N) for the haptic
 device's force. Planar: the two stylus axes. The model's parts (reaction delay,
 intermittent corrections with Fitts timing, extent and direction errors, neuromuscular
-lag, signal-dependent noise, tremor, arm impedance, lapses, two hands with one plan),
+lag, signal-dependent noise, tremor and slow drift, arm impedance, lapses, two hands
+with one plan),
 their parameters and sources: ``otgym.human.params``.
 """
 
@@ -25,6 +26,7 @@ from otgym.human.params import HumanParams
 
 TREMOR_WARMUP_S = 3.0  # about 15 decay times of the 8-12 Hz band-pass's slowest pole
 _TREMOR_FILTER_ORDER = 4
+_DRIFT_FILTER_ORDER = 2
 _MS_PER_M = 1000.0  # mm/s per m/s
 
 
@@ -101,10 +103,16 @@ class HumanMotor:
         self._lapse_start_probability = -np.expm1(-column("lapse_rate_per_h") / 3600.0 * self._dt)
         self._lapse_duration = column("lapse_duration_s")
 
-        filters = [_tremor_filter(tuple(p.tremor_band_hz), self.tick_rate_hz) for p in params]
-        self._tremor_sos = [sos for sos, _ in filters]
-        self._tremor_input_sd = column("tremor_rms_mm") / np.array([math.sqrt(gain) for _, gain in filters])
-        self._tremor_state = [np.zeros((sos.shape[0], 2, 2)) for sos in self._tremor_sos]
+        # the hand's involuntary offsets: tremor in its band and slow drift, each its own
+        # filtered noise, per participant
+        tremor = [_tremor_filter(tuple(p.tremor_band_hz), self.tick_rate_hz) for p in params]
+        drift = [_drift_filter(float(p.drift_cutoff_hz), self.tick_rate_hz) for p in params]
+        self._offset_sos = [[sos for sos, _ in tremor], [sos for sos, _ in drift]]
+        self._offset_input_sd = [
+            column("tremor_rms_mm") / np.array([math.sqrt(gain) for _, gain in tremor]),
+            column("drift_rms_mm") / np.array([math.sqrt(gain) for _, gain in drift]),
+        ]
+        self._offset_state = [[np.zeros((sos.shape[0], 2, 2)) for sos in bank] for bank in self._offset_sos]
         self._tremor_block = int(math.ceil(self.tick_rate_hz))  # ticks of tremor filtered at a time
         self._tremor_ahead = self._filter_tremor(int(math.ceil(TREMOR_WARMUP_S * self.tick_rate_hz)))
         self._tremor_mm = self._tremor_ahead[-1]
@@ -230,7 +238,7 @@ class HumanMotor:
 
     def step(self, feedback_force_n: np.ndarray | None = None) -> np.ndarray:
         """(B, 2) the stylus velocity (mm/s) this tick: the lagged sub-movement velocity
-        plus signal-dependent noise, tremor, and the yield F / b_arm to the device's force
+        plus signal-dependent noise, tremor and drift, and the yield F / b_arm to the device's force
         ``feedback_force_n`` (B, 2) in N along the stylus axes. Advances one tick."""
         command = self.command_mm_s
         keep = self._lag_keep
@@ -282,16 +290,17 @@ class HumanMotor:
         self._next_due = np.maximum(self._next_due, self._lapse_until)
 
     def _filter_tremor(self, ticks: int) -> np.ndarray:
-        """The next ``ticks`` tip offsets (ticks, B, 2) of each participant's tremor:
-        white noise through its band-pass, the filter state carried on (the tremor is
-        streamed a block ahead of the ticks that use it)."""
-        white = self._rng.standard_normal((ticks, self.batch, 2))
-        tremor = np.empty_like(white)
-        for i, sos in enumerate(self._tremor_sos):
-            tremor[:, i], self._tremor_state[i] = signal.sosfilt(
-                sos, white[:, i] * self._tremor_input_sd[i], axis=0, zi=self._tremor_state[i]
-            )
-        return tremor
+        """The next ``ticks`` tip offsets (ticks, B, 2) of each participant's tremor plus
+        drift: white noise through the tremor's band-pass and, independent of it, white
+        noise through the drift's low-pass, the filter states carried on (the offsets
+        are streamed a block ahead of the ticks that use them)."""
+        offset = np.zeros((ticks, self.batch, 2))
+        for bank, input_sd, states in zip(self._offset_sos, self._offset_input_sd, self._offset_state):
+            white = self._rng.standard_normal((ticks, self.batch, 2))
+            for i, sos in enumerate(bank):
+                filtered, states[i] = signal.sosfilt(sos, white[:, i] * input_sd[i], axis=0, zi=states[i])
+                offset[:, i] += filtered
+        return offset
 
     def _mask(self, mask) -> np.ndarray:
         if mask is None:
@@ -315,6 +324,18 @@ def _tremor_filter(band_hz: tuple[float, float], rate_hz: float) -> tuple[np.nda
     white input: the sum of the squared impulse response, which has decayed to nothing
     within ``TREMOR_WARMUP_S``)."""
     sos = signal.butter(_TREMOR_FILTER_ORDER, band_hz, btype="bandpass", fs=rate_hz, output="sos")
+    impulse = np.zeros(int(math.ceil(4 * TREMOR_WARMUP_S * rate_hz)))
+    impulse[0] = 1.0
+    gain = float(np.sum(signal.sosfilt(sos, impulse) ** 2))
+    return sos, gain
+
+
+@functools.lru_cache(maxsize=32)
+def _drift_filter(cutoff_hz: float, rate_hz: float) -> tuple[np.ndarray, float]:
+    """The drift's low-pass second-order sections and their noise gain (as ``_tremor_filter``)."""
+    if not 0 < cutoff_hz < rate_hz / 2:
+        raise ValueError(f"drift_cutoff_hz {cutoff_hz:g} must lie below half the tick rate {rate_hz:g} Hz")
+    sos = signal.butter(_DRIFT_FILTER_ORDER, cutoff_hz, btype="lowpass", fs=rate_hz, output="sos")
     impulse = np.zeros(int(math.ceil(4 * TREMOR_WARMUP_S * rate_hz)))
     impulse[0] = 1.0
     gain = float(np.sum(signal.sosfilt(sos, impulse) ** 2))

@@ -14,12 +14,12 @@ trapped robot follows the trap:
   (every ~0.4 s, none during a lapse of responsiveness) aims at the route point
   ``lookahead`` ahead of that position, to within the room to the walls there (the goal
   tolerance at the goal); the hand executes the sub-movement with extent and direction
-  errors, Fitts' speed-accuracy trade-off, neuromuscular lag, signal-dependent noise and
-  8-12 Hz tremor.
+  errors, Fitts' speed-accuracy trade-off, neuromuscular lag, signal-dependent noise,
+  8-12 Hz tremor and slow drift.
 * **Motion scale** ``motion_scale_um_per_mm`` (4 um per mm): the trap moves by the
   stylus displacement times this. Assumed 1:250 so that a Geomagic Touch's ~160 mm
   workspace spans a ~640 um field, the whole chip without clutching; the default
-  0.05 mm RMS stylus tremor is then 0.2 um at the trap.
+  0.027 mm RMS stylus tremor is then 0.11 um at the trap.
 * **The trapped robot** is not the hand: the operator moves the trap, and the
   overdamped robot follows it with the trap's restoring force plus thermal motion,
   dx = (k / gamma)(trap - x) dt + sqrt(2 kT / gamma) dW (Euler-Maruyama; the

@@ -47,16 +47,30 @@ The model, per participant (``HumanParams``; defaults are population means):
   of steady muscle force, which grows in proportion to the force (Jones, Hamilton &
   Wolpert, J. Neurophysiol. 88, 1533, 2002); it is kept below the extent error, which
   already holds most of a movement's variability.
-* **Physiological tremor** ``tremor_rms_mm`` (0.05 mm per axis) in ``tremor_band_hz``
+* **Physiological tremor** ``tremor_rms_mm`` (0.027 mm per axis) in ``tremor_band_hz``
   (8-12 Hz; McAuley & Marsden, Brain 123, 1545, 2000): Gaussian white noise through a
   4th-order Butterworth band-pass per participant, streamed (filtered one second ahead
   of the ticks that use it, the filter state carried on, also across ``reset``; warmed
   up for ``TREMOR_WARMUP_S`` at construction so it is stationary from the first tick)
   and scaled by the filter's noise gain so that the tip's displacement has exactly that
-  RMS; the hand's velocity gets its tick-to-tick difference. Eye surgeons holding an
-  instrument still move its tip by 49 um RMS (Riviere, Rader & Khosla, IEEE EMBS 1997),
-  the amplitude that tremor cancelling was designed for (Riviere, Rader & Thakor, IEEE
-  Trans. BME 45, 839, 1998).
+  RMS; the hand's velocity gets its tick-to-tick difference. The amplitude is the
+  tremor alone: 38 um RMS (vector magnitude) at the instrument tip of a surgeon during
+  the most delicate part of retinal microsurgery, measured apart from the lower-frequency
+  motion (Singh & Riviere, Proc. IEEE 28th Northeast Bioeng. Conf., 171, 2002); the tip
+  moves little along the instrument (5 um against 45-63 um RMS across it: Becker,
+  Tummala & Riviere, IEEE EMBC 2008, 1948), so the magnitude lies in the two lateral
+  axes, 38 / sqrt(2) = 27 um each.
+* **Slow drift** ``drift_rms_mm`` (0.022 mm per axis) below ``drift_cutoff_hz`` (2 Hz):
+  the rest of the hold error. Eye surgeons holding an instrument still move its tip by
+  49 um RMS in all, with substantial low-frequency motion, the power of their voluntary
+  movements lying below 2 Hz (98.9 % on average; Riviere, Rader & Khosla, IEEE EMBS
+  1997, 1690). The 49 um were all tremor in earlier versions of this model (tremor
+  0.05 mm per axis in 8-12 Hz); now the tremor's 38 um take their share of the power
+  and the drift the rest, sqrt(49^2 - 38^2) = 31 um, 22 um per lateral axis. Streamed
+  like the tremor, through a 2nd-order Butterworth low-pass at ``drift_cutoff_hz``
+  (the filter's order is assumed), added to the tremor's displacement. The hand's
+  corrections see the drift and correct it like any other error; the same for everyone
+  (no between-participant spread is known: assumed).
 * **Arm impedance** ``arm_mass_kg`` (1.5 kg), ``arm_damping_n_s_per_m`` (7 N s/m) and
   ``arm_stiffness_n_per_m`` (300 N/m): the hand yields to the haptic device's force F
   as a mass-spring-damper about its intended motion, m x'' + b x' + k x = F, so force
@@ -67,12 +81,22 @@ The model, per participant (``HumanParams``; defaults are population means):
   plane (Mussa-Ivaldi, Hogan & Bizzi, J. Neurosci. 5, 2732, 1985), a hand viscosity of
   several N s/m and an apparent hand mass of about 1-2 kg (Tsuji, Morasso, Goto & Ito,
   Biol. Cybern. 72, 475, 1995).
-* **Lapses of responsiveness** ``lapse_rate_per_h`` (39.3 per hour) lasting
-  ``lapse_duration_s`` (3.4 s on average, exponentially distributed): rested subjects in
-  a one-hour continuous visuomotor tracking task stop responding that often and that
-  long (Peiris, Jones, Davidson, Carroll & Bones, J. Sleep Res. 15, 291, 2006). During
-  a lapse no sub-movement starts (the current one runs out and the hand stops); a
-  correction follows as soon as it ends. Lapses start as a Poisson process in time.
+* **Lapses of responsiveness** ``lapse_rate_per_h`` (0 per hour) lasting
+  ``lapse_duration_s`` (3.4 s on average, exponentially distributed). During a lapse no
+  sub-movement starts (the current one runs out and the hand stops); a correction
+  follows as soon as it ends. Lapses start as a Poisson process in time. Rested
+  subjects in a one-hour continuous monotonous visuomotor tracking task stop responding
+  39.3 times an hour, for 3.4 s on average (Peiris, Jones, Davidson, Carroll & Bones,
+  J. Sleep Res. 15, 291, 2006; ``MONOTONOUS_TRACKING_LAPSE_RATE_PER_H``), but such
+  lapses (behavioural microsleeps) grow with time on task and fall with the task's
+  demand: in a tracking task combined with a reaction-time task the median rested
+  participant had none and none had more than one, against up to 18 in tracking alone
+  (Buckley, Helton, Innes, Dalrymple-Alford & Jones, Conscious. Cogn. 45, 174, 2016).
+  The study's trials last 1-3 minutes and demand both hands, an obstacle watch and a
+  grip, so the default is the median participant of the demanding task: none. (The
+  attention lapses of a reaction-time test, responses slower than 500 ms, are the slow
+  tail of the reaction time, not seconds without response.) Earlier versions applied
+  Peiris' rate to the study's trials.
 * **Two hands, one plan** (``HumanMotor(..., hands_per_person=2)``): a person's two
   hands are consecutive rows of the batch. Their corrective sub-movements start and end
   together (simultaneous bimanual reaches to targets of different difficulty start and
@@ -87,8 +111,11 @@ The model, per participant (``HumanParams``; defaults are population means):
   to the relative movement. Noise, tremor and yielding stay per hand.
 
 ``sample_population`` draws participants: each parameter log-normal around its mean
-(``POPULATION_CV``, sources there). Participant ``i`` of seed ``s`` is drawn from its
-own stream ``(s, i)``, so it is the same participant whatever the population's size.
+(``POPULATION_CV``, sources there), the means optionally scaled (``scale``, through
+``scaled``: what ``otgym experiment human-sensitivity`` varies). Participant ``i`` of
+seed ``s`` is drawn from its own stream ``(s, i)``, so it is the same participant
+whatever the population's size. Every parameter, its source or "assumed", and how much
+the study's result moves with each assumed one: docs/human-model.md.
 """
 
 from __future__ import annotations
@@ -99,6 +126,11 @@ import types
 from collections.abc import Mapping
 
 import numpy as np
+
+MONOTONOUS_TRACKING_LAPSE_RATE_PER_H = 39.3
+"""Lapses of responsiveness per hour of rested subjects in one hour of monotonous
+continuous tracking (Peiris et al. 2006): for long monotonous sessions, not the default
+(``HumanParams.lapse_rate_per_h``)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -113,15 +145,17 @@ class HumanParams:
     extent_error_fraction: float = 0.1
     direction_error_deg: float = 4.0
     signal_dependent_noise: float = 0.05
-    tremor_rms_mm: float = 0.05
+    tremor_rms_mm: float = 0.027
     tremor_band_hz: tuple[float, float] = (8.0, 12.0)
+    drift_rms_mm: float = 0.022
+    drift_cutoff_hz: float = 2.0
     preferred_speed_mm_s: float = 20.0
     fitts_a_s: float = 0.0128
     fitts_b_s_per_bit: float = 0.0947
     arm_damping_n_s_per_m: float = 7.0
     arm_mass_kg: float = 1.5
     arm_stiffness_n_per_m: float = 300.0
-    lapse_rate_per_h: float = 39.3
+    lapse_rate_per_h: float = 0.0
     lapse_duration_s: float = 3.4
 
     def __post_init__(self):
@@ -134,6 +168,7 @@ class HumanParams:
             "arm_mass_kg",
             "arm_stiffness_n_per_m",
             "lapse_duration_s",
+            "drift_cutoff_hz",
         ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -145,6 +180,7 @@ class HumanParams:
             "direction_error_deg",
             "signal_dependent_noise",
             "tremor_rms_mm",
+            "drift_rms_mm",
             "fitts_a_s",
             "lapse_rate_per_h",
         ):
@@ -157,7 +193,7 @@ class HumanParams:
 
 
 # Between-participant coefficients of variation of the log-normal population. Sourced:
-# lapse rate and duration, from Peiris et al. 2006 (39.3 +- 12.9 per hour and
+# lapse rate (moot at the default rate 0) and duration, from Peiris et al. 2006 (39.3 +- 12.9 per hour and
 # 3.4 +- 0.5 s, mean +- SE over 15 subjects: SD = SE * sqrt(15)). Assumed, at the size
 # of typical between-subject spreads: reaction time 0.15 (SD 30 ms at 0.2 s, within the
 # 30-50 ms between-subject SDs of simple visual reaction time), tremor 0.5 (RMS tremor
@@ -184,13 +220,37 @@ POPULATION_CV: Mapping[str, float] = types.MappingProxyType(
 )
 
 
+def scaled(params, scale: Mapping[str, float]):
+    """A copy of the frozen dataclass ``params`` (``HumanParams``, or the participants'
+    ``ParticipantTask``) with each scalar field named in ``scale`` multiplied by its
+    factor (finite, non-negative); the class's own checks apply to the result."""
+    fields = {field.name: field for field in dataclasses.fields(params)}
+    changes = {}
+    for name, factor in scale.items():
+        value = getattr(params, name, None) if name in fields else None
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            raise ValueError(f"{type(params).__name__} has no scalar parameter {name!r}")
+        if not (isinstance(factor, (int, float)) and math.isfinite(factor) and factor >= 0):
+            raise ValueError(f"scale factor of {name} must be finite and non-negative, got {factor!r}")
+        changes[name] = value * factor
+    return dataclasses.replace(params, **changes)
+
+
 def sample_population(
-    n: int, seed: int, mean: HumanParams = HumanParams(), cv: Mapping[str, float] = POPULATION_CV
+    n: int,
+    seed: int,
+    mean: HumanParams = HumanParams(),
+    cv: Mapping[str, float] = POPULATION_CV,
+    scale: Mapping[str, float] | None = None,
 ) -> list[HumanParams]:
     """``n`` participants: each parameter named in ``cv`` log-normal with mean
-    ``getattr(mean, name)`` and coefficient of variation ``cv[name]`` (log-SD
-    sigma = sqrt(log(1 + cv^2)), log-mean log(mean) - sigma^2 / 2); the others as in
-    ``mean``. Participant ``i`` comes from ``np.random.default_rng([seed, i])``."""
+    ``getattr(mean, name)`` (times ``scale[name]`` where ``scale`` names it: ``scaled``)
+    and coefficient of variation ``cv[name]`` (log-SD sigma = sqrt(log(1 + cv^2)),
+    log-mean log(mean) - sigma^2 / 2); the others as in ``mean`` (scaled alike).
+    Participant ``i`` comes from ``np.random.default_rng([seed, i])``, the same draws
+    whatever ``mean`` and ``scale``."""
+    if scale:
+        mean = scaled(mean, scale)
     if not (isinstance(n, (int, np.integer)) and n >= 0):
         raise ValueError(f"population size n must be a non-negative integer, got {n!r}")
     fields = {field.name for field in dataclasses.fields(HumanParams)}

@@ -43,7 +43,6 @@ class ParticipantTask:
     hurry_factor: float = 1.6
     still_speed_um_s: float = 1.0
     still_clearance_um: float = 12.2
-    fine_tune_alpha: float = 0.3
     pending_memory_s: float = 0.5
     wall_clearance_um: float = 2.0
     close_speed_um_s: float = 0.75

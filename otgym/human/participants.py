@@ -35,7 +35,8 @@ Places, per phase:
 * CARRY: the places move along the route at the intended assembly speed,
   ``carry_speed_um_s`` in manual mode, or the velocity ``choose_velocity`` picks when an
   obstacle threatens.
-* Shared mode: the hand rests while the cue shows alpha below ``fine_tune_alpha``, then
+* Shared mode: the hand rests until the window's fine-tune cue shows (alpha at least
+  ``otgym.task.task.FINE_TUNE_ALPHA``, 0.4, the one constant the window's cue uses), then
   commands dP_h = (dP_want - (1 - alpha) dP_r) / alpha within the trap-speed clamp, at
   the autonomy's pace at most its cruise speed
   (docs/decisions/0005-participant-shared-mode-effort.md).
@@ -54,7 +55,7 @@ from otgym.human.motor import HumanMotor
 from otgym.human.params import HumanParams
 from otgym.human.participant_task import ParticipantTask
 from otgym.task.geometry import rotate
-from otgym.task.task import APPROACH, CARRY
+from otgym.task.task import APPROACH, CARRY, FINE_TUNE_ALPHA
 from otgym.teleop.feedback import FeedbackConfig, chip_force_n
 from otgym.teleop.retarget import BatchRetargeter, RetargetConfig
 
@@ -292,7 +293,7 @@ class SimulatedParticipants:
         robot_hand = np.stack([autonomy_um_s[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
         safe_alpha = np.maximum(alpha, 1e-3)[:, None, None]
         override = (hand_um_s - (1 - safe_alpha) * robot_hand) / safe_alpha
-        cue = carrying[:, 0] & (alpha >= task.fine_tune_alpha)
+        cue = carrying[:, 0] & (alpha >= FINE_TUNE_ALPHA)
         hand_um_s = np.where(shared[:, None, None], np.where(cue[:, None, None], override, 0.0), hand_um_s)
         planar_mm_s = (hand_um_s * np.array([1.0, -1.0]) / scale).reshape(-1, 2)  # chip -> stylus x, y
         speed_mm_s = np.maximum(np.linalg.norm(planar_mm_s, axis=-1), 1e-6)

@@ -19,7 +19,7 @@ tested), and the interactive loop (``otgym.runtime.loop``) feeds the real sensor
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import jax
 import numpy as np
@@ -29,6 +29,7 @@ from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
 from otgym.autonomy.navigator import RouteNavigator
 from otgym.autonomy.protocol import Navigator
 from otgym.human.params import HumanParams
+from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
 from otgym.runtime.tick import control_tick
@@ -119,6 +120,7 @@ def run_trials(
     mpc_navigator: Callable[..., Navigator] | None = None,
     scenarios: list[Scenario] | None = None,
     recorder: Callable[[TickView], None] | None = None,
+    participant_tasks: Sequence[ParticipantTask] | None = None,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The
@@ -130,9 +132,13 @@ def run_trials(
     ``task.scenario(spec.scenario)``, e.g. scenarios made with another
     ``ScenarioConfig``; ``recorder`` is called after every tick with a ``TickView`` of
     the batch (``otgym.runtime.trace.TraceRecorder`` copies chosen rows; it must not
-    change what it sees)."""
+    change what it sees). ``participant_tasks`` (one per spec) gives each trial's
+    participant its own task parameters instead of ``participant_task``
+    (``otgym.human.participant_groups``)."""
     if not specs:
         raise ValueError("no trials to run")
+    if recorder is not None and participant_tasks is not None:
+        raise ValueError("a recorder traces one population's trials: give participant_tasks or recorder, not both")
     if shared_autonomy not in AUTONOMIES:
         raise ValueError(f"unknown shared autonomy {shared_autonomy!r}; choose one of {', '.join(AUTONOMIES)}")
     tick = task.config.tick_s
@@ -160,7 +166,7 @@ def run_trials(
         mpc.reset(len(mpc_rows))
     law = task.config.scene.trap_law
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
-    people = SimulatedParticipants(
+    people = (SimulatedParticipants if participant_tasks is None else ParticipantGroups)(
         [participants[s.participant] for s in specs],
         tick,
         seed,
@@ -168,7 +174,7 @@ def run_trials(
         retarget,
         feedback,
         law.escape_distance,
-        participant_task,
+        participant_task if participant_tasks is None else list(participant_tasks),
         task.wall_distance_um,
     )
     max_step = retarget.max_trap_speed_um_s * tick

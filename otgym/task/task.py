@@ -39,6 +39,11 @@ APPROACH, CARRY, DONE = 0, 1, 2
 ALPHA_BANDS = (("autonomous", 0.0, 0.2), ("balanced", 0.2, 0.4), ("fine_tune", 0.4, 1.0 + 1e-9))
 """The paper's three operation modes of shared control by the human's share alpha
 (alpha 0.1 far from obstacles, 0.5 near them); manual control counts as fine-tuning."""
+FINE_TUNE_ALPHA = dict((name, low) for name, low, _ in ALPHA_BANDS)["fine_tune"]
+"""0.4: where the paper's fine-tuning band of alpha begins. The one threshold of the
+fine-tune cue: the window shows its prompt from here (``otgym.ui.cues``) and the simulated
+participants take over from here (``otgym.human.participants``; they act on the cue the
+window shows, an assumption about people, not a measurement)."""
 ROUTE_SEARCH_POINTS = (-40, 400)
 
 

@@ -12,7 +12,7 @@ keeping them here makes each one testable without a window.
   alpha 0.1 in shared control) to red (near: alpha 0.5), by the paper's alpha law of
   that gap whatever the mode, so the colour means the same in every mode.
 * Fine-tune prompt: shown in shared mode while alpha is in the paper's fine-tuning
-  band (alpha >= 0.4, ``task.ALPHA_BANDS``): the person's share has risen and the
+  band (alpha >= 0.4, ``task.FINE_TUNE_ALPHA``, the threshold the simulated participants act on too): the person's share has risen and the
   autonomy wants their correction. Not shown in manual mode (alpha is always 1 there:
   nothing changes that a prompt could announce) nor autonomous (alpha 0).
 * Trap-loss warning: a handle lagging its trap by at least half the trap law's escape
@@ -30,10 +30,8 @@ import numpy as np
 from otgym.autonomy.navigator import route_point
 from otgym.shared import ArbitrationConfig, alpha_for_mode
 from otgym.shared.arbitration import ALPHA_FAR, ALPHA_NEAR
-from otgym.task.task import ALPHA_BANDS
+from otgym.task.task import FINE_TUNE_ALPHA  # the cue's threshold, defined once there
 
-FINE_TUNE_ALPHA = dict((name, low) for name, low, _ in ALPHA_BANDS)["fine_tune"]
-"""0.4: where the paper's fine-tuning band of alpha begins."""
 TRAP_WARNING_FRACTION = 0.5
 """Warn from this fraction of the escape distance (the feedback's bend stiffening starts there)."""
 DIRECTION_LOOKAHEAD_UM = 10.0

@@ -31,7 +31,7 @@ def test_reaches_the_goal_inside_free_space_reproducibly(corridor_map):
 
 
 def test_nothing_moves_before_the_reaction_delay(corridor_map):
-    human = HumanParams(tremor_rms_mm=0.0, reaction_time_s=0.3, lapse_rate_per_h=0.0)
+    human = HumanParams(tremor_rms_mm=0.0, drift_rms_mm=0.0, reaction_time_s=0.3, lapse_rate_per_h=0.0)
     quiet = OperatorParams(human=human, thermal_energy_pn_um=0.0)
     run = simulate_operator(corridor_map, 1.0, START, GOAL, quiet, seed=0)
     steps = int(0.3 * quiet.sample_rate_hz)
@@ -46,7 +46,7 @@ def test_stylus_tremor_reaches_the_trap_through_the_motion_scale(corridor_map):
     four times the jitter."""
 
     def jitter(scale):
-        human = HumanParams(tremor_rms_mm=0.05, lapse_rate_per_h=0.0)
+        human = HumanParams(tremor_rms_mm=0.05, drift_rms_mm=0.0, lapse_rate_per_h=0.0)
         params = OperatorParams(human=human, motion_scale_um_per_mm=scale, thermal_energy_pn_um=0.0)
         run = simulate_operator(corridor_map, 1.0, START, GOAL, params, seed=2)
         sos = signal.butter(4, (8.0, 12.0), btype="bandpass", fs=params.sample_rate_hz, output="sos")
@@ -58,7 +58,11 @@ def test_stylus_tremor_reaches_the_trap_through_the_motion_scale(corridor_map):
 
 def test_detours_and_errors_make_the_path_longer_than_without_them(corridor_map):
     calm_human = HumanParams(
-        tremor_rms_mm=0.0, signal_dependent_noise=0.0, extent_error_fraction=0.0, direction_error_deg=0.0
+        tremor_rms_mm=0.0,
+        drift_rms_mm=0.0,
+        signal_dependent_noise=0.0,
+        extent_error_fraction=0.0,
+        direction_error_deg=0.0,
     )
     calm = OperatorParams(human=calm_human, thermal_energy_pn_um=0.0, detour_probability=0.0)
     lengths = {}

@@ -3,7 +3,7 @@ straight route along x, two robots of two traps each, no physics (the observatio
 held or moved by hand), so each test isolates one decision of the model.
 
 "Steady" participants have every motor error switched off (no extent, direction or
-signal-dependent noise, no tremor, no lapses): their motion is then the model's
+signal-dependent noise, no tremor or drift, no lapses): their motion is then the model's
 intention through its delays, lags and the retargeting filter, deterministic."""
 
 import numpy as np
@@ -12,11 +12,13 @@ import pytest
 from otgym.autonomy.navigator import RouteNavigator
 from otgym.human.avoidance import choose_velocity, miss_um
 from otgym.human.params import HumanParams, sample_population
+from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
 from otgym.runtime.trials import TASK_RETARGET
-from otgym.task.task import APPROACH, CARRY, Observation
+from otgym.task.task import APPROACH, CARRY, FINE_TUNE_ALPHA, Observation
 from otgym.teleop.feedback import FeedbackConfig
+from otgym.ui import cues
 
 TICK_S = 0.02
 OFFSETS_UM = np.array([[-3.5, -6.5], [3.5, -6.5], [3.5, 6.5], [-3.5, 6.5]])  # robot 0 below the cell, robot 1 above
@@ -26,6 +28,7 @@ STEADY = HumanParams(
     direction_error_deg=0.0,
     signal_dependent_noise=0.0,
     tremor_rms_mm=0.0,
+    drift_rms_mm=0.0,
     lapse_rate_per_h=0.0,
 )
 TASK = ParticipantTask()
@@ -281,6 +284,29 @@ def test_shared_mode_rests_until_the_cue_then_overrides_the_autonomy():
     assert np.all(hands[0, :, 0] < -0.5), hands
 
 
+@pytest.mark.parametrize("below", [True, False])
+def test_participants_take_over_exactly_where_the_window_cue_shows(below):
+    """The obstacle crossing ahead of the shared-mode test above, with alpha just below
+    the window's fine-tune threshold (``FINE_TUNE_ALPHA`` - 0.01: the cue not shown) the
+    hands rest (exactly still); at the threshold (the cue shown) they push back."""
+    alpha = np.array([FINE_TUNE_ALPHA - 0.01 if below else FINE_TUNE_ALPHA])
+    assert cues.fine_tune_prompt(float(alpha[0]), "shared") is not below
+    cell = np.array([[10.0, 0.0]])
+    autonomy = np.full((1, 4, 2), [5.0 * TICK_S, 0.0])
+    threat = scene(cell, cell[:, None] + OFFSETS_UM, CARRY, obstacle_xy=((22.0, -12.0),))
+    participants = people([STEADY])
+    hands = np.zeros((1, 2, 2))
+    for tick in range(60):
+        threat.obstacle_xy_um = np.array([[[22.0, -12.0 + 2.0 * TICK_S * tick]]])
+        step = participants.intend(threat, np.array(["shared"]), alpha, autonomy, TRAP_ROBOT)
+        participants.moved(alpha[0] * step[:, TRAP_ROBOT] + (1 - alpha[0]) * autonomy, alpha, TRAP_ROBOT)
+        hands += step
+    if below:
+        np.testing.assert_array_equal(hands, 0.0)
+    else:
+        assert np.all(hands[0, :, 0] < -0.5), hands
+
+
 def test_shared_mode_at_the_cue_with_no_threat_keeps_the_autonomy_pace():
     """Shared mode at alpha 0.5 (the cue shown) with no obstacle near: the steady
     participant moves along with the autonomy (+x at 5 um/s), so the blend keeps at
@@ -392,3 +418,30 @@ def test_grip_heading_is_the_robots_own_turn_not_the_tilt_of_a_shear_between_the
     np.testing.assert_allclose(robots_heading(sheared, offsets, trap_robot), [0.4], atol=1e-6)  # offsets are float32
     across = sheared[0, trap_robot == 1].mean(axis=0) - sheared[0, trap_robot == 0].mean(axis=0)
     assert abs(np.arctan2(-across[0], across[1]) - 0.4) > 0.1  # what the line between the robots would say
+
+
+@pytest.mark.slow
+def test_participant_groups_give_each_environment_its_own_task():
+    """``ParticipantGroups``: with one task for all it is that ``SimulatedParticipants``
+    (the same seed: identical hands); with two carry paces, 2 and 4 um/s, the steady
+    participant with the faster pace carries about twice as far in 4 s (ratio within
+    1.6-2.4: the reaction time and lags take the same time off both), the slower one
+    exactly as its group alone would."""
+    gripped = np.array([[10.0, 0.0]] * 2)
+    obs = lambda: scene(gripped, gripped[:, None] + OFFSETS_UM, CARRY)  # noqa: E731
+    fast = ParticipantTask(carry_speed_um_s=4.0)
+
+    def groups(tasks):
+        return ParticipantGroups(
+            [STEADY] * 2, TICK_S, 0, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, tasks, None
+        )
+
+    alone = drive(people([STEADY] * 2), obs(), ["manual"] * 2, 200)
+    np.testing.assert_array_equal(drive(groups([TASK, TASK]), obs(), ["manual"] * 2, 200), alone)
+    mixed = drive(groups([TASK, fast]), obs(), ["manual"] * 2, 200)
+    # group 0 is the first task's environments alone (seed 0); their motor jitter is drawn
+    # from that group's own stream
+    first = drive(people([STEADY]), scene(gripped[:1], gripped[:1, None] + OFFSETS_UM, CARRY), ["manual"], 200)
+    np.testing.assert_array_equal(mixed[0], first[0])
+    ratio = mixed[1, :, 0].mean() / mixed[0, :, 0].mean()
+    assert 1.6 < ratio < 2.4, ratio
