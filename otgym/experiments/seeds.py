@@ -137,13 +137,13 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     SeedUse("scenarios", 910000, 910015, "grip-place fix on 64 manual trials (910000-910007), DAgger selection"),
     # simulated participants
     SeedUse("population", 2, 3, "diagnosis of squeeze losses at the grip (pop-seed 3: 12 x 12 s, 2: 8 x 30 s)"),
-    _one("population", 90, "the --trace example of docs/study.md (shared-control --seed 90 --trace 0:0)"),
     _one("population", 4242, "participant model development (scenarios 900000-900003, 910000-910007)"),
     _one(
         "population",
         90,
         "issue 29 item 5: the human model's sourced changes (lapses, tremor and drift, one cue threshold) "
-        "on study seed 90 (scenarios 900000-900007); otgym experiment human-sensitivity's default",
+        "on study seed 90 (scenarios 900000-900007); otgym experiment human-sensitivity's default; "
+        "the --trace example of docs/study.md (shared-control --seed 90 --trace 0:0)",
     ),
     # the demo's transport
     _one("transport", 1, "the demo's whole-path transport (otgym demo --runs 8 --seed 1)"),
