@@ -11,8 +11,10 @@ route's frame so that they do not depend on where on the chip the route runs:
   padded as far away): where it is along the route relative to the cell (its nearest
   route point's arc minus the cell's, / 50 um), how far it is off the route (/ 20 um),
   how fast it closes on the route (its velocity across the route towards it, / 2 um/s,
-  from ``ObstacleTracker``'s 1 s least-squares fit of what the camera showed), and its
-  gap to the assembly (/ 20 um); each clipped to [-2, 2];
+  from ``ObstacleTracker``'s 1 s least-squares fit of what the camera showed), its
+  gap to the assembly (/ 20 um), each clipped to [-2, 2], and whether it has never yet
+  been seen moving (1: it may still cross; one that moved and stopped has crossed:
+  the scenarios' obstacles wait beside the route, cross once and park);
 * the speed now (/ 8 um/s), the share of the route left, the traps' margin (the largest
   handle-to-trap distance over the trap law's escape distance: 1 is a trap lost) and
   whether the formation carries the cell.
@@ -47,7 +49,7 @@ DECISION_S = 0.5
 """How often the policy chooses a speed, s (an obstacle at 2 um/s moves 1 um meanwhile)."""
 K_OBSTACLES = 4
 """Obstacles the policy sees (the task's scenarios have four)."""
-PER_OBSTACLE = 4
+PER_OBSTACLE = 5
 N_GLOBAL = 4
 N_FEATURES = K_OBSTACLES * PER_OBSTACLE + N_GLOBAL
 ALONG_SCALE_UM = 50.0
@@ -57,7 +59,7 @@ GAP_SCALE_UM = 20.0
 SPEED_SCALE_UM_S = 8.0
 FEATURE_CLIP = 2.0
 TRACKER_WINDOW_S = 1.0
-FAR_OBSTACLE = (FEATURE_CLIP, FEATURE_CLIP, 0.0, FEATURE_CLIP)
+FAR_OBSTACLE = (FEATURE_CLIP, FEATURE_CLIP, 0.0, FEATURE_CLIP, 0.0)
 """The features of an obstacle that is not there: far ahead, far off the route, still."""
 SPEED_POLICY = Path(__file__).resolve().parent.parent / "data" / "policies" / "speed_interactive.npz"
 """The learned speed policy shipped with the package (``otgym.experiments.train_interactive_speed``)."""
@@ -77,13 +79,14 @@ def speed_features(
     obstacle_xy_um,
     obstacle_velocity_um_s,
     obstacle_gap_um,
+    obstacle_idle,
     speed_um_s,
     trap_margin,
     carrying,
 ) -> np.ndarray:
     """Features (E, ``N_FEATURES``) float32 (module docstring). Obstacles (E, K, 2) are
-    placed on the route by their nearest route point; ``speed_um_s``, ``trap_margin``
-    and ``carrying`` are (E,)."""
+    placed on the route by their nearest route point; ``obstacle_idle`` (E, K) is 1 for
+    one never seen moving; ``speed_um_s``, ``trap_margin`` and ``carrying`` are (E,)."""
     route_um = np.asarray(route_um, float)
     xy = np.asarray(obstacle_xy_um, float)
     n_env, n_obstacles = xy.shape[:2]
@@ -100,6 +103,7 @@ def speed_features(
                 np.abs(across) / ACROSS_SCALE_UM,
                 -np.sign(across) * across_velocity / CLOSING_SCALE_UM_S,
                 np.asarray(obstacle_gap_um, float) / GAP_SCALE_UM,
+                np.asarray(obstacle_idle, float),
             ],
             axis=-1,
         )
@@ -240,6 +244,7 @@ class RLNavigator(RouteNavigator):
             obs.obstacle_xy_um,
             self.tracker.velocity_um_s(),
             obs.obstacle_gap_um,
+            ~self.tracker.seen_moving,
             self.cruise_speed_um_s,
             obs.trap_distance_um.max(axis=1) / self.escape_distance_um,
             obs.phase == CARRY,

@@ -5,8 +5,9 @@
 
 1. collect: ``n_envs`` environments (one scenario each, scenarios
    ``SCENARIO_BASE + round * n_envs + i``) run with ``RLNavigator`` choosing speeds
-   epsilon-greedily (epsilon falls linearly from 1 to ``eps_end`` over the first
-   ``eps_rounds`` rounds); every decision (0.5 s) closes the previous one's transition;
+   epsilon-greedily with sticky exploration (``Explorer``; epsilon falls linearly from
+   1 to ``eps_end`` over the first ``eps_rounds`` rounds); every decision (0.5 s)
+   closes the previous one's transition;
 2. learn: ``updates_per_round`` Adam steps on uniform mini-batches of every transition
    so far (the replay buffer keeps them all), the double-DQN target with a target
    network copied every ``target_every`` steps, Huber loss.
@@ -51,10 +52,10 @@ SCENARIO_BASE = 960_000
 
 @dataclasses.dataclass(frozen=True)
 class SpeedTrainingConfig:
-    rounds: int = 8
+    rounds: int = 10
     n_envs: int = 64
-    eps_rounds: int = 5
-    eps_end: float = 0.05
+    eps_rounds: int = 6
+    eps_end: float = 0.02
     updates_per_round: int = 3000
     batch_size: int = 256
     learning_rate: float = 1e-3
@@ -63,7 +64,7 @@ class SpeedTrainingConfig:
     hidden: tuple[int, ...] = (64, 64)
     progress_reward_per_um: float = 0.1
     time_cost: float = 0.1
-    collision_cost: float = 5.0
+    collision_cost: float = 20.0
     detach_cost: float = 2.0
     loss_cost: float = 10.0
     finish_fraction: float = 0.75
@@ -82,21 +83,33 @@ class SpeedTrainingConfig:
 
 
 class Explorer:
-    """Epsilon-greedy speed choice over a Q-network (uniform while it has no parameters)."""
+    """Epsilon-greedy speed choice over a Q-network (uniform while it has no
+    parameters), with sticky exploration: a random speed is held for 1 to
+    ``max_hold`` decisions (uniform), so that waiting several seconds for an obstacle,
+    which independent draws every 0.5 s almost never do, is tried. Each call gets every
+    environment's features (training's environments decide in step)."""
 
     speeds_um_s = SPEEDS_UM_S
     decision_s = DECISION_S
 
-    def __init__(self, apply: Callable, q_params, epsilon: float, rng: np.random.Generator):
-        self.apply, self.q_params, self.epsilon, self.rng = apply, q_params, epsilon, rng
+    def __init__(self, apply: Callable, q_params, epsilon: float, rng: np.random.Generator, max_hold: int = 8):
+        self.apply, self.q_params, self.epsilon, self.rng, self.max_hold = apply, q_params, epsilon, rng, max_hold
+        self.held = np.zeros(0, int)
+        self.hold_left = np.zeros(0, int)
 
     def choose(self, features) -> np.ndarray:
         n = len(features)
-        random = self.rng.integers(0, len(self.speeds_um_s), n)
-        if self.q_params is None or self.epsilon >= 1.0:
-            return random
+        if len(self.held) != n:
+            self.held, self.hold_left = np.zeros(n, int), np.zeros(n, int)
+        start = (self.hold_left <= 0) & (self.rng.random(n) < self.epsilon)
+        self.held = np.where(start, self.rng.integers(0, len(self.speeds_um_s), n), self.held)
+        self.hold_left = np.where(start, self.rng.integers(1, self.max_hold + 1, n), self.hold_left)
+        exploring = self.hold_left > 0
+        self.hold_left = self.hold_left - exploring
+        if self.q_params is None:
+            return self.held
         greedy = np.argmax(np.asarray(self.apply(self.q_params, jnp.asarray(features))), axis=1)
-        return np.where(self.rng.random(n) < self.epsilon, random, greedy)
+        return np.where(exploring, self.held, greedy)
 
 
 def collect(task: InteractiveTask, explorer: Explorer, scenarios: list[int], key, config: SpeedTrainingConfig) -> dict:
