@@ -20,7 +20,8 @@ Each trap's increment is capped at ``max_speed_um_s`` times the tick.
 The speed is a constant cruise speed, not the shipped DQN speed policy: that policy
 was trained on the ``paper`` preset (the paper's weak trap law, 0.27-0.51 um/s in
 water at 20 C), whose speeds and observations do not carry over to this task's
-literature traps, where obstacles, not trap loss, set the danger.
+literature traps, where obstacles, not trap loss, set the danger. The speed policy
+learned for this task's world is navigator ``rl`` (``otgym.autonomy.rl_navigator``).
 """
 
 from __future__ import annotations

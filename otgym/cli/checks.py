@@ -6,8 +6,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-NAVIGATORS = ("route", "mpc")
-"""The autonomy's navigators: the route navigator, the model-predictive one."""
+NAVIGATORS = ("route", "mpc", "rl")
+"""The autonomy's navigators: the route navigator, the model-predictive one, the route
+navigator with the learned speed (``otgym.autonomy.rl_navigator``)."""
 AUTONOMY_SOURCES = ("local", "remote")
 """Where the sim node's dP_r comes from: its own navigator, or an autonomy node."""
 MAX_SEED = 2**32 // 10_000

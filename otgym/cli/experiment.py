@@ -81,7 +81,8 @@ def register(app: typer.Typer) -> None:
             "--modes",
             metavar="MODES",
             callback=_check_modes,
-            help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive).",
+            help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive), "
+            "rl (autonomous with the learned speed).",
         ),
         seed: int = options.seed(
             REPORT_SEEDS["shared-control"],
@@ -97,7 +98,10 @@ def register(app: typer.Typer) -> None:
             help="A trial not done by then ends unfinished, in s.",
         ),
         shared_autonomy: str = options.name(
-            "route", "--shared-autonomy", ("route", "mpc"), "Shared control's dP_r: the route navigator or the MPC."
+            "route",
+            "--shared-autonomy",
+            ("route", "mpc", "rl"),
+            "Shared control's dP_r: the route navigator, the MPC or the learned-speed route navigator.",
         ),
         mpc_rollouts: int = typer.Option(32, "--mpc-rollouts", min=1, max=4096, help="The MPC's rollouts per replan."),
         mpc_plan_steps: int = typer.Option(
@@ -141,8 +145,8 @@ def register(app: typer.Typer) -> None:
                 raise typer.BadParameter(str(error), param_hint="--trace") from None
         if not 0 < time_limit_s <= 3600:
             raise ValueError(f"--time-limit-s must lie in (0, 3600], got {time_limit_s}")
-        if shared_autonomy not in ("route", "mpc"):
-            raise ValueError(f"--shared-autonomy must be route or mpc, got {shared_autonomy!r}")
+        if shared_autonomy not in ("route", "mpc", "rl"):
+            raise ValueError(f"--shared-autonomy must be route, mpc or rl, got {shared_autonomy!r}")
         try:
             mpc_config = MPCConfig(n_rollouts=mpc_rollouts, plan_steps=mpc_plan_steps)
         except ValueError as error:

@@ -349,8 +349,13 @@ def autonomy(
         )
         planner = MPCNavigator(task)
         planner.warm_up()
+    elif navigator == "rl":
+        from otgym.autonomy.rl_navigator import RLNavigator
+
+        planner = RLNavigator.for_task(task)
     with Node("autonomy", "autonomy", **endpoints) as node:
-        _ready(f"autonomy ({'model-predictive' if planner else 'route'} navigator)")
+        kind = {"mpc": "model-predictive", "rl": "learned-speed route"}.get(navigator, "route")
+        _ready(f"autonomy ({kind} navigator)")
         answered = run_autonomy_node(node, task, stop, navigator=planner)
         print(
             f"autonomy: {answered} ticks answered; dropped {sum(node.dropped.values())} malformed messages", flush=True

@@ -210,7 +210,12 @@ def navigator(default: str) -> typer.Option:
     """``--navigator``: the autonomy's navigator."""
     from otgym.cli import checks
 
-    return name(default, "--navigator", checks.NAVIGATORS, "The autonomy's navigator (mpc: model-predictive).")
+    return name(
+        default,
+        "--navigator",
+        checks.NAVIGATORS,
+        "The autonomy's navigator (mpc: model-predictive; rl: the route with the learned speed).",
+    )
 
 
 def participant(default: str) -> typer.Option:

@@ -73,7 +73,7 @@ def register(app: typer.Typer) -> None:
         if distributed:
             run_distributed(*arguments, navigator=navigator)
         else:
-            run_play(*arguments)
+            run_play(*arguments, navigator=navigator)
 
 
 def _check_device(value: str) -> str:
@@ -102,8 +102,10 @@ def run_play(
     questionnaire: bool,
     screenshot: Path | None,
     out: Path,
+    navigator: str = "route",
 ) -> None:
-    """The window in this process, the session in its own (``otgym.runtime.worker``).
+    """The window in this process, the session in its own (``otgym.runtime.worker``);
+    ``navigator`` ``rl`` runs the learned-speed navigator there (``route``: the loop's own).
     The window opens first, before the simulator is imported, and shows what the
     session's process is doing until it runs (``otgym.ui.startup``)."""
     import functools
@@ -150,7 +152,7 @@ def run_play(
             raise ValueError(str(error)) from None
         recording_path = session_path(out)
         spec = WorkerSpec(
-            functools.partial(play_setup, chip, device, recording_path),
+            functools.partial(play_setup, chip, device, recording_path, navigator=navigator),
             participant,
             mode,
             seed,

@@ -99,6 +99,7 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     SeedUse(
         "training", 10, 19, "issue 29's development of the speed front's family (reward and loss variants, seed 10)"
     ),
+    _one("training", 29, "the interactive task's learned speed policy (otgym.experiments.train_interactive_speed)"),
     # shared-control study seeds (population, scenarios seed*10000+t, simulation seed+i)
     _one("study", 0, "otgym experiment shared-control's old default: the first Fig. 8 runs, participant development"),
     _one("study", 1, "participant development (shared 94.9 %, careful closing); the demo's study (10000-10002)"),
@@ -118,6 +119,7 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         "otgym experiment calibrate-scenarios' default and docs examples (900000-900015, the default's check on -900063)",
     ),
     _one("study", 91, "DAgger round selection on 910000-910015"),
+    _one("study", 97, "the learned-speed navigator (mode rl) against the route follower, development comparison"),
     _one(
         "study",
         7500,
@@ -135,6 +137,8 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         "MPC clone data (900000-900007, 900100-900123)",
     ),
     SeedUse("scenarios", 910000, 910015, "grip-place fix on 64 manual trials (910000-910007), DAgger selection"),
+    SeedUse("scenarios", 910016, 910255, "tick-cost timing of 32-256 batched trials (no outcome read), learned speed"),
+    SeedUse("scenarios", 960000, 961023, "training episodes of the learned speed policy (rounds of 64 from 960000)"),
     # simulated participants
     SeedUse("population", 2, 3, "diagnosis of squeeze losses at the grip (pop-seed 3: 12 x 12 s, 2: 8 x 30 s)"),
     _one("population", 4242, "participant model development (scenarios 900000-900003, 910000-910007)"),

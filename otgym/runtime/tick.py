@@ -36,16 +36,16 @@ class TickCommand:
 
 
 def arbitration_modes(modes, autonomy_live=True) -> np.ndarray:
-    """Each environment's arbitration mode (E,): ``mpc`` trials are autonomous, and
+    """Each environment's arbitration mode (E,): ``mpc`` and ``rl`` trials are autonomous, and
     shared control without the autonomy's dP_r (``autonomy_live`` False) is manual."""
     modes = np.asarray(modes)
-    modes = np.where(modes == "mpc", "autonomous", modes)
+    modes = np.where(np.isin(modes, ("mpc", "rl")), "autonomous", modes)
     return np.where((modes == "shared") & ~np.asarray(autonomy_live, bool), "manual", modes)
 
 
 def mode_alpha(modes, gap_um: np.ndarray, config: ArbitrationConfig) -> np.ndarray:
     """alpha (E,) for each environment's mode at its obstacle gap ``gap_um`` (E,) um
-    (``mpc``: autonomous)."""
+    (``mpc``, ``rl``: autonomous)."""
     modes = arbitration_modes(modes)
     alpha = np.zeros(len(modes))
     for mode in MODES:

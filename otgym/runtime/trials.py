@@ -4,7 +4,9 @@ participant, a mode, a scenario), all stepped together tick by tick:
     dP_r = navigator(observation)                       (the autonomy, um: the route
                                                          navigator, or the model-predictive
                                                          one in mode ``mpc`` and, with
-                                                         ``shared_autonomy="mpc"``, in shared mode)
+                                                         ``shared_autonomy="mpc"``, in shared mode;
+                                                         the learned-speed one in mode ``rl``
+                                                         and with ``shared_autonomy="rl"``)
     alpha, dP_h, dP_s = control_tick(...)               (otgym.runtime.tick: the law, the
                                                          participants' two hands, the blend)
     observation = task.step(dP_s)
@@ -28,6 +30,7 @@ from otgym.autonomy.mpc import MPCConfig, MPCCosts
 from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
 from otgym.autonomy.navigator import RouteNavigator
 from otgym.autonomy.protocol import Navigator
+from otgym.autonomy.rl_navigator import RLNavigator
 from otgym.human.params import HumanParams
 from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
@@ -49,10 +52,12 @@ cell drifting in the chip's 8 um/s flow and far below the assembly's escape spee
 CRUISE_SPEED_UM_S = 5.0
 """The route navigator's speed along the route in trials: the autonomous mode's pace."""
 
-TRIAL_MODES = MODES + ("mpc",)
-"""The arbitration modes, and ``mpc``: autonomous (alpha 0) with the model-predictive
-navigator's dP_r (``otgym.autonomy.mpc``) instead of the route navigator's."""
-AUTONOMIES = ("route", "mpc")
+TRIAL_MODES = MODES + ("mpc", "rl")
+"""The arbitration modes, ``mpc``: autonomous (alpha 0) with the model-predictive
+navigator's dP_r (``otgym.autonomy.mpc``) instead of the route navigator's, and ``rl``:
+autonomous with the learned-speed navigator's (``otgym.autonomy.rl_navigator``)."""
+AUTONOMIES = ("route", "mpc", "rl")
+"""Whose dP_r shared control gets: the route navigator, the MPC or the learned speed."""
 
 
 TRIAL_COLUMNS = [
@@ -121,9 +126,10 @@ def run_trials(
     scenarios: list[Scenario] | None = None,
     recorder: Callable[[TickView], None] | None = None,
     participant_tasks: Sequence[ParticipantTask] | None = None,
+    speed_policy=None,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
-    (with ``autonomy``: whose dP_r the trial got, ``route`` or ``mpc``). The
+    (with ``autonomy``: whose dP_r the trial got, ``route``, ``mpc`` or ``rl``). The
     model-predictive navigator gives dP_r to ``mpc`` trials and, with
     ``shared_autonomy="mpc"``, to shared ones; ``mpc_stats`` (a dict) receives its
     replan count and wall times; ``mpc_navigator`` (default ``MPCNavigator``) builds
@@ -134,7 +140,9 @@ def run_trials(
     the batch (``otgym.runtime.trace.TraceRecorder`` copies chosen rows; it must not
     change what it sees). ``participant_tasks`` (one per spec) gives each trial's
     participant its own task parameters instead of ``participant_task``
-    (``otgym.human.participant_groups``)."""
+    (``otgym.human.participant_groups``). ``rl`` trials and, with
+    ``shared_autonomy="rl"``, shared ones get the learned-speed navigator's dP_r
+    (``speed_policy``, default the shipped ``SPEED_POLICY``)."""
     if not specs:
         raise ValueError("no trials to run")
     if recorder is not None and participant_tasks is not None:
@@ -145,6 +153,8 @@ def run_trials(
     modes = np.array([s.mode for s in specs])
     uses_mpc = (modes == "mpc") | ((modes == "shared") & (shared_autonomy == "mpc"))
     mpc_rows = np.flatnonzero(uses_mpc)
+    uses_rl = (modes == "rl") | ((modes == "shared") & (shared_autonomy == "rl"))
+    rl_rows = np.flatnonzero(uses_rl)
     if scenarios is None:
         scenarios = [task.scenario(s.scenario) for s in specs]
     elif len(scenarios) != len(specs):
@@ -164,6 +174,11 @@ def run_trials(
     mpc = (mpc_navigator or MPCNavigator)(task, mpc_config, mpc_costs, seed=seed) if len(mpc_rows) else None
     if mpc is not None:
         mpc.reset(len(mpc_rows))
+    learned = (
+        RLNavigator.for_task(task, speed_policy, max_speed_um_s=retarget.max_trap_speed_um_s) if len(rl_rows) else None
+    )
+    if learned is not None:
+        learned.reset(len(rl_rows))
     law = task.config.scene.trap_law
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
     people = (SimulatedParticipants if participant_tasks is None else ParticipantGroups)(
@@ -184,6 +199,8 @@ def run_trials(
         robot = navigator.increments(obs)
         if mpc is not None:
             robot[mpc_rows] = mpc.increments(observation_rows(obs, mpc_rows))
+        if learned is not None:
+            robot[rl_rows] = learned.increments(observation_rows(obs, rl_rows))
         command = control_tick(
             obs,
             modes,
@@ -213,12 +230,12 @@ def run_trials(
             environments_planned=list(mpc.replan_sizes),
         )
     rows = state.metrics.rows()
-    for spec, row, planned in zip(specs, rows, uses_mpc):
+    for spec, row, planned, speed_learned in zip(specs, rows, uses_mpc, uses_rl):
         row.update(
             participant=spec.participant,
             mode=spec.mode,
             trial=spec.trial,
             scenario=spec.scenario,
-            autonomy="mpc" if planned else "route",
+            autonomy="mpc" if planned else "rl" if speed_learned else "route",
         )
     return rows

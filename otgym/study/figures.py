@@ -47,7 +47,7 @@ _QUESTIONNAIRE_PANELS = {
 }
 """Per questionnaire panel: title, y label, scale limits, measures and their x labels
 (UEQ-S items by their positive pole)."""
-_COLORS = {"manual": "#4C72B0", "autonomous": "#DD8452", "shared": "#55A868", "mpc": "#8172B3"}
+_COLORS = {"manual": "#4C72B0", "autonomous": "#DD8452", "shared": "#55A868", "mpc": "#8172B3", "rl": "#C44E52"}
 _PAPER_OFFSET = 0.32
 
 
@@ -210,7 +210,7 @@ def fig8_figure(trials: pd.DataFrame, stats: dict | None = None, questionnaires:
     ``compare_measures`` gives; a key left out or None: no such answers) (c) NASA-TLX and
     (d) UEQ-S. ``stats`` is ``{"success": ..., "time": ...}`` as ``compare_modes`` (or
     ``write_summary``, or its ``stats.json``) gives; computed here when None. Modes in
-    ``MODE_ORDER`` (manual, autonomous, shared, then mpc). Its axes are the panels, in
+    ``MODE_ORDER`` (manual, autonomous, shared, then mpc and rl). Its axes are the panels, in
     order; each panel's bars are ``ax.patches`` and its participants' dots a collection."""
     if stats is None:
         stats = {metric: compare_modes(trials, metric) for metric in ("success", "time")}

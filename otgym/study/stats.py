@@ -18,8 +18,8 @@ import pandas as pd
 import pingouin as pg
 from statsmodels.stats.proportion import proportion_confint
 
-MODE_ORDER = ("manual", "autonomous", "shared", "mpc")
-"""The order of modes in tables and figures: the paper's three, then MPC."""
+MODE_ORDER = ("manual", "autonomous", "shared", "mpc", "rl")
+"""The order of modes in tables and figures: the paper's three, then MPC, then the learned speed."""
 
 METRICS = ("success", "time")
 _METRIC_COLUMNS = {

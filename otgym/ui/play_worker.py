@@ -10,7 +10,9 @@ from pathlib import Path
 from otgym.runtime.worker import WorkerParts
 
 
-def play_setup(chip: str, device: str, recording_path: Path, forwarded, outbox) -> WorkerParts:
+def play_setup(
+    chip: str, device: str, recording_path: Path, forwarded, outbox, navigator: str = "route"
+) -> WorkerParts:
     from otgym.runtime.trials import stylus_feedback
     from otgym.sim.chip import load_chip
     from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
@@ -27,4 +29,10 @@ def play_setup(chip: str, device: str, recording_path: Path, forwarded, outbox) 
         recording.close()
         recording.path.unlink(missing_ok=True)
 
-    return WorkerParts(task, bindings, sink=recording, on_failure=discard)
+    autonomy = None
+    if navigator == "rl":  # the learned speed: one forward pass per 0.5 s, cheap enough for the sim's process
+        from otgym.autonomy.rl_navigator import RLNavigator, TrialAutonomy
+        from otgym.runtime.trials import TASK_RETARGET
+
+        autonomy = TrialAutonomy(RLNavigator.for_task(task, max_speed_um_s=TASK_RETARGET.max_trap_speed_um_s))
+    return WorkerParts(task, bindings, sink=recording, autonomy=autonomy, on_failure=discard)

@@ -449,7 +449,7 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["autonomy", "--navigator", "astar"], "--navigator must be one of route, mpc, not 'astar'"),
+        (["autonomy", "--navigator", "astar"], "--navigator must be one of route, mpc, rl, not 'astar'"),
         (["sim", "--autonomy", "cloud"], "--autonomy must be one of local, remote, not 'cloud'"),
         (["sim", "--mode", "telepathic"], "--mode must be one of manual, shared, autonomous, not 'telepathic'"),
         (["sim", "--participant", "P1,P2"], "--participant must be a non-empty ID without commas"),

@@ -13,6 +13,7 @@ from otgym.autonomy.mpc_navigator import MPCNavigator
 from otgym.autonomy.mpc_policy import DAggerNavigator, PolicyNavigator, RecordingMPCNavigator
 from otgym.autonomy.navigator import RouteNavigator
 from otgym.autonomy.protocol import Autonomy, Navigator
+from otgym.autonomy.rl_navigator import RLNavigator, TrialAutonomy
 from otgym.bus.nodes import RemoteAutonomy
 from otgym.bus.sim_node import BusSink
 from otgym.runtime.protocols import SessionCommands, SessionControl, Sink, protocol_members, protocol_methods
@@ -88,7 +89,7 @@ def test_the_sinks_offer_the_sink_protocol(sink):
 
 
 @pytest.mark.parametrize(
-    "navigator", [RouteNavigator, MPCNavigator, RecordingMPCNavigator, PolicyNavigator, DAggerNavigator]
+    "navigator", [RouteNavigator, MPCNavigator, RecordingMPCNavigator, PolicyNavigator, DAggerNavigator, RLNavigator]
 )
 def test_the_navigators_offer_the_navigator_protocol(navigator):
     assert issubclass(navigator, Navigator)
@@ -97,9 +98,9 @@ def test_the_navigators_offer_the_navigator_protocol(navigator):
 
 def test_the_autonomies_of_the_loop_offer_the_autonomy_protocol():
     route = RouteNavigator(np.array([[0.0, 0.0], [10.0, 0.0]]), np.array([0.0, 10.0]), np.zeros((4, 2)), 0.02)
-    for autonomy in (ForwardedAutonomy(0.1), RemoteAutonomy(_StubNode(), 4), route.increments):
+    for autonomy in (ForwardedAutonomy(0.1), RemoteAutonomy(_StubNode(), 4), route.increments, TrialAutonomy(route)):
         assert isinstance(autonomy, Autonomy)
-    for autonomy in (ForwardedAutonomy, RemoteAutonomy):
+    for autonomy in (ForwardedAutonomy, RemoteAutonomy, TrialAutonomy):
         assert conformance_problems(Autonomy, autonomy) == []
 
 
