@@ -43,12 +43,8 @@ def register(experiment: typer.Typer) -> None:
             "development seed of the original calibration,",
         ),
         chip: str = options.chip("default"),
-        time_limit_s: float = typer.Option(
-            300.0,
-            "--time-limit-s",
-            min=1.0,
-            max=3600.0,
-            help="A trial not done by then ends unfinished, in s (obstacles beyond are not met).",
+        time_limit_s: float = options.time_limit_s(
+            help="A trial not done by then ends unfinished, in s (obstacles beyond are not met)."
         ),
         out: Path = options.out_dir(..., "Folder for calibration.csv, calibration.md, calibration.png."),
     ) -> None:

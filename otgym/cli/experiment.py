@@ -90,13 +90,7 @@ def register(app: typer.Typer) -> None:
             "held-out report seed,",
         ),
         chip: str = options.chip("default"),
-        time_limit_s: float = typer.Option(
-            300.0,
-            "--time-limit-s",
-            min=1.0,
-            max=3600.0,
-            help="A trial not done by then ends unfinished, in s.",
-        ),
+        time_limit_s: float = options.time_limit_s(),
         shared_autonomy: str = options.name(
             "route",
             "--shared-autonomy",

@@ -49,9 +49,7 @@ def register(experiment: typer.Typer) -> None:
             "Study seed (population SEED; participant p's trial t meets scenario SEED * 10000 + p * TRIALS + t); "
             "the default is a development seed,",
         ),
-        time_limit_s: float = typer.Option(
-            300.0, "--time-limit-s", min=1.0, max=3600.0, help="A trial not done by then ends unfinished, in s."
-        ),
+        time_limit_s: float = options.time_limit_s(),
     ) -> None:
         """How much (d), shared control's success mean minus manual control's, moves when
         each assumed participant parameter is scaled by 0.5 and 1.5 (baseline once), on

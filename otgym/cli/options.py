@@ -25,6 +25,11 @@ def seed(default: int, help: str) -> typer.Option:
     return typer.Option(default, "--seed", min=0, max=SEED_MAX, help=f"{help} [0, 2**32 - 1].")
 
 
+def time_limit_s(default: float = 300.0, help: str = "A trial not done by then ends unfinished, in s.") -> typer.Option:
+    """``--time-limit-s``: a trial's time limit in [1, 3600] s."""
+    return typer.Option(default, "--time-limit-s", min=1.0, max=3600.0, help=help)
+
+
 def out_dir(default: Path | None, help: str) -> typer.Option:
     """``--out``: a folder (made if missing; an existing file is refused)."""
     return typer.Option(default, "--out", file_okay=False, dir_okay=True, metavar="DIR", help=help)

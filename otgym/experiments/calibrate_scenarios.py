@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from otgym.experiments.progress import tenths
 from otgym.experiments.seeds import SCENARIOS_PER_STUDY_SEED, development_uses
 from otgym.human.params import HumanParams
 from otgym.runtime.trials import TrialSpec, run_trials
@@ -162,16 +163,8 @@ def run_calibration(
                 raise ValueError(f"--values {name}={value:g}, scenario {number}: {error}") from None
     specs = [TrialSpec(0, "autonomous", t, number) for _ in values for t, number in enumerate(numbers)]
     report(f"{name}: {len(values)} values x {trials} scenarios ({numbers[0]}-{numbers[-1]}), autonomous mode")
-    last = [-1]
-
-    def progress(fraction):
-        tenth = int(fraction * 10)
-        if tenth > last[0]:
-            last[0] = tenth
-            report(f"      {fraction:.0%} of trials done")
-
     # the autonomous mode gives the person no weight: any participant serves
-    rows = run_trials(task, specs, {0: HumanParams()}, seed=seed, progress=progress, scenarios=scenarios)
+    rows = run_trials(task, specs, {0: HumanParams()}, seed=seed, progress=tenths(report), scenarios=scenarios)
     frame = pd.DataFrame(rows).drop(columns=["participant"])
     frame.insert(0, "value", np.repeat(values, trials))
     frame.insert(0, "parameter", name)

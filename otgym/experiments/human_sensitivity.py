@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from otgym.experiments.progress import tenths
 from otgym.human.params import POPULATION_CV, HumanParams, sample_population, scaled
 from otgym.human.participant_task import ParticipantTask
 from otgym.runtime.trials import TrialSpec, run_trials
@@ -147,15 +148,7 @@ def run_sensitivity(
         f"{len(variants(parameters))} variants (baseline and {len(parameters)} parameters x {len(SCALES)} scales) "
         f"x {participants} participants x {trials} trials x {len(MODES)} modes: {len(specs)} trials in one batch"
     )
-    last = [-1]
-
-    def progress(fraction):
-        tenth = int(fraction * 10)
-        if tenth > last[0]:
-            last[0] = tenth
-            report(f"      {fraction:.0%} of trials done")
-
-    rows = pd.DataFrame(run_trials(task, specs, people, seed, progress=progress, participant_tasks=tasks))
+    rows = pd.DataFrame(run_trials(task, specs, people, seed, progress=tenths(report), participant_tasks=tasks))
     rows.insert(0, "parameter", [labels[key][0] for key in rows.participant])
     rows.insert(1, "scale", [labels[key][1] for key in rows.participant])
     rows["participant"] = [labels[key][2] for key in rows.participant]

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from otgym.autonomy.mpc import MPCConfig
+from otgym.experiments.progress import tenths
 from otgym.human.params import sample_population
 from otgym.runtime.trace import TraceRecorder
 from otgym.runtime.trials import AUTONOMIES, TRIAL_COLUMNS, TRIAL_MODES, TrialSpec, run_trials
@@ -100,14 +101,6 @@ def run_experiment(
             for t in range(trials)
         ]
         report(f"[{index + 1}/{len(batches)}] {', '.join(batch)}: {len(specs)} trials")
-        last = [-1]
-
-        def progress(fraction, name=name, last=last):
-            tenth = int(fraction * 10)
-            if tenth > last[0]:
-                last[0] = tenth
-                report(f"      {name}: {fraction:.0%} of trials done")
-
         stats = {}
         traced = {i: spec.mode for i, spec in enumerate(specs) if trace == (spec.participant, spec.trial)}
         recorder = TraceRecorder(traced) if traced else None
@@ -116,7 +109,7 @@ def run_experiment(
             specs,
             people,
             seed=seed + index,
-            progress=progress,
+            progress=tenths(report, name),
             shared_autonomy=shared_autonomy,
             mpc_config=mpc_config,
             mpc_stats=stats,

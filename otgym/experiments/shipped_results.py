@@ -23,28 +23,15 @@ import math
 import sys
 from pathlib import Path
 
+from otgym.study.summary import SUMMARY_COLUMNS
+
 RESULTS_DIR = Path(__file__).resolve().parent.parent / "data" / "results"
 SHIPPED_FRONT = RESULTS_DIR / "speed_front.json"
 SHIPPED_FIG8 = RESULTS_DIR / "fig8.json"
 
-FIG8_MODE_FIELDS = (
-    "mode",
-    "trials",
-    "participants",
-    "success_mean",
-    "success_sd",
-    "obstacles_encountered",
-    "obstacles_avoided",
-    "avoided_rate",
-    "avoided_rate_ci_low",
-    "avoided_rate_ci_high",
-    "goals_reached",
-    "goal_rate",
-    "completion_time_mean_s",
-    "completion_time_sd_s",
-    "trap_losses",
-)
-"""The columns of a shared-control run's ``summary.csv`` that ``fig8.json`` keeps per mode."""
+FIG8_MODE_FIELDS = tuple(column for column in SUMMARY_COLUMNS if not column.startswith("paper_"))
+"""The columns of a shared-control run's ``summary.csv`` that ``fig8.json`` keeps per mode
+(all but the paper's values)."""
 
 
 def _read_json(path: Path) -> dict | None:
