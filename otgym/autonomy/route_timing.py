@@ -26,8 +26,10 @@ track, pushes by the assembly), so on the simulator the bound is close, not exac
 from __future__ import annotations
 
 import dataclasses
+import itertools
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from otgym.task.scenario import Scenario
 
@@ -70,6 +72,27 @@ def _route_poses(route_um, route_arc_um, arcs_um):
     behind = np.stack([np.interp(arcs_um - step, route_arc_um, route_um[:, i]) for i in range(2)], axis=-1)
     tangent = ahead - behind
     return np.stack([x, y], axis=-1), np.arctan2(tangent[:, 1], tangent[:, 0])
+
+
+_TIMES_PER_CHUNK = 64
+"""Time steps whose blocked arcs are found in one vectorised pass."""
+
+
+def _blocked(obstacles_um, route_points: cKDTree, spheres_um, reach_limit_um, reach_any_um) -> np.ndarray:
+    """(T, A): whether the assembly posed at arc a (spheres (A, P, 2) about the route
+    points of the tree) comes within ``reach_limit_um`` (P,) of any obstacle (T, K, 2)
+    at time t. Only (arc, obstacle) pairs whose route point is within ``reach_any_um``
+    of the obstacle (a k-d tree's ball query) are measured sphere by sphere."""
+    n_times, n_obstacles = obstacles_um.shape[:2]
+    near = route_points.query_ball_point(obstacles_um.reshape(-1, 2), reach_any_um)
+    counts = np.fromiter(map(len, near), int, len(near))
+    a = np.fromiter(itertools.chain.from_iterable(near), int, int(counts.sum()))
+    t, k = np.divmod(np.repeat(np.arange(len(near)), counts), n_obstacles)
+    distance = np.linalg.norm(spheres_um[a] - obstacles_um[t, k][:, None], axis=-1)  # (n, P)
+    touching = np.any(distance < reach_limit_um, axis=-1)
+    blocked = np.zeros((n_times, route_points.n), bool)
+    blocked[t[touching], a[touching]] = True
+    return blocked
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,18 +145,22 @@ def earliest_passage(
         ],
         axis=-1,
     )  # (A, P, 2)
-    reach_limit = np.asarray(shape.radii_um, float)[None, :, None] + obstacle_radius_um + margin_um  # (1, P, 1)
+    reach_limit = np.asarray(shape.radii_um, float) + obstacle_radius_um + margin_um  # (P,)
+    # an obstacle farther than this from an arc's route point touches none of its spheres
+    # (triangle inequality; the slack covers round-off), so only pairs closer are measured
+    reach_any = float(np.max(np.linalg.norm(offsets, axis=-1) + reach_limit)) + 1e-6
     free_s = start_time_s + (goal_arc_um - start_arc_um) / max_speed_um_s
     reached = np.zeros(len(arcs), bool)
     reached[0] = True
     times = np.arange(start_time_s, time_limit_s + time_step_s, time_step_s)
-    for time_s in times:
-        obstacles = scenario.position_um(time_s)  # (K, 2)
-        distance = np.linalg.norm(spheres[:, :, None] - obstacles[None, None], axis=-1)  # (A, P, K)
-        blocked = np.any(distance < reach_limit, axis=(1, 2))
-        reached &= ~blocked
-        if reached[-1]:
-            return Passage(float(time_s), float(free_s))
-        # one time step of motion: an arc step either way, or none
-        reached = reached | np.concatenate([[False], reached[:-1]]) | np.concatenate([reached[1:], [False]])
+    route_points = cKDTree(points)
+    for first in range(0, len(times), _TIMES_PER_CHUNK):
+        chunk = times[first : first + _TIMES_PER_CHUNK]
+        blocked = _blocked(scenario.position_um(chunk), route_points, spheres, reach_limit, reach_any)  # (T, A)
+        for time_s, blocked_now in zip(chunk, blocked):
+            reached &= ~blocked_now
+            if reached[-1]:
+                return Passage(float(time_s), float(free_s))
+            # one time step of motion: an arc step either way, or none
+            reached = reached | np.concatenate([[False], reached[:-1]]) | np.concatenate([reached[1:], [False]])
     return Passage(float("inf"), float(free_s))

@@ -93,8 +93,9 @@ class Scenario:
     end_s: np.ndarray  # (K,)
 
     def position_um(self, time_s):
-        t = np.clip(time_s - self.depart_s, 0.0, self.end_s - self.depart_s)
-        return self.start_um + self.direction * (self.speed_um_s * t)[:, None]
+        """Obstacle centres (K, 2) at ``time_s``, or (T, K, 2) for times (T,)."""
+        t = np.clip(np.asarray(time_s, float)[..., None] - self.depart_s, 0.0, self.end_s - self.depart_s)
+        return self.start_um + self.direction * (self.speed_um_s * t)[..., None]
 
 
 def _free_run_um(distance_fn, point, direction, clearance_um, limit_um):
