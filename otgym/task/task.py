@@ -180,6 +180,12 @@ class PendingStep:
     before_done: np.ndarray  # (E,) environments already DONE when it was dispatched
 
 
+_reset_one = jax.jit(sc.reset_at)
+"""``sc.reset_at`` compiled whole (bitwise the op-by-op result, without compiling each op)."""
+_reset_batch = jax.jit(jax.vmap(sc.reset_at, in_axes=(None, 0, None, None)))
+"""``sc.reset_at`` for a batch of keys, compiled whole."""
+
+
 class InteractiveTask:
     """The task on one chip: scene, route, formation; ``reset``/``step`` over E environments."""
 
@@ -200,7 +206,7 @@ class InteractiveTask:
         self.route_um = np.asarray(self.route.points_um, float)
         self.route_arc_um = np.asarray(self.route.arc_um, float)
         heading = fm.heading_at(self.route, 0.0)
-        gripped = sc.reset_at(self.scene, jax.random.PRNGKey(0), self.route.points_um[0], heading)
+        gripped = _reset_one(self.scene, jax.random.PRNGKey(0), self.route.points_um[0], heading)
         self.offsets_um = np.asarray(fm.formation_offsets(gripped.physics.trap_xy_um, self.route.points_um[0], heading))
         model = self.scene.model
         self.trap_sphere = np.asarray(model.trap_sphere, int)
@@ -244,7 +250,7 @@ class InteractiveTask:
         n_env = len(scenarios)
         heading = fm.heading_at(self.route, 0.0)
         keys = jax.random.split(key, n_env)
-        state = jax.vmap(lambda k: sc.reset_at(self.scene, k, self.route.points_um[0], heading))(keys)
+        state = _reset_batch(self.scene, keys, self.route.points_um[0], heading)
         pose = np.array(state.physics.pose)
         traps = np.array(state.physics.trap_xy_um)
         normal = np.array([-np.sin(float(heading)), np.cos(float(heading))])
