@@ -30,16 +30,17 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from otgym.autonomy.navigator import RouteNavigator
-from otgym.autonomy.protocol import Navigator
 from otgym.bus import messages as msg
 from otgym.bus.transport import Node
-from otgym.task.layout import layout_of, observation_from_spheres
-from otgym.task.task import InteractiveTask
 from otgym.teleop.device import Device, DeviceCaps, Sample
+
+if TYPE_CHECKING:  # the autonomy node's parts import JAX: a device node does without it
+    from otgym.autonomy.protocol import Navigator
+    from otgym.task.task import InteractiveTask
 
 AUTONOMY_TIMEOUT_S = 0.25
 """dP_r older than this (12 ticks) counts as none. A killed autonomy node is noticed
@@ -214,6 +215,9 @@ def run_autonomy_node(
     (``otgym.autonomy.mpc_navigator.MPCNavigator``) answers a replan tick late, the others
     at once. A navigator slower than the ticks answers the newest bodies only. Until
     ``stop`` is set; returns the answers published."""
+    from otgym.autonomy.navigator import RouteNavigator
+    from otgym.task.layout import layout_of, observation_from_spheres
+
     if navigator is None:
         navigator = RouteNavigator(
             task.route_um,

@@ -29,15 +29,16 @@ import functools
 import threading
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from otgym.bus import messages as msg
 from otgym.bus import task_messages
 from otgym.bus.nodes import AUTONOMY_TIMEOUT_S, RemoteAutonomy, RemoteDevice
 from otgym.bus.transport import Node
-from otgym.runtime.loop import DeviceBinding
-from otgym.runtime.trials import stylus_feedback
 from otgym.runtime.worker import ForwardedAutonomy, SessionProcess, WorkerParts, WorkerSpec
-from otgym.teleop.takeover import TakeoverDevice
+
+if TYPE_CHECKING:  # the loop and the trials import JAX: the sim node's bus side (serve_sim_node) does without
+    from otgym.runtime.loop import DeviceBinding
 
 
 class BusSink:
@@ -95,6 +96,9 @@ def plan_bindings(plan, devices: list, feedback=None) -> list[DeviceBinding]:
     """One binding per robot: its device, wrapped in a ``TakeoverDevice`` where one may
     take it over; ``feedback``: the styluses' (``trials.stylus_feedback``, as ``otgym
     play`` gives them)."""
+    from otgym.runtime.loop import DeviceBinding
+    from otgym.teleop.takeover import TakeoverDevice
+
     bindings = []
     for robot, (primary, over) in enumerate(plan):
         device = devices[primary] if primary is not None else None
@@ -151,6 +155,7 @@ def run_sim_node(
     With ``remote_autonomy`` dP_r comes from an autonomy node (``RemoteAutonomy``),
     else from each loop's own navigator."""
     from otgym.runtime.session import Session
+    from otgym.runtime.trials import stylus_feedback
 
     names, plan = device_plan(devices, takeover)
     remotes = [RemoteDevice(node, name) for name in names]
@@ -185,6 +190,8 @@ def sim_worker_setup(chip: str, plan, remote_autonomy: bool, forwarded, outbox) 
     """What the sim node's worker builds (``WorkerSpec.setup``): the task, one binding
     per robot over the forwarded devices, a ``BusSink`` that sends each tick's
     messages to the bus side, and the forwarded autonomy."""
+    from otgym.runtime.trials import stylus_feedback
+
     autonomy = ForwardedAutonomy(AUTONOMY_TIMEOUT_S) if remote_autonomy else None
     task = build_task(chip)
     return WorkerParts(

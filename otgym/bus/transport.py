@@ -31,12 +31,17 @@ simulator learns that a device node died.
 
 Latched topics (``messages.LATCHED``: the session's description, chip and route, and
 the mode) are published through zenoh-ext's ``AdvancedPublisher`` with a cache of the
-last message, and ``subscribe`` to such a topic (or to a pattern with ``*``) declares an
-``AdvancedSubscriber`` that asks the publishers' caches for history, also from
-publishers that appear later: a recorder or window that joins a running simulator
-still gets the chip, the route and the current mode. This is how rmw_zenoh carries ROS 2's
-transient-local durability; it needs zenoh's timestamping, which every node's
-configuration turns on.
+last message, and ``subscribe`` to such a topic (or to a pattern with ``*``: to each
+latched topic it matches) declares an ``AdvancedSubscriber`` that asks the publishers'
+caches for history, also from publishers that appear later: a recorder or window that
+joins a running simulator still gets the chip, the route and the current mode. This is
+how rmw_zenoh carries ROS 2's transient-local durability; it needs zenoh's timestamping,
+which every node's configuration turns on. The other topics a pattern matches come
+through a plain subscriber: an advanced one drops a sample of a plain publisher whose
+timestamp is not newer than the last it passed from that publisher's session, and a
+node's threads that publish at once (the sim's ticks and events, its answers to the
+devices' twists) may send theirs out of timestamp order (a distributed session lost its
+``session_end`` so).
 
 Congestion. A stream's publisher (every tick's messages, device twists) is express
 and drops a message that waits longer than ``WAIT_BEFORE_DROP_US`` (one tick) for room;
@@ -290,8 +295,20 @@ class Node:
         for topic in topics:
             type_name = msg.topic_type(topic)
             self._register_subscription(self.fqn(topic), {(DDS_NAME[type_name], TYPE_HASH[type_name])}, qos_of(topic))
-        key = f"{self.domain}/{self.fqn(topic_pattern).strip('/')}" + ("" if pattern else "/*/*")
-        self._subscribe_key(key, Intake(self.counts), callback, history=pattern or topic_pattern in msg.LATCHED)
+        intake = Intake(self.counts)
+        if not pattern:
+            key = f"{self.domain}/{self.fqn(topic_pattern).strip('/')}/*/*"
+            self._subscribe_key(key, intake, callback, history=topic_pattern in msg.LATCHED)
+            return
+        # the pattern's latched topics each through an advanced subscriber (their history),
+        # the rest through a plain one: an advanced subscriber drops a plain publisher's
+        # sample not newer (by zenoh's timestamp) than the last it passed from that session,
+        # and a node's threads publishing at once send theirs out of timestamp order
+        latched = [topic for topic in topics if topic in msg.LATCHED]
+        key = f"{self.domain}/{self.fqn(topic_pattern).strip('/')}"
+        self._subscribe_key(key, intake, callback, history=False, skip=frozenset(latched))
+        for topic in latched:
+            self._subscribe_key(f"{self.domain}/{self.fqn(topic).strip('/')}/*/*", intake, callback, history=True)
 
     def subscribe_ros(
         self, topic: str, type_names: tuple[str, ...], callback: Callable[[str, object, bytes], None]
@@ -324,12 +341,20 @@ class Node:
         for entity in remote:
             self._check_entity(entity)
 
-    def _subscribe_key(self, key: str, intake: Intake, callback, history: bool, topic: str | None = None) -> None:
+    def _subscribe_key(
+        self, key: str, intake: Intake, callback, history: bool, topic: str | None = None, skip: frozenset = frozenset()
+    ) -> None:
+        """``callback`` for each sample on ``key`` that passes ``intake``, except those of
+        the topics in ``skip`` (another subscription takes them); ``history``: an
+        advanced subscriber that also asks the latched publishers' caches."""
+
         def on_sample(sample: zenoh.Sample) -> None:
             parts = str(sample.key_expr).split("/")
             if len(parts) < 4:
                 return
             name = topic or self._topic_of(parts)
+            if name in skip:
+                return
             data = sample.payload.to_bytes()
             attachment = sample.attachment
             message = intake.check(

@@ -23,7 +23,7 @@ def _check_values(value: str) -> str:
 
 
 def register(experiment: typer.Typer) -> None:
-    from otgym.experiments.calibrate_scenarios import DEFAULT_SEED, SWEEPABLE
+    from otgym.experiments.calibrate_options import DEFAULT_SEED, SWEEPABLE  # light: no JAX at registration
 
     @experiment.command("calibrate-scenarios")
     def calibrate_scenarios(

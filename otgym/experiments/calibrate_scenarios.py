@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from otgym.experiments.calibrate_options import SWEEPABLE
 from otgym.experiments.progress import tenths
 from otgym.experiments.seeds import SCENARIOS_PER_STUDY_SEED, development_uses
 from otgym.human.params import HumanParams
@@ -41,23 +42,8 @@ from otgym.study.stats import wilson_interval
 from otgym.task.scenario import ScenarioConfig, make_scenario
 from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
 
-DEFAULT_SEED = 90
-"""The study seed of the original calibration (scenarios 900000-900063)."""
 TARGET_AVOIDED = PAPER_FIG8["autonomous"]["success_mean"]
 """The paper's autonomous success: 59 % of the obstacles avoided (printed ± 5 %)."""
-SWEEPABLE = (
-    "timing_jitter_s",
-    "obstacle_speed_um_s",
-    "grip_time_s",
-    "cruise_speed_um_s",
-    "min_crossing_separation_um",
-    "max_crossing_angle_deg",
-    "park_clearance_um",
-    "run_out_um",
-    "wall_margin_um",
-)
-"""The scalar parameters that shape a scenario's tracks (``make_scenario``); the others
-act while the task steps or change the number of obstacles."""
 MAX_VALUES = 20
 SUMMARY_COLUMNS = [
     "value",

@@ -31,6 +31,7 @@ from otgym.record.mcap_file import read_recording
 from otgym.runtime.loop import DeviceBinding, InteractiveLoop
 from otgym.teleop.device import Device, DeviceCaps, Sample
 from otgym.teleop.replay import record_samples
+from tests.otgym_cli import run_otgym
 
 ROOT = Path(__file__).resolve().parents[2]
 STARTUP_S = 90.0
@@ -457,9 +458,9 @@ def test_a_remote_device_answers_each_twist_at_once_with_the_latest_force_and_it
         (["device", "--device", "replay"], "--device replay needs --replay FILE"),
     ],
 )
-@pytest.mark.slow
 def test_bad_node_arguments_end_in_one_line_and_exit_2(args, message):
-    run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
+    """Run in this process (``tests.otgym_cli``): each is refused before a node starts."""
+    run = run_otgym(["node", *args])
     assert run.returncode == 2 and "Traceback" not in run.stderr
     assert run.stderr.strip().splitlines() == [f"error: {run.stderr.strip().removeprefix('error: ')}"]
     assert message in run.stderr
@@ -475,5 +476,5 @@ def test_bad_node_arguments_end_in_one_line_and_exit_2(args, message):
     ],
 )
 def test_a_role_takes_only_its_own_options(args, message):
-    run = subprocess.run([sys.executable, "-m", "otgym", "node", *args], capture_output=True, text=True, timeout=120)
+    run = run_otgym(["node", *args])
     assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr

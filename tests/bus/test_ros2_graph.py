@@ -379,19 +379,14 @@ def test_a_ros2_publisher_of_another_type_or_qos_is_reported_once():
         (["recorder", "--out", "x"], {"ROS_DOMAIN_ID": "999"}, "ROS_DOMAIN_ID"),
     ],
 )
-def test_bad_ros2_options_end_in_one_error_line_and_exit_2(args, env, message, tmp_path):
-    import os
-    import subprocess
-    import sys
+def test_bad_ros2_options_end_in_one_error_line_and_exit_2(args, env, message, tmp_path, monkeypatch):
+    """Run in this process (``tests.otgym_cli``): each is refused before a node starts."""
+    from tests.otgym_cli import run_otgym
 
-    run = subprocess.run(
-        [sys.executable, "-m", "otgym", "node", *args],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=tmp_path,
-        env={**os.environ, **env},
-    )
+    monkeypatch.chdir(tmp_path)
+    for name, value in env.items():
+        monkeypatch.setenv(name, value)
+    run = run_otgym(["node", *args])
     lines = run.stderr.strip().splitlines()
     assert run.returncode == 2 and len(lines) == 1 and lines[0].startswith("error:") and message in lines[0], run.stderr
     assert not any(tmp_path.iterdir())  # nothing written

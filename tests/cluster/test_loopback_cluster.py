@@ -1,8 +1,9 @@
 """``otgym sweep`` on a real two-node Ray cluster on the loopback interface
 (``loopback.LoopbackCluster``: head 127.0.0.2, worker 127.0.0.3, one CPU each):
 cells land on both nodes, a worker node killed mid-sweep loses nothing, and no
-connection of the cluster leaves 127.0.0.0/8. Each test starts its cluster and ends it
-by pid. Waits are for events (nodes alive in the state API, files), with deadlines."""
+connection of the cluster leaves 127.0.0.0/8. One cluster (started, then ended by pid)
+runs both sweeps, the one that kills a worker node last. Waits are for events (nodes
+alive in the state API, files), with deadlines."""
 
 import subprocess
 import sys
@@ -70,13 +71,20 @@ def stop(driver):
     driver.wait(timeout=60)
 
 
-def test_cells_land_on_both_nodes_and_stay_on_loopback(cluster, tmp_path):
+def test_cells_land_on_both_nodes_stay_on_loopback_and_survive_a_killed_worker_node(cluster, tmp_path):
+    """The two sweeps below on one cluster (its start is most of either's cost): the
+    second kills the worker node, so it runs last."""
+    cells_land_on_both_nodes_and_stay_on_loopback(cluster, tmp_path / "both")
+    a_worker_node_killed_mid_sweep_loses_no_cell(cluster, tmp_path / "killed")
+
+
+def cells_land_on_both_nodes_and_stay_on_loopback(cluster, tmp_path):
     """Two cells that hold until released, so they run at once, one per node's only
     CPU: once both have started, the state API shows both running, on the two nodes,
     and every TCP connection of the cluster and the driver is in 127.0.0.0/8
     (``ss -tnp``); released, they finish and cells.csv names both nodes."""
     hold = tmp_path / "hold"
-    hold.mkdir()
+    hold.mkdir(parents=True)
     driver, out = start_driver(cluster, tmp_path, {"hold": str(hold)})
     nodes = cluster.wait_for_alive_nodes(2)
     try:
@@ -103,13 +111,13 @@ def test_cells_land_on_both_nodes_and_stay_on_loopback(cluster, tmp_path):
     assert tcp_connections_outside_loopback(cluster.pids()) == []
 
 
-def test_a_worker_node_killed_mid_sweep_loses_no_cell(cluster, tmp_path):
+def a_worker_node_killed_mid_sweep_loses_no_cell(cluster, tmp_path):
     """Two held cells, one per node. The head's cell is let go; the worker node's raylet
     is killed (SIGKILL, by pid) while its cell runs. Ray reruns that cell on the head
     (seen by the rerun's own start file there), it finishes, and the sweep ends with
     both cells done and their files in place."""
     hold = tmp_path / "hold"
-    hold.mkdir()
+    hold.mkdir(parents=True)
     driver, out = start_driver(cluster, tmp_path, {"hold": str(hold)})
     try:
         started = wait_for(

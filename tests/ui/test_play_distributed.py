@@ -2,7 +2,9 @@
 processes and the window as the ui node, headless. A short session ends by itself and
 leaves trials.csv and the recorder's session.mcap; a node killed mid-session stops
 them all with one error line. Either way no process it started is left: every one of
-them carries a marker in its environment, looked for in /proc afterwards."""
+them carries a marker in its environment, looked for in /proc afterwards. The short
+session's launcher runs in this process (``tests.otgym_cli``: its nodes are processes
+all the same); the other is a process, read line by line while it runs."""
 
 from __future__ import annotations
 
@@ -39,24 +41,26 @@ def marked(marker: str) -> list[int]:
     return found
 
 
+def play_arguments(out: Path, *arguments: str) -> list[str]:
+    """``otgym play --distributed`` headless with the simulated stylus, participant D1."""
+    return [
+        "play",
+        "--headless",
+        "--distributed",
+        "--device",
+        "simulated",
+        "--no-questionnaire",
+        "--participant",
+        "D1",
+        *arguments,
+        "--out",
+        str(out),
+    ]
+
+
 def launch(out: Path, marker: str, *arguments: str) -> subprocess.Popen:
     return subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "otgym",
-            "play",
-            "--headless",
-            "--distributed",
-            "--device",
-            "simulated",
-            "--no-questionnaire",
-            "--participant",
-            "D1",
-            *arguments,
-            "--out",
-            str(out),
-        ],
+        [sys.executable, "-m", "otgym", *play_arguments(out, *arguments)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -72,7 +76,7 @@ def wait_gone(marker: str, timeout_s: float = 60.0) -> list[int]:
 
 
 @pytest.mark.slow
-def test_a_distributed_session_records_its_trial_and_leaves_nothing_running(tmp_path):
+def test_a_distributed_session_records_its_trial_and_leaves_nothing_running(tmp_path, monkeypatch):
     """A 3 s shared-mode session: the window's trials.csv has the one trial's row (D1,
     ended by its duration at 3.0 s of simulated time) and the recorder's session.mcap is
     complete and tells the same trial: its events in order (one trial_start of trial 1,
@@ -85,11 +89,12 @@ def test_a_distributed_session_records_its_trial_and_leaves_nothing_running(tmp_
     from otgym.bus import messages as msg
     from otgym.record.mcap_file import read_recording
     from otgym.record.replay import events, summary
+    from tests.otgym_cli import run_otgym
 
     marker = uuid.uuid4().hex
-    run = launch(tmp_path, marker, "--duration", "3", "--mode", "shared")
-    stdout, stderr = run.communicate(timeout=600)
-    assert run.returncode == 0, stderr
+    monkeypatch.setenv("OTGYM_TEST_MARKER", marker)  # the nodes this process starts inherit it
+    run = run_otgym(play_arguments(tmp_path, "--duration", "3", "--mode", "shared"))
+    assert run.returncode == 0, run.stderr
     assert wait_gone(marker) == []
     with open(tmp_path / "trials.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
