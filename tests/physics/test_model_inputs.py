@@ -73,7 +73,7 @@ def test_simulation_runs_in_float64_when_enabled():
     with jax.enable_x64(True):
         model = ph.build_model([ph.two_handle_robot()], ph.PhysicsConfig(dtype="float64", substeps=4))
         state = ph.initial_state(model, [[1.0, 2.0, 0.3]])
-        state, report = ph.control_step(model, state, ph.Controls.zeros(model), jax.random.PRNGKey(0))
+        state, report = step(model, state, ph.Controls.zeros(model), jax.random.PRNGKey(0))  # one compile, not op by op
         assert state.pose.dtype == jnp.float64
         assert np.all(np.isfinite(np.asarray(state.pose)))
 
@@ -89,11 +89,12 @@ def test_vmap_of_control_step_runs_the_batched_kernel_with_the_same_physics():
     states = jax.tree.map(lambda *a: jnp.stack(a), *[ph.initial_state(model, p) for p in poses])
     controls = ph.Controls.zeros(model).replace(trap_velocity_um_s=jnp.ones((2, 2)) * 50.0)
     keys = jax.random.split(jax.random.PRNGKey(0), 3)
-    batched, _ = jax.jit(jax.vmap(ph.control_step, in_axes=(None, 0, None, 0)))(model, states, controls, keys)
+    vmapped = jax.jit(jax.vmap(ph.control_step, in_axes=(None, 0, None, 0)))
+    batched, _ = vmapped(model, states, controls, keys)
     for index in range(3):
         single, _ = step(model, jax.tree.map(lambda a: a[index], states), controls, keys[index])
         assert np.allclose(np.asarray(batched.pose[index]), np.asarray(single.pose), atol=1e-5)
     noisy = ph.build_model([ph.two_handle_robot(), ph.cell()], ph.PhysicsConfig(dt_s=1e-4, substeps=20))
     same = jax.tree.map(lambda a: jnp.stack([a[0]] * 3), states)
-    moved, _ = jax.vmap(ph.control_step, in_axes=(None, 0, None, 0))(noisy, same, controls, keys)
+    moved, _ = vmapped(noisy, same, controls, keys)  # the same program: only the noise's scale differs
     assert len({float(moved.pose[i, 0, 0]) for i in range(3)}) == 3

@@ -1,12 +1,13 @@
 """Shared fixtures of the sim tests: the default chip and its derived fields (solved
-once per session, about 6 s), and a builder of straight-duct chips."""
+once per session, about 6 s, into a fields cache shared by every scene the session
+builds), scenes built once per session, and a builder of straight-duct chips."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from otgym.sim.cache import compute_fields
+from otgym.sim.cache import chip_fields
 from otgym.sim.chip import Chip, Port, load_chip
 
 
@@ -22,8 +23,37 @@ def default_chip():
 
 
 @pytest.fixture(scope="session")
-def default_fields(default_chip):
-    return compute_fields(default_chip)
+def shared_cache_dir(tmp_path_factory):
+    """One fields cache for the session's default-chip fields and scenes, so its flow is
+    solved once (about 6 s) rather than once per scene built."""
+    return tmp_path_factory.mktemp("shared-cache")
+
+
+def _in_cache(cache, make, *args):
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("OTGYM_CACHE_DIR", str(cache))
+        return make(*args)
+
+
+@pytest.fixture(scope="session")
+def default_fields(default_chip, shared_cache_dir):
+    return _in_cache(shared_cache_dir, chip_fields, default_chip)
+
+
+@pytest.fixture(scope="session")
+def scene_of(shared_cache_dir):
+    """``scene_of(config)``: the scene of a ``SceneConfig``, built once per session (the
+    tests share its compiled steps too) from the shared fields cache."""
+    from otgym.sim.scene import build_scene
+
+    scenes = {}
+
+    def build(config):
+        if config not in scenes:
+            scenes[config] = _in_cache(shared_cache_dir, build_scene, config)
+        return scenes[config]
+
+    return build
 
 
 def straight_duct(
