@@ -398,13 +398,14 @@ def test_config_rejects_bad_sizes():
 def test_shared_control_takes_the_mpc_as_its_autonomy():
     """run_trials with ``shared_autonomy="mpc"``: the shared trial's dP_r comes from the
     MPC (it is among the environments replanned, and its row says so) beside an mpc
-    trial, while an autonomous trial keeps the route navigator. 2 s trials, two
-    replanned environments once both carry; fails if shared control ignores the flag."""
+    trial, while an autonomous trial keeps the route navigator. 1 s trials (both grip
+    within 0.1 s; the first replan, of both, comes at 0.1 s), two replanned environments
+    once both carry; fails if shared control ignores the flag."""
     from otgym.human.params import sample_population
     from otgym.runtime.trials import TrialSpec, run_trials
     from otgym.task.task import InteractiveConfig
 
-    short = InteractiveTask(InteractiveConfig(time_limit_s=2.0))
+    short = InteractiveTask(InteractiveConfig(time_limit_s=1.0))
     specs = [TrialSpec(0, mode, 0, scenario=900000) for mode in ("shared", "mpc", "autonomous")]
     stats = {}
     rows = run_trials(
