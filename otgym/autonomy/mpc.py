@@ -431,13 +431,16 @@ def replan(
     """One replan of B environments: ``state`` (B) and ``tracks`` (B, K, ...) as the
     model's start, ``start`` (B, 3) the formation now, ``committed`` (B, 3) the action
     executed until the next replan, ``nominal`` (B, L, 3) the warm start. Returns the
-    best plan (B, L, 3), its cost terms (dict of (B,)) and every candidate's total cost (B, R)."""
+    best plan (B, L, 3), its cost terms (dict of (B,)), every candidate's total cost
+    (B, R) and the model's state (B) at the end of the best plan's rollout (the
+    committed step, then the plan). Ties go to the first candidate: with every weight
+    zero the plan is the nominal one (as rate-limited and clipped), rolled out."""
     n_env = nominal.shape[0]
     plans = rate_limited(candidates(key, nominal, config), committed[:, None], config)
     n_rollouts = plans.shape[1]
     repeat = lambda a: jnp.repeat(a, n_rollouts, axis=0)  # noqa: E731
     actions = jnp.concatenate([jnp.broadcast_to(committed[:, None, None], (n_env, n_rollouts, 1, 3)), plans], axis=2)
-    _, terms = rollout(
+    final, terms = rollout(
         scene,
         route,
         offsets_um,
@@ -454,9 +457,13 @@ def replan(
     best = jnp.argmin(total, axis=1)
     pick = lambda a: jnp.take_along_axis(a, best[:, None], axis=1)[:, 0]  # noqa: E731
     best_plan = jnp.take_along_axis(plans, best[:, None, None, None], axis=1)[:, 0]
-    return best_plan, {name: pick(value) for name, value in terms.items()}, total
+    rows = jnp.arange(n_env) * n_rollouts + best
+    predicted = jax.tree.map(lambda a: a[rows], final)
+    return best_plan, {name: pick(value) for name, value in terms.items()}, total, predicted
 
 
+@functools.cache
 def make_replan(config: MPCConfig, obstacle_config: ScenarioConfig):
-    """``replan`` jitted for one configuration; call it as ``replan`` without the keywords."""
+    """``replan`` jitted for one configuration; call it as ``replan`` without the keywords.
+    One jitted function per configuration, so navigators built alike share its compilations."""
     return jax.jit(functools.partial(replan, config=config, obstacle_config=obstacle_config))

@@ -83,8 +83,8 @@ class MPCNavigator:
         )
         self.tracker = ObstacleTracker(TRACKER_WINDOW_S, task.config.tick_s)
         self._replan = make_replan(config, task.config.scenario)
-        self._pose = jax.jit(formation_pose)
-        self._places = jax.jit(_segment_places, static_argnames=("step_s",))
+        self._pose = _pose
+        self._places = _places
         model = self.model.model
         self._handle_offsets_um = np.asarray(model.sphere_offset_um, float)[np.asarray(model.trap_sphere, int)]
         self.replan_seconds: list[float] = []
@@ -250,7 +250,7 @@ class MPCNavigator:
         for index, begin in enumerate(range(0, len(padded), chunk)):
             part = slice(begin, begin + chunk)
             f32 = lambda a: jnp.asarray(np.asarray(a)[part], jnp.float32)  # noqa: E731
-            plan, _, _ = self._replan(
+            plan, _, _, _ = self._replan(
                 self.model,
                 self.route,
                 self.model_offsets_um,
@@ -281,6 +281,10 @@ def _segment_places(route, offsets_um, start, action, low, high, *, step_s: floa
         return formation_places(route, offsets_um, arc, lateral, rotation)
 
     return at(low), at(high)
+
+
+_pose = jax.jit(formation_pose)  # shared by every navigator: one compilation per shape
+_places = jax.jit(_segment_places, static_argnames=("step_s",))
 
 
 def observation_rows(obs: Observation, rows) -> Observation:

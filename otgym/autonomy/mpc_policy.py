@@ -23,6 +23,7 @@ aggregates them with the data so far and retrains, round after round.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable, Iterator
 
@@ -175,15 +176,8 @@ def train(
     key = jax.random.PRNGKey(seed)
     key, init_key = jax.random.split(key)
     layers = init_mlp(init_key, (x.shape[1], *hidden, y.shape[1]))
-    optimiser = optax.adam(learning_rate)
-    opt_state = optimiser.init(layers)
-
-    @jax.jit
-    def step(layers, opt_state, xb, yb):
-        loss, grads = jax.value_and_grad(lambda p: jnp.mean((mlp(p, xb) - yb) ** 2))(layers)
-        updates, opt_state = optimiser.update(grads, opt_state, layers)
-        return optax.apply_updates(layers, updates), opt_state, loss
-
+    opt_state = optax.adam(learning_rate).init(layers)
+    step = functools.partial(_train_step, learning_rate=learning_rate)
     n = len(x)
     size = min(batch, n)
     for _ in range(epochs):
@@ -193,6 +187,15 @@ def train(
             index = order[begin : begin + size]
             layers, opt_state, _ = step(layers, opt_state, x[index], y[index])
     return ClonedPolicy(layers, f_mean, f_std, a_mean, a_std)
+
+
+@functools.partial(jax.jit, static_argnames=("learning_rate",))
+def _train_step(layers, opt_state, xb, yb, *, learning_rate: float):
+    """One Adam step of ``train`` on a minibatch (module level: one compilation per
+    shape and rate, shared by every training in the process)."""
+    loss, grads = jax.value_and_grad(lambda p: jnp.mean((mlp(p, xb) - yb) ** 2))(layers)
+    updates, opt_state = optax.adam(learning_rate).update(grads, opt_state, layers)
+    return optax.apply_updates(layers, updates), opt_state, loss
 
 
 class PolicyNavigator(_FeatureMixin, MPCNavigator):

@@ -29,6 +29,7 @@ shipped with the package.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -140,8 +141,7 @@ class SpeedPolicy:
 
     def __post_init__(self):
         _check_speeds(self.speeds_um_s, self.decision_s)
-        network = QNetwork(len(self.speeds_um_s), self.hidden)
-        object.__setattr__(self, "_apply", jax.jit(network.apply))
+        object.__setattr__(self, "_apply", _q_apply(len(self.speeds_um_s), tuple(self.hidden)))
 
     def q_values(self, features) -> np.ndarray:
         features = np.asarray(features, np.float32)
@@ -151,6 +151,13 @@ class SpeedPolicy:
 
     def choose(self, features) -> np.ndarray:
         return np.argmax(self.q_values(features), axis=1)
+
+
+@functools.cache
+def _q_apply(n_speeds: int, hidden: tuple[int, ...]):
+    """The jitted forward pass of one architecture, shared by every policy with it (one
+    compilation, not one per policy loaded)."""
+    return jax.jit(QNetwork(n_speeds, hidden).apply)
 
 
 def _check_speeds(speeds_um_s: Sequence[float], decision_s: float) -> None:

@@ -1,13 +1,17 @@
 """The model-predictive navigator (``otgym.autonomy.mpc``, ``otgym.autonomy.mpc_navigator``).
 
-One task and one small controller (16 rollouts, a 0.9 s horizon) serve every test, so
-the planner compiles once; cost weights are arrays, so changing them does not
-recompile. Each cost-term test plans twice from the same state with the same key
-(the same candidates) and checks that the term moves the choice the way it should.
+One task and one small controller (16 rollouts, a 0.9 s horizon, one environment per
+replan) serve every test, so the planner compiles once; cost weights are arrays, so
+changing them does not recompile. Each cost-term test plans twice from the same state
+with the same key (the same candidates) and checks that the term moves the choice the
+way it should. The model's predictions are read from that same replan with every
+weight zero (``ZERO``): the plan kept is then the nominal one, and the replan returns
+the model's state at the end of its rollout.
 """
 
 import copy
 import dataclasses
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -23,6 +27,8 @@ from otgym.task.task import CARRY, InteractiveTask
 
 SMALL = MPCConfig(n_rollouts=16, plan_steps=8, knot_steps=4)
 STEP_S = SMALL.step_s
+ZERO = MPCCosts(**{field.name: 0.0 for field in dataclasses.fields(MPCCosts)})
+"""Every weight (and margin) zero: every candidate costs nothing, the first (the nominal plan) is kept."""
 
 
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("mpc")]  # one worker builds the navigator once
@@ -72,42 +78,58 @@ def gripped(task):
     return state, obs
 
 
-def plan(navigator, obs, costs=MPCCosts(), committed=None, seed=0, velocity_um_s=None, nominal_action=None):
-    """One replan from ``obs``, the obstacles seen over the last second standing where
-    they are or moving at ``velocity_um_s`` (1, K, 2); returns the plan (L, 3) and its terms."""
-    navigator.tracker.reset(1, obs.obstacle_xy_um.shape[1])
-    velocity = np.zeros_like(obs.obstacle_xy_um) if velocity_um_s is None else velocity_um_s
-    for ago_s in np.arange(1.0, -1e-9, -0.02):
-        navigator.tracker.observe(obs.time_s - ago_s, obs.obstacle_xy_um - velocity * ago_s)
+def formation_start(navigator, obs):
+    """The formation's pose (1, 3) fitted to the observed traps."""
     pose = navigator._pose(
         navigator.route,
         navigator.offsets_um,
         jnp.asarray(obs.trap_xy_um, jnp.float32),
         jnp.asarray(obs.cell_arc_um, jnp.float32),
     )
-    start = np.stack([np.asarray(a) for a in pose], axis=-1).astype(np.float32)
+    return np.stack([np.asarray(a) for a in pose], axis=-1).astype(np.float32)
+
+
+def seen_tracks(navigator, obs, velocity_um_s=None):
+    """The tracker's predicted tracks of the obstacles seen over the last second standing
+    where they are or moving at ``velocity_um_s`` (1, K, 2)."""
+    navigator.tracker.reset(1, obs.obstacle_xy_um.shape[1])
+    velocity = np.zeros_like(obs.obstacle_xy_um) if velocity_um_s is None else velocity_um_s
+    for ago_s in np.arange(1.0, -1e-9, -0.02):
+        navigator.tracker.observe(obs.time_s - ago_s, obs.obstacle_xy_um - velocity * ago_s)
+    return navigator.tracker.predicted_tracks(obs.time_s)
+
+
+def replan(navigator, obs, costs, tracks, committed, nominal, seed=0):
+    """The navigator's own replan from ``obs``: the plan (L, 3), its terms and the model's
+    state at the end of its rollout."""
+    best, terms, _, predicted = navigator._replan(
+        navigator.model,
+        navigator.route,
+        navigator.model_offsets_um,
+        costs,
+        navigator.model_state(obs),
+        {name: jnp.asarray(value, jnp.float32) for name, value in tracks.items()},
+        jnp.asarray(formation_start(navigator, obs)),
+        jnp.asarray(committed, jnp.float32),
+        jnp.asarray(nominal, jnp.float32),
+        jax.random.PRNGKey(seed),
+    )
+    return np.asarray(best)[0], {name: float(value[0]) for name, value in terms.items()}, predicted
+
+
+def plan(navigator, obs, costs=MPCCosts(), committed=None, seed=0, velocity_um_s=None, nominal_action=None):
+    """One replan from ``obs``, the obstacles seen over the last second standing where
+    they are or moving at ``velocity_um_s`` (1, K, 2); returns the plan (L, 3) and its terms."""
+    tracks = seen_tracks(navigator, obs, velocity_um_s)
+    start = formation_start(navigator, obs)
     if committed is None:
         committed = np.array([[0.0, start[0, 1], start[0, 2]]], np.float32)
     nominal = np.zeros((1, SMALL.plan_steps, 3), np.float32)
     nominal[..., 0] = SMALL.cruise_speed_um_s
     if nominal_action is not None:
         nominal[:] = nominal_action
-    tracks = {
-        name: jnp.asarray(value, jnp.float32) for name, value in navigator.tracker.predicted_tracks(obs.time_s).items()
-    }
-    best, terms, _ = navigator._replan(
-        navigator.model,
-        navigator.route,
-        navigator.model_offsets_um,
-        costs,
-        navigator.model_state(obs),
-        tracks,
-        jnp.asarray(start),
-        jnp.asarray(committed, jnp.float32),
-        jnp.asarray(nominal),
-        jax.random.PRNGKey(seed),
-    )
-    return np.asarray(best)[0], {name: float(value[0]) for name, value in terms.items()}
+    best, terms, _ = replan(navigator, obs, costs, tracks, committed, nominal, seed)
+    return best, terms
 
 
 def with_obstacle(task, obs, arc_um, lateral_um=0.0):
@@ -137,13 +159,15 @@ def test_model_state_rebuilds_the_robots_poses(navigator, gripped):
 def test_calibrated_squeeze_grips_as_hard_as_the_real_traps(task, navigator):
     """Without the extra squeeze the model's softer contact and traps grip the cell with
     under 60 % of the real force (measured: 0.6 of 2.0 pN after 0.2 s, and the cell
-    slips out within a second); with it, within 5 % of the real force."""
+    slips out within a second); with it, within 5 % of the real force. The model is
+    settled in a batch the size of the calibration's own (its compiled program), the
+    first without the squeeze, the rest with it."""
     start = task.route_um[0]
     heading = float(np.arctan2(*(task.route_um[8] - task.route_um[0])[::-1]))
     real = grip_calibration.settled_contact_force_pn(task.scene, start, heading, np.zeros(1))[0]
-    model = grip_calibration.settled_contact_force_pn(
-        navigator.model, start, heading, np.array([0.0, navigator.extra_squeeze_um])
-    )
+    extra = np.full(len(grip_calibration.SQUEEZE_CANDIDATES_UM), navigator.extra_squeeze_um)
+    extra[0] = 0.0
+    model = grip_calibration.settled_contact_force_pn(navigator.model, start, heading, extra)
     assert model[0] < 0.6 * real
     assert model[1] == pytest.approx(real, rel=0.05)
 
@@ -151,30 +175,16 @@ def test_calibrated_squeeze_grips_as_hard_as_the_real_traps(task, navigator):
 def test_model_predicts_the_real_cell_path(task, navigator, gripped):
     """The model's cell after the horizon (0.9 s) of cruising at 6 um/s lies within
     0.5 um of the real cell's, a fifth of the obstacle margin (2.5 um); measured 0.1 um.
-    The real side executes the same segments tick by tick, as the navigator does."""
+    The model's side is the replan's rollout of that plan (every weight zero, so the
+    cruise it is given as committed and nominal is kept); the real side executes the
+    same segments tick by tick, as the navigator does."""
     state, obs = gripped
     real_state = copy.copy(state)
-    pose = navigator._pose(
-        navigator.route,
-        navigator.offsets_um,
-        jnp.asarray(obs.trap_xy_um, jnp.float32),
-        jnp.asarray(obs.cell_arc_um, jnp.float32),
-    )
-    start = np.stack([np.asarray(a) for a in pose], axis=-1).astype(np.float32)
     action = np.array([[SMALL.cruise_speed_um_s, 0.0, 0.0]], np.float32)
     steps = 1 + SMALL.plan_steps
-    final, _ = mpc.rollout(
-        navigator.model,
-        navigator.route,
-        navigator.model_offsets_um,
-        MPCCosts(),
-        navigator.model_state(obs),
-        _parked_tracks(obs),
-        jnp.asarray(start),
-        jnp.asarray(np.repeat(action[:, None], steps, axis=1)),
-        config=SMALL,
-        obstacle_config=task.config.scenario,
-    )
+    cruise = np.repeat(action[:, None], SMALL.plan_steps, axis=1)
+    kept, _, final = replan(navigator, obs, ZERO, _parked_tracks(obs), action, cruise)
+    np.testing.assert_array_equal(kept, cruise[0])  # the rollout read is the cruise's
     model_cell = np.asarray(final.physics.pose)[0, navigator.model.payload, :2]
     real_obs, key = obs, jax.random.PRNGKey(5)
     ticks = navigator.ticks_per_step
@@ -219,33 +229,13 @@ def test_model_moves_obstacles_as_the_tracker_predicts(task, navigator, gripped)
     _, obs = gripped
     velocity = np.zeros_like(obs.obstacle_xy_um)
     velocity[0, 0] = [1.2, -1.6]
-    navigator.tracker.reset(1, obs.obstacle_xy_um.shape[1])
-    for ago_s in np.arange(1.0, -1e-9, -0.02):
-        navigator.tracker.observe(obs.time_s - ago_s, obs.obstacle_xy_um - velocity * ago_s)
-    tracks = {
-        name: jnp.asarray(value, jnp.float32) for name, value in navigator.tracker.predicted_tracks(obs.time_s).items()
-    }
-    pose = navigator._pose(
-        navigator.route,
-        navigator.offsets_um,
-        jnp.asarray(obs.trap_xy_um, jnp.float32),
-        jnp.asarray(obs.cell_arc_um, jnp.float32),
-    )
-    start = np.stack([np.asarray(a) for a in pose], axis=-1).astype(np.float32)
+    start = formation_start(navigator, obs)
     steps = 1 + SMALL.plan_steps
-    hold = np.repeat(np.array([[[0.0, start[0, 1], start[0, 2]]]], np.float32), steps, axis=1)
-    final, _ = mpc.rollout(
-        navigator.model,
-        navigator.route,
-        navigator.model_offsets_um,
-        MPCCosts(),
-        navigator.model_state(obs),
-        tracks,
-        jnp.asarray(start),
-        jnp.asarray(hold),
-        config=SMALL,
-        obstacle_config=task.config.scenario,
+    hold = np.array([[0.0, start[0, 1], start[0, 2]]], np.float32)
+    kept, _, final = replan(
+        navigator, obs, ZERO, seen_tracks(navigator, obs, velocity), hold, np.repeat(hold[:, None], SMALL.plan_steps, 1)
     )
+    np.testing.assert_allclose(kept, np.repeat(hold, SMALL.plan_steps, 0), atol=1e-6)  # the rollout read holds
     obstacles = np.asarray(final.physics.pose)[0, list(navigator.model.obstacles), :2]
     expected = obs.obstacle_xy_um[0] + velocity[0] * steps * STEP_S
     assert np.linalg.norm(velocity[0, 0]) * steps * STEP_S > 1.5
@@ -331,25 +321,36 @@ def test_offset_cost_brings_the_formation_back_to_the_route(navigator, gripped):
 
 
 def test_wall_and_detachment_terms_cost_what_they_should(task, navigator, gripped):
-    """The wall term grows as the assembly nears a wall; a detachment costs its weight."""
+    """The wall term grows as the assembly nears a wall; a detachment costs its weight.
+    The events are those of a quiet step (no contact, loss or detachment, the handles
+    on their traps), so the wall term is the clearance's alone."""
     _, obs = gripped
     state = navigator.model_state(obs)
-    _, events = jax.jit(
-        lambda s: mpc.sc.step_batch(
-            navigator.model, s, jnp.zeros((1, 4, 2)), jax.random.PRNGKey(0), jnp.zeros((1, 4, 2))
-        )
-    )(state)
+    model = navigator.model
+    n_traps, n_robots, n_obstacles = model.n_traps, len(model.robots), len(model.obstacles)
+    events = mpc.sc.SceneEvents(
+        trap_lost=jnp.zeros((1, n_traps), bool),
+        trap_distance_um=jnp.zeros((1, n_traps)),
+        contact_force_pn=jnp.zeros((1, n_robots)),
+        cell_gap_um=jnp.zeros((1, n_robots)),
+        cell_detached=jnp.zeros(1, bool),
+        obstacle_collision=jnp.zeros(1, bool),
+        obstacle_touched=jnp.zeros((1, n_obstacles), bool),
+        wall_collision=jnp.zeros(1, bool),
+    )
+    terms = jax.jit(mpc.step_cost_terms)  # one small program for the four calls
     costs = MPCCosts(wall_margin_um=50.0)
-    centred = mpc.step_cost_terms(navigator.model, costs, state, events, 0.0)["wall"]
+    centred = terms(model, costs, state, events, 0.0)["wall"]
     pose = state.physics.pose
     shifted = state.replace(physics=state.physics.replace(pose=pose.at[:, :3, 1].add(1.0)))
-    beside = mpc.step_cost_terms(navigator.model, costs, shifted, events, 0.0)["wall"]
+    beside = terms(model, costs, shifted, events, 0.0)["wall"]
     shifted_other = state.replace(physics=state.physics.replace(pose=pose.at[:, :3, 1].add(-1.0)))
-    other = mpc.step_cost_terms(navigator.model, costs, shifted_other, events, 0.0)["wall"]
+    other = terms(model, costs, shifted_other, events, 0.0)["wall"]
     assert float(max(beside[0], other[0])) > float(centred[0]) > 0.0  # off centre, one wall comes nearer
+    quiet = terms(model, MPCCosts(), state, events, 0.0)["detached"]
     detached = events.replace(cell_detached=jnp.ones_like(events.cell_detached))
-    extra = mpc.step_cost_terms(navigator.model, MPCCosts(), state, detached, 0.0)["detached"]
-    assert float(extra[0]) == pytest.approx(MPCCosts().detached)
+    extra = terms(model, MPCCosts(), state, detached, 0.0)["detached"]
+    assert float(quiet[0]) == 0.0 and float(extra[0]) == pytest.approx(MPCCosts().detached)
 
 
 def test_replan_is_deterministic_by_key(navigator, gripped):
@@ -397,13 +398,14 @@ def test_config_rejects_bad_sizes():
 def test_shared_control_takes_the_mpc_as_its_autonomy():
     """run_trials with ``shared_autonomy="mpc"``: the shared trial's dP_r comes from the
     MPC (it is among the environments replanned, and its row says so) beside an mpc
-    trial, while an autonomous trial keeps the route navigator. 2 s trials, two
-    replanned environments once both carry; fails if shared control ignores the flag."""
+    trial, while an autonomous trial keeps the route navigator. 1 s trials (both grip
+    within 0.1 s; the first replan, of both, comes at 0.1 s), two replanned environments
+    once both carry; fails if shared control ignores the flag."""
     from otgym.human.params import sample_population
     from otgym.runtime.trials import TrialSpec, run_trials
     from otgym.task.task import InteractiveConfig
 
-    short = InteractiveTask(InteractiveConfig(time_limit_s=2.0))
+    short = InteractiveTask(InteractiveConfig(time_limit_s=1.0))
     specs = [TrialSpec(0, mode, 0, scenario=900000) for mode in ("shared", "mpc", "autonomous")]
     stats = {}
     rows = run_trials(
@@ -414,6 +416,7 @@ def test_shared_control_takes_the_mpc_as_its_autonomy():
         shared_autonomy="mpc",
         mpc_config=SMALL,
         mpc_stats=stats,
+        mpc_navigator=functools.partial(MPCNavigator, chunk_envs=1),  # the replan compiled for the other tests
     )
     assert [row["autonomy"] for row in rows] == ["mpc", "mpc", "route"]
     assert stats["replans"] > 0 and max(stats["environments_planned"]) == 2
