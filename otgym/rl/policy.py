@@ -60,7 +60,8 @@ def load_policy(path, obs_size: int, n_actions: int):
     except (OSError, KeyError, ValueError) as error:
         raise ValueError(f"{path} is not an otgym policy file ({error})") from None
     hidden = tuple(meta.get("hidden", ()))
-    expected = QNetwork(n_actions, hidden).init(jax.random.PRNGKey(0), jnp.zeros((1, obs_size)))
+    network = QNetwork(n_actions, hidden)  # only the shapes: traced, neither compiled nor run
+    expected = jax.eval_shape(network.init, jax.random.PRNGKey(0), jnp.zeros((1, obs_size)))
     expected_flat = traverse_util.flatten_dict(expected, sep="/")
     shapes = {name: tuple(value.shape) for name, value in flat.items()}
     wanted = {name: tuple(value.shape) for name, value in expected_flat.items()}

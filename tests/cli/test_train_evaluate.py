@@ -11,19 +11,22 @@ from otgym.rl.policy import load_policy, save_policy
 from tests.conftest import FIXED_POLICY_HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
 from tests.otgym_cli import run_cli
+from tests.rl.canonical import TRAIN_ARGS, TRAIN_STEPS
 
 
 @pytest.mark.slow
 def test_train_writes_a_loadable_policy_curve_and_summary(tmp_path, capsys):
-    """16 environments x 200 iterations (3200 steps): short, but episodes end (a random
-    speed finishes a 15 um segment in at most 278 steps) and the learning curve has them."""
-    assert run_cli(["train", "--out", str(tmp_path), "--steps", "3200", "--envs", "16", "--seed", "3"]) == 0
+    """The tests' canonical training (``tests.rl.canonical``: 64 environments x 200
+    iterations, 12800 steps, compiled once for all tests that train): short, but episodes
+    end (a random speed finishes a 15 um segment in at most 278 steps) and the learning
+    curve has them."""
+    assert run_cli(["train", "--out", str(tmp_path), *TRAIN_ARGS, "--seed", "3"]) == 0
     summary = json.loads((tmp_path / "training.json").read_text())
-    assert summary["env_steps"] == 3200 and summary["episodes"] > 0 and summary["preset"] == "paper"
+    assert summary["env_steps"] == TRAIN_STEPS and summary["episodes"] > 0 and summary["preset"] == "paper"
     q_params, meta = load_policy(tmp_path / "policy.npz", tr.OBS_SIZE, 6)
     assert meta["seed"] == 3 and all(np.all(np.isfinite(np.asarray(v))) for v in q_params["params"]["Dense_0"].values())
     assert (tmp_path / "learning_curve.png").stat().st_size > 10_000
-    assert "3200 steps" in capsys.readouterr().out
+    assert f"{TRAIN_STEPS} steps" in capsys.readouterr().out
 
 
 @pytest.mark.slow

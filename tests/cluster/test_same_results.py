@@ -12,20 +12,24 @@ import pytest
 from otgym.cluster.engine import LOCAL_NODE_IP
 from tests.cluster.helpers import REPO, read_cells, write_sweep_file
 from tests.otgym_cli import run_cli
+from tests.rl.canonical import TRAIN_ENVS, TRAIN_STEPS
 
 
 @pytest.mark.slow
 def test_a_training_sweep_writes_the_same_files_serially_and_on_ray(tmp_path, monkeypatch):
-    """Two seeds of 6400 steps x 16 environments (the Q-network learns from step 5000 on,
-    so updates are compared too), serially in this process and on a Ray started here
-    with 2 workers. Compared: learning_curve.png byte for byte; policy.npz array by
+    """Two seeds of the tests' canonical training (``tests.rl.canonical``: 12800 steps x 64
+    environments; the Q-network learns from step 5000 on, so its updates are compared
+    too, and its chunk compiles once for all tests that train), serially in this process
+    and on a Ray started here with 2 workers. Compared: learning_curve.png byte for byte; policy.npz array by
     array, bit for bit (the .npz container records the time it was written);
     training.json field by field except its wall time. Fails if a seed reached the
     wrong cell or a worker computed anything differently."""
     monkeypatch.setenv("PYTHONPATH", str(REPO))  # the Ray workers import this checkout
     cache = os.environ.get("OTGYM_JAX_CACHE", str(Path.home() / ".cache" / "otgym" / "jax"))  # as conftest.py's
     monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", cache)
-    sweep = write_sweep_file(tmp_path / "sweep.toml", "train", {"steps": 6400, "envs": 16}, {"seed": [0, 1]})
+    sweep = write_sweep_file(
+        tmp_path / "sweep.toml", "train", {"steps": TRAIN_STEPS, "envs": TRAIN_ENVS}, {"seed": [0, 1]}
+    )
     serial, ray = tmp_path / "serial", tmp_path / "ray"
     assert run_cli(["sweep", str(sweep), "--out", str(serial), "--serial"]) == 0
     assert run_cli(["sweep", str(sweep), "--out", str(ray), "--workers", "2"]) == 0

@@ -1,10 +1,17 @@
-"""Run by ``test_sharding.py`` in a fresh process (the device count is fixed when JAX
-starts): ``python -m tests.experiments.sharded_rollouts OUT.npz PART...`` with parts
-``physics`` (a batched physics rollout), ``training`` (a short DQN training) and
-``evaluation`` (an evaluation rollout), four environments each; saves their arrays to
-OUT.npz with ``devices_<part>``, the number of devices each result is split over."""
+"""Run by ``test_sharding.py`` in a fresh process started with two host devices (the
+device count is fixed when JAX starts): ``python -m tests.experiments.sharded_rollouts
+OUT_DIR PART...`` with parts ``physics`` (a batched physics rollout of four
+environments), ``training`` (a short DQN training, the canonical test configuration of
+``tests.rl.canonical``) and ``evaluation`` (an evaluation rollout of four episodes).
+
+Each part runs twice: first on one device, as a one-device process runs it
+(``otgym.physics.sharding.environment_mesh`` answering None, so no array is constrained
+and the programs are those of a process without this module), then split over both
+devices. Saves ``devices1.npz`` and ``devices2.npz`` in OUT_DIR, each with
+``devices_<part>``, the number of devices each result is split over."""
 
 import sys
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -31,9 +38,9 @@ def training():
     from otgym.envs import speed_control as spc
     from otgym.envs.presets import preset
     from otgym.experiments.speed_control import make_env
-    from otgym.rl.dqn import DQNConfig, make_train
+    from otgym.rl.dqn import make_train
+    from tests.rl.canonical import TRAIN_CONFIG as config
 
-    config = DQNConfig(n_envs=4, total_env_steps=4 * 40 * 2, chunk_iters=40, learning_starts=64, batch_size=16)
     init, run_chunk, _ = make_train(config, make_env(spc.make_params(preset("paper"))))
     runner = jax.jit(init)(jax.random.PRNGKey(0))
     run_chunk = jax.jit(run_chunk)
@@ -66,9 +73,23 @@ def evaluation():
 
 PARTS = {"physics": physics_rollout, "training": training, "evaluation": evaluation}
 
-if __name__ == "__main__":
+
+def run_parts(names: list[str]) -> dict:
     results, split = {}, {}
-    for name in sys.argv[2:]:
+    for name in names:
         arrays, split[name] = PARTS[name]()
         results.update({key: np.asarray(value) for key, value in arrays.items()})
-    np.savez(sys.argv[1], **results, **{f"devices_{name}": count for name, count in split.items()})
+    return results | {f"devices_{name}": split[name] for name in names}
+
+
+if __name__ == "__main__":
+    from otgym.physics import sharding
+
+    out, parts = Path(sys.argv[1]), sys.argv[2:]
+    assert len(jax.local_devices()) == 2, "start with XLA_FLAGS=--xla_force_host_platform_device_count=2"
+    split_mesh = sharding.environment_mesh
+    sharding.environment_mesh = lambda: None  # one device: what a one-device process sees
+    np.savez(out / "devices1.npz", **run_parts(parts))
+    sharding.environment_mesh = split_mesh
+    jax.clear_caches()  # nothing traced without the mesh is reused (module-level jits included)
+    np.savez(out / "devices2.npz", **run_parts(parts))

@@ -1,7 +1,9 @@
 """The environment axis split over several devices (``otgym.physics.sharding``) gives the
 one-device results. Run on the CPU with two host devices
 (``XLA_FLAGS=--xla_force_host_platform_device_count=2``, which must be set before JAX
-starts, hence a fresh process per device count: ``sharded_rollouts.py``).
+starts, hence a fresh process: ``sharded_rollouts.py``). That one process computes every
+part on one device (no mesh: the programs of a one-device process) and then split over
+both devices.
 
 Per-environment results are bitwise equal: each environment's arithmetic is the same
 elementwise code on either device, and JAX's partitionable threefry PRNG gives every
@@ -20,29 +22,38 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 SUMS_OVER_ENVIRONMENTS = ("train_return_sum", "train_loss")
+PARTS = ["physics", "training", "evaluation"]
+
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("sharded_rollouts")]  # one worker runs the process once
 
 
-def run_rollouts(tmp_path: Path, devices: int, parts: list[str]) -> dict:
-    out = tmp_path / f"devices{devices}.npz"
-    env = dict(os.environ, PYTHONPATH=str(REPO), XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}")
+@pytest.fixture(scope="module")
+def rollouts(tmp_path_factory) -> tuple[dict, dict]:
+    """Every part's arrays on one device and split over two, from one fresh process."""
+    out = tmp_path_factory.mktemp("sharded")
+    env = dict(os.environ, PYTHONPATH=str(REPO), XLA_FLAGS="--xla_force_host_platform_device_count=2")
     env.setdefault("JAX_COMPILATION_CACHE_DIR", str(Path.home() / ".cache" / "otgym" / "jax"))
     subprocess.run(
-        [sys.executable, "-m", "tests.experiments.sharded_rollouts", str(out), *parts],
+        [sys.executable, "-m", "tests.experiments.sharded_rollouts", str(out), *PARTS],
         cwd=REPO,
         env=env,
         check=True,
         timeout=3600,
     )
-    with np.load(out) as data:
-        return {name: data[name] for name in data.files}
+    loaded = []
+    for devices in (1, 2):
+        with np.load(out / f"devices{devices}.npz") as data:
+            loaded.append({name: data[name] for name in data.files})
+    return loaded[0], loaded[1]
 
 
-def check_same(tmp_path, parts):
-    one, two = run_rollouts(tmp_path, 1, parts), run_rollouts(tmp_path, 2, parts)
+def check_same(rollouts, parts):
+    one, two = rollouts
     for part in parts:  # fails if nothing was split: the sharding would be a no-op
         assert one[f"devices_{part}"] == 1 and two[f"devices_{part}"] == 2, part
-    arrays = [name for name in one if not name.startswith("devices_")]
-    assert arrays and sorted(arrays) == sorted(name for name in two if not name.startswith("devices_"))
+    prefixes = tuple({"physics": "physics_", "training": "train_", "evaluation": "eval_"}[part] for part in parts)
+    arrays = [name for name in one if name.startswith(prefixes)]
+    assert arrays and sorted(arrays) == sorted(name for name in two if name.startswith(prefixes))
     for name in arrays:
         if name in SUMS_OVER_ENVIRONMENTS:
             np.testing.assert_allclose(two[name], one[name], rtol=2e-6, atol=1e-6, err_msg=name)
@@ -50,14 +61,13 @@ def check_same(tmp_path, parts):
             assert two[name].tobytes() == one[name].tobytes(), f"{name} differs when split over 2 devices"
 
 
-@pytest.mark.slow
-def test_physics_rollout_split_over_two_devices_is_bitwise_the_one_device_rollout(tmp_path):
+def test_physics_rollout_split_over_two_devices_is_bitwise_the_one_device_rollout(rollouts):
     """Four environments, four control steps of 20 substeps with moving traps."""
-    check_same(tmp_path, ["physics"])
+    check_same(rollouts, ["physics"])
 
 
-@pytest.mark.slow
-def test_training_and_evaluation_split_over_two_devices_match_one_device(tmp_path):
-    """Two chunks of DQN training (4 environments, learning from iteration 16) and an
+def test_training_and_evaluation_split_over_two_devices_match_one_device(rollouts):
+    """Two chunks of DQN training (the tests' canonical configuration, ``tests.rl.canonical``:
+    64 environments, the Q-network learning from the 79th of 200 iterations) and an
     evaluation rollout of 2 episodes x 2 policies on the paper preset."""
-    check_same(tmp_path, ["training", "evaluation"])
+    check_same(rollouts, ["training", "evaluation"])

@@ -1,5 +1,7 @@
 """``otgym experiment speed-front`` end to end at a tiny size: two penalties x one
-training seed of one chunk, four episodes; and its bad input."""
+training seed of the tests' canonical training length (``tests.rl.canonical``: two chunks
+of 64 environments; the member at penalty 100 is that very training, compiled once for
+all tests that train), four episodes; and its bad input."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ import json
 import pytest
 
 from tests.otgym_cli import run_otgym
+from tests.rl.canonical import TRAIN_STEPS
 
 COMMAND = ["experiment", "speed-front"]
 
@@ -21,7 +24,7 @@ def test_tiny_front_writes_its_files_and_flags_a_development_seed(tmp_path):
     out = tmp_path / "front"
     run = run_otgym(
         COMMAND
-        + ["--penalties", "100,1000", "--seeds", "1", "--steps", "64", "--episodes", "4", "--seed", "5001"]
+        + ["--penalties", "100,1000", "--seeds", "1", "--steps", str(TRAIN_STEPS), "--episodes", "4", "--seed", "5001"]
         + ["--out", str(out)]
     )
     assert run.returncode == 0, run.stderr[-3000:]

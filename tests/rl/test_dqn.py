@@ -7,7 +7,6 @@ import jax
 import numpy as np
 import pytest
 
-from otgym.envs import speed_control as spc
 from otgym.envs import transport as tr
 from otgym.experiments.speed_control import make_env
 from otgym.rl.dqn import DQNConfig, epsilon, make_train
@@ -22,9 +21,8 @@ pytestmark = [pytest.mark.xdist_group("dqn_trained"), pytest.mark.slow]  # one w
 
 
 @pytest.fixture(scope="session")  # kept if the worker runs another module between its tests
-def trained():
-    params = spc.make_params("paper")
-    _, _, train = make_train(TINY, make_env(params))
+def trained(paper_params):
+    _, _, train = make_train(TINY, make_env(paper_params))
     runner, metrics = jax.jit(jax.vmap(train))(jax.random.split(jax.random.PRNGKey(0), 2))
     return runner, metrics
 
