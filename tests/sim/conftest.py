@@ -1,6 +1,7 @@
-"""Shared fixtures of the sim tests: the default chip and its derived fields (solved
-once per session, about 6 s, into a fields cache shared by every scene the session
-builds), scenes built once per session, and a builder of straight-duct chips."""
+"""Shared fixtures of the sim tests: the default chip and its derived fields (from the
+run's fields cache, which the other packages' tests and every worker share: solved at
+most once per run, about 6 s), scenes built once per session, and a builder of
+straight-duct chips. Each test's own disk cache is private (tests of the cache itself)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,12 @@ import numpy as np
 import pytest
 
 from otgym.sim.cache import chip_fields
+from otgym.sim.cache_dir import cache_dir
 from otgym.sim.chip import Chip, Port, load_chip
+
+RUN_CACHE_DIR = cache_dir()
+"""The run's fields cache (``$OTGYM_CACHE_DIR`` or the default), read before any test
+points the variable at its own directory."""
 
 
 @pytest.fixture(autouse=True)
@@ -23,10 +29,10 @@ def default_chip():
 
 
 @pytest.fixture(scope="session")
-def shared_cache_dir(tmp_path_factory):
-    """One fields cache for the session's default-chip fields and scenes, so its flow is
-    solved once (about 6 s) rather than once per scene built."""
-    return tmp_path_factory.mktemp("shared-cache")
+def shared_cache_dir():
+    """The run's fields cache for the default-chip fields and scenes, so the flow is
+    solved once per run (about 6 s) rather than once per scene or worker."""
+    return RUN_CACHE_DIR
 
 
 def _in_cache(cache, make, *args):
