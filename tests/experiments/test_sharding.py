@@ -5,9 +5,11 @@ starts, hence a fresh process: ``sharded_rollouts.py``). That one process comput
 part on one device (no mesh: the programs of a one-device process) and then split over
 both devices.
 
-Per-environment results are bitwise equal: each environment's arithmetic is the same
-elementwise code on either device, and JAX's partitionable threefry PRNG gives every
-element of a draw the same value however the draw is split. Sums over environments
+Per-environment results are bitwise equal at these sizes (4 physics environments, 64
+training, 4 evaluation): JAX's partitionable threefry PRNG gives every element of a draw
+the same value however the draw is split. Not at every size: an evaluation of 32
+environments split 16/16 differed by round-off (up to 1.8e-4 pN), so these sizes are
+the claim, not a general one (docs/cluster.md). Sums over environments
 (the training's return and loss per iteration) may be added in another order when split,
 so they are held to float32 round-off (they too came out bitwise when this was written).
 """
