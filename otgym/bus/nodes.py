@@ -58,10 +58,11 @@ class RemoteDevice(Device):
     """A device node's device, seen from the simulator through ``node``: ``read`` gives
     the latest twist and buttons of device ``name`` stamped with this process's
     ``clock`` on arrival (each new sample, and the rest sample of a lost node, also
-    goes to ``on_sample``); once the node's liveliness token has gone, its twists are
-    dropped until it is back, so a twist still in flight when the node is lost cannot
-    move the traps after its rest sample (a raw peer that never declared a token is
-    taken as it is); ``set_force`` publishes the feedback. With
+    goes to ``on_sample``, in the order they were made; it must not block); once the
+    node's liveliness token has gone, its twists are dropped until it is back, so a
+    twist still in flight when the node is lost cannot move the traps after its rest
+    sample (a raw peer that never declared a token is taken as it is); ``set_force``
+    publishes the feedback. With
     ``answer_twists`` every twist is answered at once with the latest force, stamped
     with the twist's own stamp (the device's lowest-latency feedback, and its round
     trip), besides the force published at each tick."""
@@ -107,25 +108,30 @@ class RemoteDevice(Device):
             self._sequence += 1
             sample = self._sample = msg.sample_from(message, self._buttons, self.clock(), self._sequence)
             answer = self._force_n if self.answer_twists and self.alive else None
+            self._deliver(sample)
         if answer is not None:
             self.node.publish(msg.feedback_topic(self.name), msg.wrench(answer, msg.stamp_s(message), self.name))
+
+    def _deliver(self, sample: Sample) -> None:
+        """Hand ``sample`` to ``on_sample``; called holding the lock, so the samples reach it
+        in the order they were made (twists and the token arrive on different threads: a
+        twist made before the token went away but handed on after its rest sample would
+        move the traps again)."""
         if self.on_sample is not None:
             self.on_sample(sample)
 
     def _on_liveliness(self, name: str, alive: bool) -> None:
         if name != self.name:
             return
-        rest = None
         with self._lock:
             if self.alive and not alive:
                 self.losses += 1
                 self._sequence += 1
                 self._buttons = 0
-                rest = self._sample = Sample(self.clock(), self._sequence, np.zeros(3), np.zeros(3), 0)
+                self._sample = Sample(self.clock(), self._sequence, np.zeros(3), np.zeros(3), 0)
                 self._force_n = np.zeros(3)
+                self._deliver(self._sample)
             self.alive = alive
-        if rest is not None and self.on_sample is not None:
-            self.on_sample(rest)
 
     def stop(self) -> None:
         self.set_force(np.zeros(3))
