@@ -342,8 +342,8 @@ class CuePanel:
         obs = snapshot.observation
         # mode and alpha
         alpha = snapshot.alpha
-        text(f"{snapshot.mode.upper()}", (x, y), TEXT_RGB, "title")
-        text(f"alpha {alpha:.2f}", (x + label_w, y + 4))
+        mode = text(f"{snapshot.mode.upper()}", (x, y), TEXT_RGB, "title")
+        text(f"alpha {alpha:.2f}", (max(x + label_w, mode.right + 12), y + 4))  # after a long mode name
         y += 28
         text("human share", (x, y), DIM_TEXT_RGB, "small")
         bar(surface, bar_rect(y - 2), alpha, (90, 150, 240), marks=(cues.FINE_TUNE_ALPHA,))

@@ -121,6 +121,32 @@ def test_mode_keys_switch_the_loops_mode_and_alpha(session):
     assert simulation.loop.mode == "shared" and simulation.snapshot.alpha == pytest.approx(0.1)
 
 
+class RecordingSurface(pygame.Surface):
+    """A surface that keeps the rectangle of every blit (the texts drawn on it), in order."""
+
+    def __init__(self, size):
+        super().__init__(size)
+        self.blitted: list[pygame.Rect] = []
+
+    def blit(self, source, dest, *args, **kwargs):
+        rect = super().blit(source, dest, *args, **kwargs)
+        self.blitted.append(rect)
+        return rect
+
+
+def test_the_cue_panels_mode_and_alpha_never_overlap(session):
+    """The panel's first line: the mode's name in the title font, then alpha. The alpha
+    once sat at a fixed column, inside the longest name (AUTONOMOUS)."""
+    app, simulation, _ = session
+    for key, mode in ((pygame.K_1, "manual"), (pygame.K_2, "shared"), (pygame.K_3, "autonomous")):
+        press(app, key, frames=3)
+        surface = RecordingSurface(app.screen.get_size())
+        app.cue_panel.draw(surface, simulation.snapshot, app.type)
+        assert simulation.snapshot.mode == mode
+        title, alpha = surface.blitted[:2]
+        assert title.width > 0 and alpha.width > 0 and not title.colliderect(alpha), mode
+
+
 def test_space_pauses_simulated_time_and_zeros_the_force(session):
     app, simulation, spy = session
     run_frames(app, 3)
