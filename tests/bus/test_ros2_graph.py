@@ -226,6 +226,7 @@ def test_namespace_and_domain_place_keys_and_tokens():
             peer.declare_subscriber("7/rig1/otgym/**", lambda sample: seen.append(str(sample.key_expr)))
             wait_until(lambda: (node.publish(msg.twist_topic("device0"), _twist_stamped(1.0)), seen)[1], 10.0)
             assert seen[0].startswith("7/rig1/otgym/device/device0/twist/geometry_msgs::msg::dds_::TwistStamped_/")
+            wait_until(lambda: graph.entities(kind="MP"), 10.0)  # the token travels apart from the data
             (entity,) = graph.entities(kind="MP")
             assert entity["namespace"] == "/rig1" and entity["topic"] == "/rig1/otgym/device/device0/twist"
             assert entity["node"] == "otgym_device_device0" and entity["domain"] == 7
