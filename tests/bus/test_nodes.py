@@ -451,10 +451,9 @@ def test_a_twist_handed_on_while_the_node_is_lost_never_follows_its_rest_sample(
     """Twists and the liveliness token arrive on different threads. A twist made before
     the device node's token went away must reach ``on_sample`` (the sim's worker) before
     the rest sample, or the traps would move on after the node died: the twist's thread is
-    held inside ``on_sample`` while the token's thread runs; the rest sample must come
-    last. (Handing samples on outside the lock let the rest sample overtake: the test
-    above, whose device publishes a twist every millisecond, then waited in vain for the
-    rest sample in 4 of 300 runs.)"""
+    held inside ``on_sample`` until the token's thread has either finished or found the
+    device's lock held; the rest sample must come last (handed on outside the lock, the
+    rest sample overtakes the held twist and this fails)."""
 
     class Wiring:  # stands in for a Node
         def subscribe(self, topic, callback):
@@ -466,6 +465,18 @@ def test_a_twist_handed_on_while_the_node_is_lost_never_follows_its_rest_sample(
         def publish(self, topic, data):
             pass
 
+    class WatchedLock:  # the device's lock, saying when a thread finds it held
+        def __init__(self):
+            self.lock, self.contended = threading.Lock(), threading.Event()
+
+        def __enter__(self):
+            if not self.lock.acquire(blocking=False):
+                self.contended.set()
+                self.lock.acquire()
+
+        def __exit__(self, *exc):
+            self.lock.release()
+
     samples, in_twist, release = [], threading.Event(), threading.Event()
 
     def on_sample(sample):
@@ -475,6 +486,7 @@ def test_a_twist_handed_on_while_the_node_is_lost_never_follows_its_rest_sample(
         samples.append(sample)
 
     remote = RemoteDevice(Wiring(), "device0", on_sample=on_sample)
+    remote._lock = lock = WatchedLock()
     remote._on_liveliness("device0", True)
     twist = msg.decode(msg.twist_topic("device0"), msg.twist(Sample(0, 0, np.zeros(3), (1.0, 0, 0), 1), 5.0, "device0"))
     moving = threading.Thread(target=remote._on_twist, args=(msg.twist_topic("device0"), twist, b""))
@@ -482,7 +494,7 @@ def test_a_twist_handed_on_while_the_node_is_lost_never_follows_its_rest_sample(
     assert in_twist.wait(DEADLINE_S)
     lost = threading.Thread(target=remote._on_liveliness, args=("device0", False))
     lost.start()
-    lost.join(0.5)  # room for the rest sample to overtake, if it can (no assertion on time)
+    wait_until(lambda: lock.contended.is_set() or not lost.is_alive(), DEADLINE_S)  # blocked, or overtook
     release.set()
     moving.join(DEADLINE_S)
     lost.join(DEADLINE_S)

@@ -135,8 +135,8 @@ class RecordingSurface(pygame.Surface):
 
 
 def test_the_cue_panels_mode_and_alpha_never_overlap(session):
-    """The panel's first line: the mode's name in the title font, then alpha. The alpha
-    once sat at a fixed column, inside the longest name (AUTONOMOUS)."""
+    """The panel's first line: the mode's name in the title font, then alpha, clear of
+    even the longest name (AUTONOMOUS, which a fixed column for alpha would overlap)."""
     app, simulation, _ = session
     for key, mode in ((pygame.K_1, "manual"), (pygame.K_2, "shared"), (pygame.K_3, "autonomous")):
         press(app, key, frames=3)
