@@ -99,8 +99,8 @@ def register(app: typer.Typer, entry_point: typing.Callable[[list[str]], None]) 
             "--address",
             metavar="ADDRESS",
             callback=options.check_ray_address,
-            help="Run on a Ray cluster: auto (the cluster this machine is part of) or the head's HOST:PORT. "
-            "Default: start Ray on this machine.",
+            help="Run on a Ray cluster: auto (the one RAY_ADDRESS or Ray's record of the last `ray start` names) "
+            "or the head's HOST:PORT. Default: start a new Ray of its own on this machine, whatever else runs.",
         ),
         serial: bool = typer.Option(False, "--serial", help="Run the cells one after another here, without Ray."),
         workers: int = typer.Option(

@@ -2,6 +2,11 @@
 tasks, on a Ray instance started here (``address=None``) or on a running cluster
 (``address="auto"`` or ``"HOST:PORT"``).
 
+A Ray started here is always a new one of its own (Ray's ``address="local"``): neither
+``RAY_ADDRESS`` nor the cluster Ray records in its temporary folder (which ``ray stop``
+leaves behind) can send the cells elsewhere or stop the sweep; joining a cluster is
+only ever asked for with an address.
+
 On Ray each cell is one task (``ray.remote`` with ``num_cpus``/``num_gpus`` per
 cell); Ray places the tasks on the cluster's nodes as resources free up, reruns a task
 whose worker or node died (``max_retries``) on another node, and ``ray.wait`` hands
@@ -61,6 +66,7 @@ def _run_on_ray(
 
     if address is None:  # a Ray of our own, on a loopback address on Linux
         ray.init(
+            address="local",
             num_cpus=workers,
             include_dashboard=False,
             logging_level=logging.WARNING,
