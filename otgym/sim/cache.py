@@ -1,14 +1,19 @@
 """The fields derived from a chip (wall distance, normals, flow), computed once and
 cached on disk as ``<cache dir>/chip-<hash>.npz``. The key hashes the chip's content
-(image, pixel size, height, ports) and ``FIELDS_VERSION``, so a new chip or a change of
-the solvers never reads stale fields. The cache directory is ``$OTGYM_CACHE_DIR`` or
-``~/.cache/otgym``.
+(image, pixel size, height, ports) and ``solver_fingerprint()``: the source of the
+modules that compute the fields and the versions of the libraries they call. So a new
+chip, an edit of a solver or a new SciPy never reads fields that another version wrote,
+whatever a machine's cache holds from earlier runs. The cache directory is
+``$OTGYM_CACHE_DIR`` or ``~/.cache/otgym``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
+import importlib
+import importlib.metadata
 import os
 import tempfile
 from pathlib import Path
@@ -20,8 +25,11 @@ from otgym.sim.chip import Chip
 from otgym.sim.flow import FlowSolution, mid_height_factor, solve_flow
 from otgym.sim.walls import channel_widths_um, signed_distance_um, wall_normals
 
-FIELDS_VERSION = "2"
-"""Bump when walls.py or flow.py change what they compute."""
+SOLVER_MODULES = ("otgym.sim.walls", "otgym.sim.flow", "otgym.sim.cache", "otgym.physics.constants")
+"""The modules whose code decides the cached fields."""
+
+SOLVER_LIBRARIES = ("numpy", "scipy", "scikit-image")
+"""The libraries whose versions may change the cached fields."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -39,8 +47,19 @@ class ChipFields:
         return mid_height_factor(self.median_width_um, self.flow.channel_height_um)
 
 
+@functools.cache
+def solver_fingerprint() -> str:
+    """A hash of the source of ``SOLVER_MODULES`` and the versions of ``SOLVER_LIBRARIES``."""
+    digest = hashlib.sha256()
+    for name in SOLVER_MODULES:
+        digest.update(Path(importlib.import_module(name).__file__).read_bytes())
+    for library in SOLVER_LIBRARIES:
+        digest.update(f"{library}={importlib.metadata.version(library)}".encode())
+    return digest.hexdigest()
+
+
 def cache_path(chip: Chip) -> Path:
-    key = hashlib.sha256(f"{FIELDS_VERSION}:{chip.content_hash}".encode()).hexdigest()[:32]
+    key = hashlib.sha256(f"{solver_fingerprint()}:{chip.content_hash}".encode()).hexdigest()[:32]
     return cache_dir() / f"chip-{key}.npz"
 
 

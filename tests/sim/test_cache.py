@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+import pytest
 from conftest import straight_duct
 
+from otgym.sim import cache, flow
 from otgym.sim.cache import cache_dir, cache_path, chip_fields
 from otgym.sim.chip import Chip, Port
 
@@ -30,6 +34,27 @@ def test_fields_are_stored_and_reloaded_identically():
     ):
         assert np.array_equal(a, b)
     assert first.median_width_um == second.median_width_um
+
+
+def test_an_edit_of_a_solver_or_a_new_library_moves_the_key(tmp_path):
+    """Fields written by other solver code (or under another SciPy) are never read: a
+    cache left on the machine by an earlier version cannot decide a run's fields."""
+    chip = straight_duct(length_um=20.0)
+    edited = tmp_path / "flow.py"
+    edited.write_bytes(Path(flow.__file__).read_bytes() + b"\n# an edit\n")
+
+    def key(change=lambda patch: None) -> str:
+        with pytest.MonkeyPatch.context() as patch:
+            change(patch)
+            cache.solver_fingerprint.cache_clear()
+            name = cache_path(chip).name
+        cache.solver_fingerprint.cache_clear()
+        return name
+
+    before = key()
+    after_edit = key(lambda patch: patch.setattr(flow, "__file__", str(edited)))
+    after_library = key(lambda patch: patch.setattr(cache, "SOLVER_LIBRARIES", (*cache.SOLVER_LIBRARIES, "pytest")))
+    assert len({before, after_edit, after_library}) == 3 and key() == before
 
 
 def test_key_changes_with_any_content():
