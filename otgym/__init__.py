@@ -7,7 +7,8 @@ pyproject.toml enforces it; docs/architecture.md explains it), high to low: ``cl
 ``planning`` | ``rl``.
 Units everywhere: micrometre (um), second (s), piconewton (pN), kelvin (K).
 
-``import otgym`` registers the Gymnasium environments ``otgym/SpeedControl-v0`` and
+``import otgym`` registers a Gymnasium environment for every registered task with a
+Gymnasium id (``otgym list tasks``), e.g. ``otgym/SpeedControl-v0`` and
 ``otgym/CellTransport-v0`` (``gymnasium.make("otgym/SpeedControl-v0", preset="paper")``,
 ``gymnasium.make_vec(..., num_envs=8)``). The entry points are strings, so importing
 otgym imports neither JAX nor the environments; ``gymnasium.make`` loads them.
@@ -15,19 +16,18 @@ otgym imports neither JAX nor the environments; ``gymnasium.make`` loads them.
 
 __version__ = "0.1.0"
 
-GYM_IDS = ("otgym/SpeedControl-v0", "otgym/CellTransport-v0")
-
 
 def _register_gym_envs() -> None:
+    """Every registered task with a Gymnasium id (``otgym.registry``: otgym's own and
+    installed packages' ``otgym.tasks`` entry points) becomes a Gymnasium environment."""
     import gymnasium
 
-    for env_id, name in zip(GYM_IDS, ("SpeedControl", "CellTransport")):
-        if env_id not in gymnasium.registry:  # re-imports and reloads register once
-            gymnasium.register(
-                env_id,
-                entry_point=f"otgym.envs.gym_adapter:{name}Env",
-                vector_entry_point=f"otgym.envs.gym_vector:{name}VectorEnv",
-            )
+    from otgym import registry
+
+    for task in registry.entries("tasks"):
+        env_id = task.extras.get("gym_id")
+        if env_id and env_id not in gymnasium.registry:  # re-imports and reloads register once
+            gymnasium.register(env_id, entry_point=task.target, vector_entry_point=task.extras.get("vector"))
 
 
 _register_gym_envs()

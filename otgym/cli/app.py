@@ -35,7 +35,20 @@ def register_commands() -> None:
     global _registered
     if _registered:
         return
-    from otgym.cli import chip, demo, evaluate, experiment, node, plan, play, replay, study, sweep, train
+    from otgym.cli import (
+        chip,
+        demo,
+        evaluate,
+        experiment,
+        list_parts,
+        node,
+        plan,
+        play,
+        replay,
+        study,
+        sweep,
+        train,
+    )
 
     demo.register(app)
     plan.register(app)
@@ -47,6 +60,7 @@ def register_commands() -> None:
     study.register(app)
     replay.register(app)
     node.register(app)
+    list_parts.register(app)
     sweep.register(app, entry_point=main)
     _registered = True
 

@@ -6,9 +6,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-NAVIGATORS = ("route", "mpc", "rl")
-"""The autonomy's navigators: the route navigator, the model-predictive one, the route
-navigator with the learned speed (``otgym.autonomy.rl_navigator``)."""
 AUTONOMY_SOURCES = ("local", "remote")
 """Where the sim node's dP_r comes from: its own navigator, or an autonomy node."""
 MAX_SEED = 2**32 // 10_000
@@ -32,9 +29,10 @@ def check_participant(participant: str) -> str:
 
 
 def check_navigator(navigator: str) -> str:
-    if navigator not in NAVIGATORS:
-        raise ValueError(f"--navigator must be one of {', '.join(NAVIGATORS)}, got {navigator!r}")
-    return navigator
+    """A registered navigator (``otgym list navigators``)."""
+    from otgym import registry
+
+    return registry.check("navigators", navigator)
 
 
 def check_autonomy_source(autonomy: str) -> str:

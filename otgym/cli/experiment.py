@@ -91,11 +91,8 @@ def register(app: typer.Typer) -> None:
         ),
         chip: str = options.chip("default"),
         time_limit_s: float = options.time_limit_s(),
-        shared_autonomy: str = options.name(
-            "route",
-            "--shared-autonomy",
-            ("route", "mpc", "rl"),
-            "Shared control's dP_r: the route navigator, the MPC or the learned-speed route navigator.",
+        shared_autonomy: str = options.registered(
+            "route", "--shared-autonomy", "navigators", "shared", "Shared control's dP_r: the navigator it blends with."
         ),
         mpc_rollouts: int = typer.Option(32, "--mpc-rollouts", min=1, max=4096, help="The MPC's rollouts per replan."),
         mpc_plan_steps: int = typer.Option(
@@ -139,8 +136,6 @@ def register(app: typer.Typer) -> None:
                 raise typer.BadParameter(str(error), param_hint="--trace") from None
         if not 0 < time_limit_s <= 3600:
             raise ValueError(f"--time-limit-s must lie in (0, 3600], got {time_limit_s}")
-        if shared_autonomy not in ("route", "mpc", "rl"):
-            raise ValueError(f"--shared-autonomy must be route, mpc or rl, got {shared_autonomy!r}")
         try:
             mpc_config = MPCConfig(n_rollouts=mpc_rollouts, plan_steps=mpc_plan_steps)
         except ValueError as error:

@@ -31,10 +31,7 @@ from typing import Annotated
 import typer
 
 from otgym.cli import checks, options
-from otgym.teleop.device import DEVICE_NAMES
 
-DEVICE_DRIVERS = (*DEVICE_NAMES, "twist")
-"""A device node's drivers: the local devices, and ``twist`` (ROS 2 Twist commands from the bus)."""
 SESSION_END_RECORDED = "recorded: session_end"
 """The recorder node's line once the simulator's ``session_end`` event is in its file."""
 
@@ -206,7 +203,7 @@ def device(
     name: str = typer.Option(
         "device0", "--name", metavar="NAMES", callback=options.check_bus_names, help="Its name on the bus."
     ),
-    device: str = options.name("simulated", "--device", DEVICE_DRIVERS, "Its driver."),
+    device: str = options.registered("simulated", "--device", "devices", "node", "Its driver."),
     device_name: str = typer.Option(
         None, "--device-name", metavar="TEXT", help="With --device touch: the Touch's name in Touch Setup."
     ),
@@ -354,8 +351,7 @@ def autonomy(
 
         planner = RLNavigator.for_task(task)
     with Node("autonomy", "autonomy", **endpoints) as node:
-        kind = {"mpc": "model-predictive", "rl": "learned-speed route"}.get(navigator, "route")
-        _ready(f"autonomy ({kind} navigator)")
+        _ready(f"autonomy ({navigator} navigator)")
         answered = run_autonomy_node(node, task, stop, navigator=planner)
         print(
             f"autonomy: {answered} ticks answered; dropped {sum(node.dropped.values())} malformed messages", flush=True
@@ -365,9 +361,7 @@ def autonomy(
 @node_app.command("ui")
 def ui(
     out: Path = options.out_dir(..., "Folder for trials.csv and questionnaires.csv."),
-    device: str = options.name(
-        "keyboard", "--device", ("keyboard", "gamepad", "mouse"), "What the window sends as ui0, ui1."
-    ),
+    device: str = options.registered("keyboard", "--device", "devices", "window", "What the window sends as ui0, ui1."),
     name: str = typer.Option(
         "device0",
         "--name",
@@ -392,11 +386,9 @@ def ui(
     from otgym.experiments.output_folder import check_out_dir
     from otgym.task.layout import layout_of
     from otgym.teleop.device import DeviceError
-    from otgym.ui.node import WINDOW_KINDS, run_window
+    from otgym.ui.node import run_window
 
     names = checks.bus_names(name)
-    if device not in WINDOW_KINDS:
-        raise ValueError(f"unknown window device {device!r} for the ui node; choose one of {', '.join(WINDOW_KINDS)}")
     stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
     check_out_dir(out)
     print("building the task ...", flush=True)

@@ -79,6 +79,29 @@ def name(default: str | None, option: str, choices: tuple[str, ...], help: str) 
     )
 
 
+def registered(default: str | None, option: str, kind: str, tag: str | None, help: str) -> typer.Option:
+    """An option whose value is a registered part of ``kind`` (``otgym.registry``),
+    with ``tag`` if given; checked against the registry when the command runs, so parts
+    that installed packages add are accepted too."""
+    from otgym import registry
+
+    def check(value: str | None) -> str | None:
+        if value is not None:
+            try:
+                registry.check(kind, value, tag)
+            except ValueError as error:
+                raise typer.BadParameter(str(error), param_hint=option) from None
+        return value
+
+    return typer.Option(
+        default,
+        option,
+        metavar="NAME",
+        callback=check,
+        help=f"{help} One of: {', '.join(registry.names(kind, tag))} (otgym list {kind}).",
+    )
+
+
 def parse_point(option: str, text: str) -> tuple[float, float]:
     """``"X,Y"`` -> (x, y), two finite numbers; a ValueError naming the option otherwise."""
     import math
@@ -213,14 +236,7 @@ def mode(default: str) -> typer.Option:
 
 def navigator(default: str) -> typer.Option:
     """``--navigator``: the autonomy's navigator."""
-    from otgym.cli import checks
-
-    return name(
-        default,
-        "--navigator",
-        checks.NAVIGATORS,
-        "The autonomy's navigator (mpc: model-predictive; rl: the route with the learned speed).",
-    )
+    return registered(default, "--navigator", "navigators", None, "The autonomy's navigator.")
 
 
 def participant(default: str) -> typer.Option:

@@ -19,13 +19,7 @@ def register(app: typer.Typer) -> None:
     def play(
         chip: str = options.chip("default"),
         mode: str = options.mode("shared"),
-        device: str = typer.Option(
-            "keyboard",
-            "--device",
-            metavar="NAME",
-            callback=_check_device,
-            help="What drives the robots: keyboard, gamepad, touch or simulated.",
-        ),
+        device: str = options.registered("keyboard", "--device", "devices", "play", "What drives the robots."),
         participant: str = options.participant("P1"),
         seed: int = options.trial_seed(0),
         duration: float = options.duration(),
@@ -74,15 +68,6 @@ def register(app: typer.Typer) -> None:
             run_distributed(*arguments, navigator=navigator)
         else:
             run_play(*arguments, navigator=navigator)
-
-
-def _check_device(value: str) -> str:
-    from otgym.ui.device_names import check_device_name
-
-    try:
-        return check_device_name(value)
-    except ValueError as error:
-        raise typer.BadParameter(str(error), param_hint="--device") from None
 
 
 def _check_screenshot_folder(screenshot: Path | None, out: Path) -> None:
@@ -204,10 +189,11 @@ def node_plan(device: str, endpoint: str) -> tuple[list[tuple[str, list[str]]], 
     whose feedback it shows. The keyboard and the gamepad are the window's own (sent as
     ui0, ui1); the simulated stylus and the Touches are device nodes, which the
     window's mouse takes over while it drags."""
+    from otgym import registry
     from otgym.ui.device_names import TOUCH_NAMES
 
     connect = ["--connect", endpoint]
-    if device in ("keyboard", "gamepad"):
+    if "window" in registry.entry("devices", device).tags:
         return [], ["--name", "ui0,ui1"], device, []
     if device == "simulated":
         return (

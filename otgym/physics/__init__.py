@@ -14,7 +14,6 @@ import importlib
 _EXPORTS = {
     "MATERIALS": "adhesion",
     "Adhesion": "adhesion",
-    "ROBOT_DESIGNS": "bodies",
     "TWO_HANDLE_GRIPPER_SPHERES": "bodies",
     "BodyKind": "bodies",
     "BodySpec": "bodies",

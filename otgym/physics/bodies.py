@@ -172,7 +172,3 @@ def bead(name: str = "bead", *, radius_um: float = 0.5) -> BodySpec:
 def obstacle(name: str = "obstacle", *, radius_um: float = 3.0, kinematic: bool = True) -> BodySpec:
     """A moving obstacle (debris, another cell): a kinematic sphere by default."""
     return custom_body(name, [(0.0, 0.0)], [radius_um], kind=BodyKind.OBSTACLE, kinematic=kinematic)
-
-
-ROBOT_DESIGNS = {"two_handle": two_handle_robot, "four_arm": four_arm_robot}
-"""The library of microrobot designs, by name."""

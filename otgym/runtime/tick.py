@@ -20,6 +20,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from otgym import registry
 from otgym.autonomy.navigator import cap_speed
 from otgym.shared import MODES, ArbitrationConfig, alpha_for_mode, blend
 from otgym.task.task import Observation
@@ -36,10 +37,11 @@ class TickCommand:
 
 
 def arbitration_modes(modes, autonomy_live=True) -> np.ndarray:
-    """Each environment's arbitration mode (E,): ``mpc`` and ``rl`` trials are autonomous, and
+    """Each environment's arbitration mode (E,): trials of a navigator's mode (``mpc``,
+    ``rl``: navigators tagged ``trial-mode``) are autonomous, and
     shared control without the autonomy's dP_r (``autonomy_live`` False) is manual."""
     modes = np.asarray(modes)
-    modes = np.where(np.isin(modes, ("mpc", "rl")), "autonomous", modes)
+    modes = np.where(np.isin(modes, registry.names("navigators", "trial-mode")), "autonomous", modes)
     return np.where((modes == "shared") & ~np.asarray(autonomy_live, bool), "manual", modes)
 
 

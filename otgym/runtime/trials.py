@@ -26,6 +26,7 @@ from collections.abc import Callable, Sequence
 import jax
 import numpy as np
 
+from otgym import registry
 from otgym.autonomy.mpc import MPCConfig, MPCCosts
 from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
 from otgym.autonomy.navigator import RouteNavigator
@@ -52,12 +53,12 @@ cell drifting in the chip's 8 um/s flow and far below the assembly's escape spee
 CRUISE_SPEED_UM_S = 5.0
 """The route navigator's speed along the route in trials: the autonomous mode's pace."""
 
-TRIAL_MODES = MODES + ("mpc", "rl")
-"""The arbitration modes, ``mpc``: autonomous (alpha 0) with the model-predictive
-navigator's dP_r (``otgym.autonomy.mpc``) instead of the route navigator's, and ``rl``:
-autonomous with the learned-speed navigator's (``otgym.autonomy.rl_navigator``)."""
-AUTONOMIES = ("route", "mpc", "rl")
-"""Whose dP_r shared control gets: the route navigator, the MPC or the learned speed."""
+TRIAL_MODES = MODES + registry.names("navigators", "trial-mode")
+"""The arbitration modes, and the navigators tagged ``trial-mode``: autonomous (alpha 0)
+with that navigator's dP_r instead of the route navigator's (``mpc``: the
+model-predictive navigator; ``rl``: the learned-speed one)."""
+AUTONOMIES = registry.names("navigators", "shared")
+"""Whose dP_r shared control may get: the navigators tagged ``shared``."""
 
 
 TRIAL_COLUMNS = [

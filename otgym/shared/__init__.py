@@ -2,7 +2,6 @@
 (paper section II-E, equation 4)."""
 
 from otgym.shared.arbitration import (
-    ALPHA_LAWS,
     MODES,
     ArbitrationConfig,
     alpha_for_mode,
@@ -13,7 +12,6 @@ from otgym.shared.arbitration import (
 )
 
 __all__ = [
-    "ALPHA_LAWS",
     "MODES",
     "ArbitrationConfig",
     "alpha_for_mode",

@@ -36,6 +36,8 @@ import math
 
 import numpy as np
 
+from otgym import registry
+
 MODES = ("manual", "shared", "autonomous")
 ALPHA_NEAR = 0.5
 ALPHA_FAR = 0.1
@@ -64,21 +66,18 @@ def smooth_alpha(distance_um, d1_um: float, d2_um: float):
     return ALPHA_NEAR - (ALPHA_NEAR - ALPHA_FAR) * s * s * (3.0 - 2.0 * s)
 
 
-ALPHA_LAWS = {"paper": paper_alpha, "step": step_alpha, "smooth": smooth_alpha}
-
-
 @dataclasses.dataclass(frozen=True)
 class ArbitrationConfig:
     """The shared-control law: which alpha(d), its distances (um) and the blend gain."""
 
     law: str = "paper"
+    """A registered shared-control law (``otgym list laws``): ``alpha(d_um, d1_um, d2_um)``."""
     d1_um: float = 10.0
     d2_um: float = 20.0
     tau: float = 1.0
 
     def __post_init__(self):
-        if self.law not in ALPHA_LAWS:
-            raise ValueError(f"unknown alpha law {self.law!r}; choose one of {sorted(ALPHA_LAWS)}")
+        registry.check("laws", self.law)
         for name in ("d1_um", "d2_um", "tau"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value)):
@@ -96,7 +95,7 @@ def alpha_for_mode(mode: str, distance_um, config: ArbitrationConfig = Arbitrati
     if mode == "autonomous":
         return np.zeros_like(np.asarray(distance_um, float))
     if mode == "shared":
-        return ALPHA_LAWS[config.law](distance_um, config.d1_um, config.d2_um)
+        return registry.load("laws", config.law)(distance_um, config.d1_um, config.d2_um)
     raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
 
 

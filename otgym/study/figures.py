@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 from otgym.study.paper_fig8 import PAPER_FIG8
 from otgym.study.questionnaire_stats import TLX_MEASURES, UEQ_MEASURES
 from otgym.study.questionnaires import UEQ_ITEMS
-from otgym.study.stats import compare_modes, ordered_modes, participant_means
+from otgym.study.stats import MODE_ORDER, compare_modes, ordered_modes, participant_means
 
 _PANELS = (
     ("success", "(a) Success rate", "Obstacles avoided (%)", 100.0, "success_mean", "success_sd", 100.0),
@@ -47,7 +47,9 @@ _QUESTIONNAIRE_PANELS = {
 }
 """Per questionnaire panel: title, y label, scale limits, measures and their x labels
 (UEQ-S items by their positive pole)."""
-_COLORS = {"manual": "#4C72B0", "autonomous": "#DD8452", "shared": "#55A868", "mpc": "#8172B3", "rl": "#C44E52"}
+_PALETTE = ("#4C72B0", "#DD8452", "#55A868", "#8172B3", "#C44E52", "#937860", "#DA8BC3", "#8C8C8C")
+_COLORS = dict(zip(MODE_ORDER, _PALETTE))
+"""Each mode's colour, by its place in ``MODE_ORDER``."""
 _PAPER_OFFSET = 0.32
 
 

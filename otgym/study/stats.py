@@ -18,8 +18,11 @@ import pandas as pd
 import pingouin as pg
 from statsmodels.stats.proportion import proportion_confint
 
-MODE_ORDER = ("manual", "autonomous", "shared", "mpc", "rl")
-"""The order of modes in tables and figures: the paper's three, then MPC, then the learned speed."""
+from otgym import registry
+
+MODE_ORDER = ("manual", "autonomous", "shared", *registry.names("navigators", "trial-mode"))
+"""The order of modes in tables and figures: the paper's three, then the navigators' own
+modes in the registry's order (MPC, then the learned speed)."""
 
 METRICS = ("success", "time")
 _METRIC_COLUMNS = {

@@ -15,6 +15,6 @@ process at its start, which must stay fast (no scipy, pygame or OpenHaptics); im
 the rest from its module.
 """
 
-from otgym.teleop.device import DEVICE_NAMES, Device, DeviceCaps, DeviceError, Sample, open_device
+from otgym.teleop.device import Device, DeviceCaps, DeviceError, Sample, open_device
 
-__all__ = ["DEVICE_NAMES", "Device", "DeviceCaps", "DeviceError", "Sample", "open_device"]
+__all__ = ["Device", "DeviceCaps", "DeviceError", "Sample", "open_device"]

@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-import importlib
 import math
 
 import numpy as np
+
+from otgym import registry
 
 
 class DeviceError(RuntimeError):
@@ -135,30 +136,14 @@ def start_devices(devices) -> None:
         raise
 
 
-DRIVERS = {
-    "keyboard": "otgym.teleop.pygame_devices:KeyboardMouseDevice",
-    "gamepad": "otgym.teleop.pygame_devices:GamepadDevice",
-    "touch": "otgym.teleop.touch:TouchDevice",
-    "simulated": "otgym.teleop.servo:simulated_haptic_device",
-    "replay": "otgym.teleop.replay:ReplayDevice",
-}
-"""Each device name's driver, ``"module:callable"``: imported only when asked for (by
-``open_device``), so pygame or OpenHaptics are needed only by their users, and this
-module, which every driver imports, imports none of them."""
-DEVICE_NAMES = tuple(DRIVERS)
-
-
 def driver(name: str):
-    """The class (or factory) of device ``name``, imported now; ValueError for an unknown name."""
-    if name not in DRIVERS:
-        raise ValueError(f"unknown device {name!r}; choose one of {', '.join(DEVICE_NAMES)}")
-    module, attribute = DRIVERS[name].split(":")
-    return getattr(importlib.import_module(module), attribute)
+    """The class (or factory) of device ``name`` (a registered device tagged ``driver``:
+    ``otgym list devices``), imported now, so pygame or OpenHaptics are needed only by
+    their users; ValueError for an unknown name."""
+    return registry.entry("devices", name, "driver").load()
 
 
 def open_device(name: str, **options) -> Device:
-    """A device by name (``DRIVERS``), constructed (not started) with ``options`` passed
-    to its driver: keyboard -> KeyboardMouseDevice, gamepad -> GamepadDevice, touch ->
-    TouchDevice, simulated -> a simulated haptic stylus in its servo process
-    (``servo.simulated_haptic_device``), replay -> ReplayDevice."""
+    """A device by name (``driver``), constructed (not started) with ``options`` passed
+    to its driver."""
     return driver(name)(**options)

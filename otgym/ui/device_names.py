@@ -4,12 +4,12 @@ simulator is imported (``otgym.ui.startup``)."""
 
 from __future__ import annotations
 
-PLAY_DEVICES = ("keyboard", "gamepad", "touch", "simulated")
+from otgym import registry
+
 TOUCH_NAMES = ("Default Device", "Right Device")
 """The two Touches' names as set in 3D Systems' Touch Setup (robot 0, robot 1)."""
 
 
 def check_device_name(name: str) -> str:
-    if name not in PLAY_DEVICES:
-        raise ValueError(f"unknown device {name!r}; choose one of {', '.join(PLAY_DEVICES)}")
-    return name
+    """A registered device tagged ``play`` (``otgym list devices``)."""
+    return registry.check("devices", name, "play")

@@ -33,6 +33,7 @@ import time
 
 import numpy as np
 
+from otgym import registry
 from otgym.bus import messages as msg
 from otgym.bus.nodes import REMOTE_FORCE_LIMIT_N
 from otgym.bus.transport import Node
@@ -46,7 +47,6 @@ from otgym.teleop.mouse_drag import MouseDragDevice
 
 UI_DEVICES = ("ui0", "ui1")
 """The names under which the window publishes robot 0's and robot 1's input."""
-WINDOW_KINDS = ("keyboard", "gamepad", "mouse")
 
 
 class BusSession:
@@ -58,16 +58,15 @@ class BusSession:
     def __init__(
         self, node: Node, layout: TaskLayout, window_caps: list[DeviceCaps], kind: str, device_names: list[str] = ()
     ):
-        if kind not in WINDOW_KINDS:
-            raise ValueError(f"unknown window device {kind!r}; choose one of {', '.join(WINDOW_KINDS)}")
+        registry.check("devices", kind, "window")
         self.node, self.layout, self.kind = node, layout, kind
         self.device_names = [msg.check_name(name) for name in device_names]
         self.forwarded = [ForwardedDevice(caps) for caps in window_caps]
-        primaries = {
-            "keyboard": lambda f: (f[0], f[0]),
-            "gamepad": lambda f: (f[0], f[1]),
-            "mouse": lambda f: (None, None),
-        }[kind](self.forwarded)
+        # one window device drives both robots (the keyboard), two one each (the gamepad's
+        # sticks), none leaves the robots to the mouse's drags
+        primaries = [
+            self.forwarded[min(robot, len(self.forwarded) - 1)] if self.forwarded else None for robot in (0, 1)
+        ]
         self.drags = [
             MouseDragDevice(robot, primary, TASK_RETARGET.motion_scale_um_per_mm)
             for robot, primary in enumerate(primaries)

@@ -117,6 +117,7 @@ STRING_CASES = {
         Case("folder", "a-folder", "folder"),
     ],
     "NAME": [Case("unknown name", "no-such-name")],
+    "KIND": [Case("unknown kind", "no-such-kind")],
     "POLICY": [
         Case("unknown policy", "no-such-policy"),
         Case("folder", "a-folder", "folder"),

@@ -8,8 +8,8 @@ helpers; float tolerances are a few ulps of double precision unless stated."""
 import numpy as np
 import pytest
 
+from otgym import registry
 from otgym.shared import (
-    ALPHA_LAWS,
     MODES,
     ArbitrationConfig,
     alpha_for_mode,
@@ -117,7 +117,7 @@ def test_alpha_for_mode_shared_defaults_to_paper_law():
     """The default config is the paper law at 10 and 20 um."""
     np.testing.assert_allclose(alpha_for_mode("shared", np.array([5.0, 15.0, 25.0])), [0.5, 0.3, 0.1], atol=1e-12)
     assert set(MODES) == {"manual", "shared", "autonomous"}
-    assert set(ALPHA_LAWS) == {"paper", "step", "smooth"}
+    assert set(registry.names("laws")) == {"paper", "step", "smooth"}
 
 
 @pytest.mark.parametrize("mode", ["Shared", "auto", "", "human"])

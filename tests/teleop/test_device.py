@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from otgym.teleop.device import DEVICE_NAMES, DeviceCaps, Sample, open_device, saturate_force
+from otgym import registry
+from otgym.teleop.device import DeviceCaps, Sample, open_device, saturate_force
 
 
 def test_unknown_device_name_lists_the_choices():
     with pytest.raises(ValueError, match="unknown device 'spacemouse'") as info:
         open_device("spacemouse")
-    assert all(name in str(info.value) for name in DEVICE_NAMES)
+    assert all(name in str(info.value) for name in registry.names("devices", "driver"))
 
 
 def test_sample_holds_read_only_vectors_and_checks_shapes():
@@ -76,7 +77,7 @@ def test_open_simulated_gives_a_servo_stylus_that_follows_its_hand():
 def test_every_driver_name_resolves_to_its_class_or_factory():
     """The name -> "module:callable" table names callables that exist (a typo in a
     module or class name fails here, not when a user first asks for that device)."""
-    from otgym.teleop.device import DRIVERS, driver
+    from otgym.teleop.device import driver
     from otgym.teleop.pygame_devices import GamepadDevice, KeyboardMouseDevice
     from otgym.teleop.replay import ReplayDevice
     from otgym.teleop.servo import simulated_haptic_device
@@ -89,6 +90,6 @@ def test_every_driver_name_resolves_to_its_class_or_factory():
         "simulated": simulated_haptic_device,
         "replay": ReplayDevice,
     }
-    assert set(DRIVERS) == set(DEVICE_NAMES) == set(expected)
+    assert set(registry.names("devices", "driver")) == set(expected)
     for name, made in expected.items():
         assert driver(name) is made, name

@@ -1,0 +1,157 @@
+"""otgym's own named parts, in one table: ``(kind, name, "module:attribute",
+description, tags, extras)``. Chips are not listed: each ``NAME.png`` with its sidecar
+``NAME.json`` in ``otgym/data/chips/`` is chip ``NAME``.
+
+Tags say what a part is usable for. Devices: ``play`` (``otgym play --device``),
+``node`` (``otgym node device --device``), ``window`` (the window node's own input),
+``driver`` (a ``Device`` that ``otgym.teleop.device.open_device`` builds by name).
+Navigators: ``trial-mode`` (also a mode of the batched trials, beside manual, shared
+and autonomous), ``shared`` (the autonomy that shared control blends with).
+Tasks' extras: ``gym_id`` and ``vector`` (the Gymnasium id and vector entry point).
+"""
+
+from __future__ import annotations
+
+ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] = (
+    # tasks
+    (
+        "tasks",
+        "speed-control",
+        "otgym.envs.gym_adapter:SpeedControlEnv",
+        "the paper's learning task: pick the robots' speed along the planned path past moving obstacles",
+        (),
+        {"gym_id": "otgym/SpeedControl-v0", "vector": "otgym.envs.gym_vector:SpeedControlVectorEnv"},
+    ),
+    (
+        "tasks",
+        "cell-transport",
+        "otgym.envs.gym_adapter:CellTransportEnv",
+        "speed control with the gripped cell simulated: carry it to the goal without losing it",
+        (),
+        {"gym_id": "otgym/CellTransport-v0", "vector": "otgym.envs.gym_vector:CellTransportVectorEnv"},
+    ),
+    # robots
+    (
+        "robots",
+        "two-handle",
+        "otgym.physics.bodies:two_handle_robot",
+        "the paper's microrobot: a rod of spheres with a trapped handle at each end",
+        (),
+        {},
+    ),
+    (
+        "robots",
+        "four-arm",
+        "otgym.physics.bodies:four_arm_robot",
+        "a hub with four arms at 90 degrees, a handle at each arm's end",
+        (),
+        {},
+    ),
+    # devices
+    (
+        "devices",
+        "keyboard",
+        "otgym.teleop.pygame_devices:KeyboardMouseDevice",
+        "arrow keys move the robots, the mouse drags one (the window's keyboard and mouse)",
+        ("play", "node", "window", "driver"),
+        {},
+    ),
+    (
+        "devices",
+        "gamepad",
+        "otgym.teleop.pygame_devices:GamepadDevice",
+        "a gamepad's two sticks, one robot each",
+        ("play", "node", "window", "driver"),
+        {},
+    ),
+    (
+        "devices",
+        "touch",
+        "otgym.teleop.touch:TouchDevice",
+        "3D Systems' Geomagic Touch haptic stylus, with force feedback (needs OpenHaptics)",
+        ("play", "node", "driver"),
+        {},
+    ),
+    (
+        "devices",
+        "simulated",
+        "otgym.teleop.servo:simulated_haptic_device",
+        "a simulated haptic stylus in its own 1 kHz servo process, with force feedback",
+        ("play", "node", "driver"),
+        {},
+    ),
+    (
+        "devices",
+        "replay",
+        "otgym.teleop.replay:ReplayDevice",
+        "a recorded stream of device samples (CSV), replayed in real time",
+        ("node", "driver"),
+        {},
+    ),
+    (
+        "devices",
+        "mouse",
+        "otgym.teleop.mouse_drag:MouseDragDevice",
+        "the window's mouse alone: drag a robot to grip and carry",
+        ("window",),
+        {},
+    ),
+    (
+        "devices",
+        "twist",
+        "otgym.bus.twist_source:attach",
+        "ROS 2 geometry_msgs/Twist commands from the bus (teleop_twist_keyboard, teleop_twist_joy)",
+        ("node",),
+        {},
+    ),
+    # navigators
+    (
+        "navigators",
+        "route",
+        "otgym.autonomy.navigator:RouteNavigator",
+        "the formation follows the planned route at a cruise speed (the paper's autonomy)",
+        ("shared",),
+        {},
+    ),
+    (
+        "navigators",
+        "mpc",
+        "otgym.autonomy.mpc_navigator:MPCNavigator",
+        "model-predictive navigation: replans the formation's motion around predicted obstacles",
+        ("trial-mode", "shared"),
+        {},
+    ),
+    (
+        "navigators",
+        "rl",
+        "otgym.autonomy.rl_navigator:RLNavigator",
+        "the route navigator with a learned speed (a DQN trained on the interactive task)",
+        ("trial-mode", "shared"),
+        {},
+    ),
+    # shared-control laws
+    (
+        "laws",
+        "paper",
+        "otgym.shared.arbitration:paper_alpha",
+        "the paper's Eq. 4: alpha falls linearly from 0.5 near an obstacle to 0.1 far from it",
+        (),
+        {},
+    ),
+    (
+        "laws",
+        "step",
+        "otgym.shared.arbitration:step_alpha",
+        "three steps: 0.5 below d1, 0.3 up to d2, 0.1 beyond",
+        (),
+        {},
+    ),
+    (
+        "laws",
+        "smooth",
+        "otgym.shared.arbitration:smooth_alpha",
+        "the paper's ramp through a smoothstep (same ends, zero slope there)",
+        (),
+        {},
+    ),
+)
