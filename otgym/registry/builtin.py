@@ -7,7 +7,9 @@ Tags say what a part is usable for. Devices: ``play`` (``otgym play --device``),
 ``driver`` (a ``Device`` that ``otgym.teleop.device.open_device`` builds by name).
 Navigators: ``trial-mode`` (also a mode of the batched trials, beside manual, shared
 and autonomous), ``shared`` (the autonomy that shared control blends with).
-Tasks' extras: ``gym_id`` and ``vector`` (the Gymnasium id and vector entry point).
+Tasks' extras: ``gym_id`` and ``vector`` (the Gymnasium id and vector entry point),
+``functional`` (the module of its pure ``make_params``, ``reset`` and ``step``, which
+``otgym.envs.gymnax_env`` wraps as a gymnax environment).
 """
 
 from __future__ import annotations
@@ -20,7 +22,11 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.envs.gym_adapter:SpeedControlEnv",
         "the paper's learning task: pick the robots' speed along the planned path past moving obstacles",
         (),
-        {"gym_id": "otgym/SpeedControl-v0", "vector": "otgym.envs.gym_vector:SpeedControlVectorEnv"},
+        {
+            "gym_id": "otgym/SpeedControl-v0",
+            "vector": "otgym.envs.gym_vector:SpeedControlVectorEnv",
+            "functional": "otgym.envs.speed_control",
+        },
     ),
     (
         "tasks",
@@ -28,7 +34,11 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.envs.gym_adapter:CellTransportEnv",
         "speed control with the gripped cell simulated: carry it to the goal without losing it",
         (),
-        {"gym_id": "otgym/CellTransport-v0", "vector": "otgym.envs.gym_vector:CellTransportVectorEnv"},
+        {
+            "gym_id": "otgym/CellTransport-v0",
+            "vector": "otgym.envs.gym_vector:CellTransportVectorEnv",
+            "functional": "otgym.envs.cell_transport",
+        },
     ),
     # robots
     (
