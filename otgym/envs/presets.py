@@ -82,13 +82,14 @@ class RewardWeights:
 
 @dataclasses.dataclass(frozen=True)
 class TaskConfig:
-    """A transport task: scene, route (start and goal of the planned path, in um),
+    """A transport task: scene, route (start and goal of the planned path: sites of the
+    chip, by name, or points in um),
     episode segment length, speed levels and limits, reward weights."""
 
     name: str
     scene: SceneConfig
-    start_um: tuple[float, float]
-    goal_um: tuple[float, float]
+    start_um: str | tuple[float, float]  # a site of the chip's sidecar, or (x, y) um
+    goal_um: str | tuple[float, float]
     segment_um: float
     speed_levels_um_s: tuple[float, ...]
     max_steps: int
@@ -126,8 +127,8 @@ def paper() -> TaskConfig:
     return TaskConfig(
         name="paper",
         scene=scene,
-        start_um=(285.0, 160.0),
-        goal_um=(15.0, 40.0),
+        start_um="goal",  # the paper's learning task runs the chip's route backwards
+        goal_um="start",
         segment_um=15.0,
         speed_levels_um_s=PAPER_SPEEDS_UM_S,
         max_steps=300,
@@ -139,8 +140,8 @@ def realistic() -> TaskConfig:
     return TaskConfig(
         name="realistic",
         scene=SceneConfig(),
-        start_um=(15.0, 40.0),
-        goal_um=(285.0, 160.0),
+        start_um="start",
+        goal_um="goal",
         segment_um=40.0,
         speed_levels_um_s=(2.0, 4.0, 6.0, 8.0, 10.0, 12.0),
         max_steps=100,

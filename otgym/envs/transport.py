@@ -77,8 +77,8 @@ def make_params(config: TaskConfig) -> TransportParams:
     plan = plan_path(
         chip.image,
         chip.pixel_size_um,
-        config.start_um,
-        config.goal_um,
+        chip.site_um(config.start_um),
+        chip.site_um(config.goal_um),
         robot_radius_um=scene.assembly_radius_um,
         threshold=0.5,
     )

@@ -69,13 +69,16 @@ class PortOpening:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Chip:
-    """A validated chip. ``image`` is (H, W) float32 in [0, 1], 1 = channel."""
+    """A validated chip. ``image`` is (H, W) float32 in [0, 1], 1 = channel. ``sites``:
+    named places (x, y) um that tasks start from or head to (e.g. ``start``, ``goal``),
+    from the sidecar, so no task keeps a chip's coordinates in code."""
 
     name: str
     image: np.ndarray
     pixel_size_um: float
     channel_height_um: float = DEFAULT_CHANNEL_HEIGHT_UM
     ports: tuple[Port, ...] = ()
+    sites: tuple[tuple[str, tuple[float, float]], ...] = ()
 
     def __post_init__(self):
         require_positive_scalar("pixel_size_um", self.pixel_size_um)
@@ -98,6 +101,13 @@ class Chip:
         names = [port.name for port in self.ports]
         if len(set(names)) != len(names):
             raise ValueError(f"chip {self.name!r}: port names must be unique, got {names}")
+        sites = dict(self.sites.items() if isinstance(self.sites, dict) else self.sites)
+        width_um, height_um = self.size_um
+        for site, xy in sites.items():
+            x, y = (float(v) for v in xy)
+            if not (np.isfinite(x) and np.isfinite(y) and 0 <= x <= width_um and 0 <= y <= height_um):
+                raise ValueError(f"chip {self.name!r}: site {site!r} at {tuple(xy)} um lies outside the chip")
+        object.__setattr__(self, "sites", tuple((site, (float(x), float(y))) for site, (x, y) in sites.items()))
         self._check_network()
 
     @property
@@ -122,6 +132,19 @@ class Chip:
         digest.update(json.dumps(self.metadata(include_name=False), sort_keys=True).encode())
         return digest.hexdigest()
 
+    def site_um(self, place: str | tuple[float, float]) -> tuple[float, float]:
+        """``place`` as (x, y) um: a site's name, or a point given as it is."""
+        if isinstance(place, str):
+            sites = dict(self.sites)
+            if place not in sites:
+                raise ValueError(
+                    f"chip {self.name!r} has no site {place!r}; its sites: {', '.join(sites) or '(none)'} "
+                    "(give x, y in um instead)"
+                )
+            return sites[place]
+        x, y = place
+        return float(x), float(y)
+
     def openings(self) -> list[PortOpening]:
         return [port_opening(self.fluid, self.pixel_size_um, port) for port in self.ports]
 
@@ -131,7 +154,9 @@ class Chip:
             "channel_height_um": self.channel_height_um,
             "ports": [dataclasses.asdict(port) | {"xy_um": list(port.xy_um)} for port in self.ports],
         }
-        return {"name": self.name} | data if include_name else data
+        if not include_name:  # the content the derived fields depend on: not the name, not the sites
+            return data
+        return {"name": self.name} | data | {"sites": {site: list(xy) for site, xy in self.sites}}
 
     def _check_network(self) -> None:
         """Every port touches a channel, every network with an inlet has an outlet and
@@ -225,6 +250,7 @@ def load_chip(name_or_path: str | Path, pixel_size_um: float | None = None) -> C
         pixel_size_um=float(pixel_size_um if pixel_size_um is not None else meta["pixel_size_um"]),
         channel_height_um=float(meta.get("channel_height_um", DEFAULT_CHANNEL_HEIGHT_UM)),
         ports=ports,
+        sites=tuple(meta.get("sites", {}).items()),
     )
 
 

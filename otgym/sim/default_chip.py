@@ -36,6 +36,10 @@ BRANCHES_UM = (
     ((300.0, 160.0), (230.0, 160.0)),
 )
 """Each branch: a straight run from its port, then a diagonal into the chamber."""
+TRANSPORT_START_UM = (15.0, 40.0)
+TRANSPORT_GOAL_UM = (285.0, 160.0)
+"""The chip's sites ``start`` and ``goal``: 15 um into the top-left inlet branch and the
+bottom-right outlet branch, so a route crosses the chamber between the pillars."""
 
 
 def _segment_distance(points: np.ndarray, start, end) -> np.ndarray:
@@ -69,7 +73,8 @@ def default_chip(pixel_size_um: float = PIXEL_SIZE_UM) -> Chip:
     ports = tuple(
         Port(name, name.split("_")[0], port_end, INLET_FLOW_UM3_S) for name, (port_end, _) in zip(names, BRANCHES_UM)
     )
-    return Chip("default", image, pixel_size_um, CHANNEL_HEIGHT_UM, ports)
+    sites = (("start", TRANSPORT_START_UM), ("goal", TRANSPORT_GOAL_UM))
+    return Chip("default", image, pixel_size_um, CHANNEL_HEIGHT_UM, ports, sites)
 
 
 if __name__ == "__main__":

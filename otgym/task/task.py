@@ -56,8 +56,8 @@ def interactive_scene(**overrides) -> sc.SceneConfig:
 @dataclasses.dataclass(frozen=True)
 class InteractiveConfig:
     scene: sc.SceneConfig = dataclasses.field(default_factory=interactive_scene)
-    start_um: tuple[float, float] = (15.0, 40.0)
-    goal_um: tuple[float, float] = (285.0, 160.0)
+    start_um: str | tuple[float, float] = "start"  # a site of the chip's sidecar, or (x, y) um
+    goal_um: str | tuple[float, float] = "goal"
     approach_gap_um: float = 1.5
     grip_gap_um: float = 0.3
     goal_tolerance_um: float = 3.0
@@ -197,8 +197,8 @@ class InteractiveTask:
         plan = plan_path(
             chip.image,
             chip.pixel_size_um,
-            config.start_um,
-            config.goal_um,
+            chip.site_um(config.start_um),
+            chip.site_um(config.goal_um),
             robot_radius_um=self.scene.assembly_radius_um,
             threshold=0.5,
         )

@@ -16,7 +16,7 @@ def test_shipped_default_matches_the_generator(default_chip):
     generated = generate_default_chip()
     assert default_chip.shape == generated.shape == (400, 600)
     assert np.abs(default_chip.image - generated.image).max() <= 0.5 / 255 + 1e-6
-    assert default_chip.ports == generated.ports
+    assert default_chip.ports == generated.ports and default_chip.sites == generated.sites
     assert default_chip.channel_height_um == CHANNEL_HEIGHT_UM == 50.0
     assert [p.kind for p in default_chip.ports].count("inlet") == 2
     assert [p.kind for p in default_chip.ports].count("outlet") == 2
@@ -33,6 +33,31 @@ def test_save_and_load_round_trip(tmp_path):
     loaded = load_chip(png)
     assert loaded.name == "duct" and loaded.ports == chip.ports
     assert loaded.content_hash == chip.content_hash
+
+
+def test_sites_come_from_the_sidecar_and_are_checked(tmp_path, default_chip):
+    """Tasks find their start and goal by name in the chip's sidecar; a site off the chip
+    or an unknown name is an error naming it; a point passes as it is."""
+    assert default_chip.site_um("start") == (15.0, 40.0) and default_chip.site_um("goal") == (285.0, 160.0)
+    assert default_chip.site_um((1, 2)) == (1.0, 2.0)
+    with pytest.raises(ValueError, match=r"has no site 'inlet'; its sites: start, goal"):
+        default_chip.site_um("inlet")
+    duct = straight_duct()
+    with_sites = Chip(duct.name, duct.image, duct.pixel_size_um, duct.channel_height_um, duct.ports, {"a": (1.0, 2.0)})
+    loaded = load_chip(save_chip(with_sites, tmp_path))
+    assert loaded.sites == (("a", (1.0, 2.0)),) and loaded.content_hash == duct.content_hash  # sites move no field
+    with pytest.raises(ValueError, match="site 'far' at .* lies outside the chip"):
+        Chip(duct.name, duct.image, duct.pixel_size_um, duct.channel_height_um, duct.ports, {"far": (1e4, 0.0)})
+
+
+def test_presets_and_the_interactive_task_start_at_the_chips_sites(default_chip):
+    from otgym.envs.presets import paper, realistic
+    from otgym.task.task import InteractiveConfig
+
+    config = InteractiveConfig()
+    assert [default_chip.site_um(c) for c in (config.start_um, config.goal_um)] == [(15.0, 40.0), (285.0, 160.0)]
+    assert [default_chip.site_um(c) for c in (paper().start_um, paper().goal_um)] == [(285.0, 160.0), (15.0, 40.0)]
+    assert realistic().start_um == "start" and realistic().goal_um == "goal"
 
 
 def test_bare_png_needs_a_pixel_size(tmp_path):
