@@ -505,7 +505,7 @@ def test_a_twist_handed_on_while_the_node_is_lost_never_follows_its_rest_sample(
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["autonomy", "--navigator", "astar"], "--navigator must be one of route, mpc, rl, not 'astar'"),
+        (["autonomy", "--navigator", "astar"], "--navigator: unknown navigator 'astar'; choose one of route, mpc, rl"),
         (["sim", "--autonomy", "cloud"], "--autonomy must be one of local, remote, not 'cloud'"),
         (["sim", "--mode", "telepathic"], "--mode must be one of manual, shared, autonomous, not 'telepathic'"),
         (["sim", "--participant", "P1,P2"], "--participant must be a non-empty ID without commas"),

@@ -292,7 +292,7 @@ def test_cli_session_writes_trials_and_a_screenshot(tmp_path, capsys):
         (["--chip", "no_such_chip"], "no chip file"),
         (["--device", "gamepad"], "no gamepad"),  # none plugged in on a test machine
         (["--navigator", "mpc"], "needs --distributed"),
-        (["--navigator", "oracle"], "--navigator must be one of route, mpc, rl, not 'oracle'"),
+        (["--navigator", "oracle"], "--navigator: unknown navigator 'oracle'; choose one of route, mpc, rl"),
     ],
 )
 def test_cli_refuses_bad_arguments_with_one_line_and_writes_nothing(tmp_path, capsys, arguments, message):
