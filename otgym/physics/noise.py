@@ -27,12 +27,13 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.extend.random import threefry2x32_p
 
 _FLOAT32_ONE_BITS = np.uint32(0x3F800000)
 _UNIFORM_LOW = np.nextafter(np.float32(-1.0), np.float32(0.0), dtype=np.float32)
 _UNIFORM_SPAN = np.float32(1.0) - _UNIFORM_LOW
 _SQRT2 = np.float32(np.sqrt(2))
+_ROTATIONS = ((13, 15, 26, 6), (17, 29, 16, 24))
+_KEY_PARITY = np.uint32(0x1BD11BDA)
 
 
 class SubstepNoise(NamedTuple):
@@ -65,6 +66,28 @@ def first_counters(substeps: int, per_substep: int):
     return (counts >> np.uint64(32)).astype(np.uint32), (counts & np.uint64(0xFFFFFFFF)).astype(np.uint32)
 
 
+def threefry2x32(key0, key1, count0, count1):
+    """Threefry-2x32 with 20 rounds (Salmon et al., "Parallel random numbers: as easy as
+    1, 2, 3", SC 2011; the hash of JAX's threefry PRNG): the two uint32 output words
+    for the key (key0, key1) and the counter words (count0, count1), elementwise.
+
+    Written out as plain integer operations, so that XLA fuses the 20 rounds with
+    whatever computes the counters and reads the bits. JAX's own primitive lowers on the
+    CPU to a loop of five iterations, which inside the integration loop costs five
+    trips through the runtime per substep. Bitwise the primitive's result (integer
+    arithmetic; ``tests/physics/test_noise.py`` compares them)."""
+    keys = (key0, key1, key0 ^ key1 ^ _KEY_PARITY)
+    x0, x1 = count0 + keys[0], count1 + keys[1]
+    for group in range(5):
+        for rotation in _ROTATIONS[group % 2]:
+            x0 = x0 + x1
+            x1 = jax.lax.shift_left(x1, np.uint32(rotation)) | jax.lax.shift_right_logical(x1, np.uint32(32 - rotation))
+            x1 = x0 ^ x1
+        x0 = x0 + keys[(group + 1) % 3]
+        x1 = x1 + keys[(group + 2) % 3] + np.uint32(group + 1)
+    return x0, x1
+
+
 def normal_from_counter(words, first_high, first_low, shape: tuple):
     """float32 normal values of shape ``shape`` at counters first, first + 1, ... in
     row-major order: bitwise ``jax.random.normal(key, (n,) + shape)`` at those flat
@@ -75,7 +98,7 @@ def normal_from_counter(words, first_high, first_low, shape: tuple):
     )
     low = first_low + offset
     high = first_high + (low < first_low).astype(jnp.uint32)  # carry into the high word
-    bits1, bits2 = threefry2x32_p.bind(words[0], words[1], jnp.broadcast_to(high, shape), low)
+    bits1, bits2 = threefry2x32(words[0], words[1], jnp.broadcast_to(high, shape), low)
     bits = jnp.bitwise_xor(bits1, bits2)
     mantissa = jax.lax.shift_right_logical(bits, np.uint32(32 - 23)) | _FLOAT32_ONE_BITS
     floats = jax.lax.bitcast_convert_type(mantissa, jnp.float32) - np.float32(1.0)
