@@ -1,0 +1,67 @@
+"""``otgym node ros2`` with real rclpy, each side its own process: the test starts
+``otgym node sim`` and ``otgym node ros2`` and runs ``tests/bus/ros2_probe.py``, a ROS 2
+node written with rclpy alone, which lists the graph's topics, receives PoseArrays and
+MarkerArrays and drives device0 with a TwistStamped. ROS 2 traffic stays on this
+machine: ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and a ``ROS_DOMAIN_ID`` of the
+test's own, set for every process. Where rclpy or the message wheels cannot be
+imported, the test is skipped and says so."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+
+import pytest
+
+from tests.bus.test_nodes import ROOT, STARTUP_S, children, free_endpoint, spawn, wait_for_line  # noqa: F401
+
+pytest.importorskip(
+    "rclpy", reason="rclpy (ROS 2's Python wheels, otgym's extra [ros2]) cannot be imported here: no ROS 2 test"
+)
+pytest.importorskip(
+    "visualization_msgs.msg", reason="ROS 2's visualization_msgs wheel (extra [ros2]) cannot be imported: no ROS 2 test"
+)
+PROBE_DEADLINE_S = 120.0
+"""The probe's bound on all its waits together (discovery, 10 PoseArrays, the traps moving)."""
+
+
+@pytest.fixture
+def ros_env(monkeypatch):
+    """ROS 2 on loopback in a domain of this test's own (1-232, ROS 2's documented range),
+    for the processes it starts."""
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.SystemRandom().randrange(1, 233)))
+    monkeypatch.delenv("RMW_IMPLEMENTATION", raising=False)  # the default: Fast DDS
+    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
+
+
+@pytest.mark.slow
+def test_a_ros2_node_lists_receives_and_drives_otgym_through_the_bridge(ros_env, children):
+    endpoint = free_endpoint()
+    children.append(spawn("-m", "otgym", "node", "sim", "--mode", "manual", "--listen", endpoint, "--seed", "3"))
+    children.append(spawn("-m", "otgym", "node", "ros2", "--connect", endpoint))
+    sim, bridge = children
+    ready = wait_for_line(bridge, "ready", STARTUP_S)
+    assert "rmw_fastrtps_cpp" in ready and f"domain {os.environ['ROS_DOMAIN_ID']}" in ready, ready
+    wait_for_line(sim, "ready", STARTUP_S)
+    probe = spawn(str(ROOT / "tests" / "bus" / "ros2_probe.py"), str(PROBE_DEADLINE_S))
+    children.append(probe)
+    output, _ = probe.communicate(timeout=PROBE_DEADLINE_S + 60)
+    lines = [line for line in output.splitlines() if line.startswith("result: ")]
+    assert probe.returncode == 0 and lines, output[-3000:]
+    result = json.loads(lines[-1].removeprefix("result: "))
+    assert "failed" not in result, result
+
+    assert result["topics"]["/otgym/traps"] == ["geometry_msgs/msg/PoseArray"]
+    assert result["topics"]["/otgym/markers"] == ["visualization_msgs/msg/MarkerArray"]
+    assert result["pose_arrays"] >= 10 and result["poses_per_array"] == [4], result
+    assert {"walls", "route", "goal", "robots", "cells", "obstacles", "traps"} <= set(result["marker_namespaces"])
+    assert result["marker_frame"] == "chip"
+    assert result["moved_x_um"] >= 2.0, result
+
+    os.kill(bridge.pid, signal.SIGINT)  # a clean exit on Ctrl-C, with its counts
+    rest, _ = bridge.communicate(timeout=30)
+    assert bridge.returncode == 0, rest[-2000:]
+    assert "messages to ROS 2" in rest and "Traceback" not in rest, rest[-2000:]
