@@ -15,7 +15,7 @@ import signal
 
 import pytest
 
-from tests.bus.test_nodes import ROOT, STARTUP_S, children, free_endpoint, spawn, wait_for_line  # noqa: F401
+from tests.bus.test_nodes import ROOT, STARTUP_S, children, free_endpoint, spawn, wait_for_line  # noqa: F401  (fixture)
 
 pytest.importorskip(
     "rclpy", reason="rclpy (ROS 2's Python wheels, otgym's extra [ros2]) cannot be imported here: no ROS 2 test"
@@ -38,7 +38,7 @@ def ros_env(monkeypatch):
 
 
 @pytest.mark.slow
-def test_a_ros2_node_lists_receives_and_drives_otgym_through_the_bridge(ros_env, children):
+def test_a_ros2_node_lists_receives_and_drives_otgym_through_the_bridge(ros_env, children):  # noqa: F811
     endpoint = free_endpoint()
     children.append(spawn("-m", "otgym", "node", "sim", "--mode", "manual", "--listen", endpoint, "--seed", "3"))
     children.append(spawn("-m", "otgym", "node", "ros2", "--connect", endpoint))
