@@ -147,6 +147,11 @@ class Bridge:
         """Messages from ROS 2 that failed otgym's checks, per topic."""
         self._publishers: dict[str, object] = {}
         self._lock = threading.Lock()
+        self._send_lock = threading.Lock()
+        """Held while a message from the bus goes to ROS 2, and by ``close``: zenoh may
+        still run a callback after the bridge stopped, which must not touch rclpy's
+        publishers once they are being destroyed."""
+        self._closed = False
         self._markers = ros2_markers.MarkerTracker()
         self._markers_sent_s: float | None = None
         self._tokens: list = []
@@ -202,6 +207,11 @@ class Bridge:
     def _on_bus(self, topic: str, message, data: bytes) -> None:
         if topic in self.inputs:
             return  # sent by this bridge, or another otgym node's input the graph drives
+        with self._send_lock:
+            if not self._closed:
+                self._send(topic, message, data)
+
+    def _send(self, topic: str, message, data: bytes) -> None:
         publisher = self._publishers.get(topic) or self._declare(topic)
         publisher.publish(data)
         with self._lock:
@@ -227,6 +237,10 @@ class Bridge:
             return self._publishers[topic]
 
     def close(self) -> None:
+        """Stop sending to ROS 2 (after this, rclpy's node may be destroyed) and withdraw
+        the devices' and autonomy's tokens."""
+        with self._send_lock:
+            self._closed = True
         for token in self._tokens:
             token.undeclare()
         self._tokens = []
@@ -253,14 +267,17 @@ def serve(
     try:
         with transport.Node("ros2", "ros2", **endpoints) as bus:
             bridge = Bridge(bus, ros, settings)
-            bridge.start()
-            on_ready(
-                f"ros2 bridge as ROS 2 node {ros.get_fully_qualified_name()} on {get_rmw_implementation_identifier()}, "
-                f"domain {ros_graph.domain_id()}; from ROS 2: {', '.join(sorted(bridge.inputs))}"
-            )
-            while not stop.is_set():
-                executor.spin_once(timeout_sec=0.1)
-            bridge.close()
+            try:
+                bridge.start()
+                on_ready(
+                    f"ros2 bridge as ROS 2 node {ros.get_fully_qualified_name()} on "
+                    f"{get_rmw_implementation_identifier()}, domain {ros_graph.domain_id()}; "
+                    f"from ROS 2: {', '.join(sorted(bridge.inputs))}"
+                )
+                while not stop.is_set():
+                    executor.spin_once(timeout_sec=0.1)
+            finally:
+                bridge.close()  # before rclpy's node is destroyed: a late zenoh callback sends nothing
             dropped = sum(bus.dropped.values()) + sum(bridge.dropped.values())
     finally:
         executor.shutdown()
