@@ -94,6 +94,9 @@ class Settings:
     """The parameters' values, checked (ValueError with the reason otherwise)."""
 
     def __init__(self, values: dict):
+        for name in ("devices", "twist_topics", "twist_stamped_topics"):
+            if not isinstance(values[name], (list, tuple)) or not all(isinstance(v, str) for v in values[name]):
+                raise ValueError(f"parameter {name} must be a list of names, e.g. [device0], not {values[name]!r}")
         self.devices = [msg.check_name(d) for d in values["devices"]]
         self.autonomy = bool(values["autonomy"])
         self.twist_topics = [ros_graph.check_topic_name(t) for t in values["twist_topics"]]
@@ -111,7 +114,7 @@ def open_ros_node(ros_args: list[str], namespace: str):
     ...``; rclpy's own signal handlers off: the caller's handle SIGINT and SIGTERM) and
     the parameters declared and checked; ValueError for bad arguments or values."""
     import rclpy
-    from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+    from rcl_interfaces.msg import ParameterDescriptor
     from rclpy.signals import SignalHandlerOptions
 
     context = rclpy.Context()
@@ -123,10 +126,11 @@ def open_ros_node(ros_args: list[str], namespace: str):
         node = rclpy.create_node(NODE_NAME, namespace=namespace, context=context)
         values = {}
         for name, (default, description) in PARAMETERS.items():
-            descriptor = ParameterDescriptor(description=description)
-            if isinstance(default, list):
-                descriptor.type = ParameterType.PARAMETER_STRING_ARRAY
-            values[name] = node.declare_parameter(name, default, descriptor).value
+            # a list's type follows its value (rclpy reads an empty list as a byte array);
+            # Settings checks that it holds text only
+            descriptor = ParameterDescriptor(description=description, dynamic_typing=isinstance(default, list))
+            value = node.declare_parameter(name, default, descriptor).value
+            values[name] = [] if value is None else value  # "[]" on the command line reads as unset
         return context, node, Settings(values)
     except Exception as error:
         rclpy.try_shutdown(context=context)
@@ -161,6 +165,12 @@ class Bridge:
             self.inputs[msg.buttons_topic(device)] = msg.JOY
         if settings.autonomy:
             self.inputs[msg.AUTONOMY] = msg.POSE_ARRAY
+
+    def ros_topics(self) -> list[str]:
+        """The ROS 2 topics of other names it carries to otgym, each with its type."""
+        return [f"{t} (Twist)" for t in self.settings.twist_topics] + [
+            f"{t} (TwistStamped)" for t in self.settings.twist_stamped_topics
+        ]
 
     def start(self) -> None:
         """Declare the ROS 2 subscriptions and publishers, otgym's tokens and the bus subscription."""
@@ -272,7 +282,7 @@ def serve(
                 on_ready(
                     f"ros2 bridge as ROS 2 node {ros.get_fully_qualified_name()} on "
                     f"{get_rmw_implementation_identifier()}, domain {ros_graph.domain_id()}; "
-                    f"from ROS 2: {', '.join(sorted(bridge.inputs))}"
+                    f"from ROS 2: {', '.join([*sorted(bridge.inputs), *bridge.ros_topics()])}"
                 )
                 while not stop.is_set():
                     executor.spin_once(timeout_sec=0.1)

@@ -65,3 +65,31 @@ def test_a_ros2_node_lists_receives_and_drives_otgym_through_the_bridge(ros_env,
     rest, _ = bridge.communicate(timeout=30)
     assert bridge.returncode == 0, rest[-2000:]
     assert "messages to ROS 2" in rest and "Traceback" not in rest, rest[-2000:]
+
+
+@pytest.mark.parametrize(
+    "extra, word",
+    [
+        (["-p", "devices:=[device0]"], "--ros-args"),
+        (["--ros-args", "-p", "devices:=3"], "devices"),
+        (["--ros-args", "-p", "devices:=[bad name]"], "device name"),
+        (["--ros-args", "-p", "markers_period_s:=-1.0"], "markers_period_s"),
+        (["--ros-args", "-p", "autonomy:=3"], "autonomy"),
+        (["--ros-args", "-p", "twist_topics:=[/cmd vel]"], "cmd vel"),
+    ],
+    ids=["no --ros-args", "not a list", "bad device", "negative period", "not a bool", "bad topic"],
+)
+def test_a_bad_ros2_argument_is_one_error_line_before_the_bus_opens(ros_env, monkeypatch, capsys, extra, word):
+    import zenoh
+
+    from otgym.cli import app as cli_app
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a zenoh session was opened before the ROS 2 arguments were checked")
+
+    monkeypatch.setattr(zenoh, "open", refuse)
+    with pytest.raises(SystemExit) as exit_info:
+        cli_app.main(["node", "ros2", *extra])
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert exit_info.value.code == 2 and len(lines) == 1 and lines[0].startswith("error: "), lines
+    assert word in lines[0], lines[0]
