@@ -68,6 +68,13 @@ def available() -> bool:
     return True
 
 
+def install_hint() -> str:
+    return (
+        "needs ROS 2's Python wheels: pip install ros-rclpy ros-rmw-fastrtps-cpp ros-std-msgs ros-geometry-msgs "
+        "ros-sensor-msgs ros-nav-msgs ros-visualization-msgs (otgym's extra [ros2])"
+    )
+
+
 def message_class(type_name: str):
     """The rclpy message class of ``pkg/msg/Type``."""
     package, _, name = type_name.split("/")
@@ -263,10 +270,7 @@ def serve(
     Returns its counts. ValueError (before the bus is opened) for bad ROS 2 arguments or
     parameters, or without rclpy."""
     if not available():
-        raise ValueError(
-            "the ros2 node needs ROS 2's Python wheels: pip install ros-rclpy ros-rmw-fastrtps-cpp ros-std-msgs "
-            "ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-visualization-msgs (otgym's extra [ros2])"
-        )
+        raise ValueError(f"the ros2 node {install_hint()}")
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.utilities import get_rmw_implementation_identifier

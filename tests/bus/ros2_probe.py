@@ -7,8 +7,9 @@ until it has received at least ``MIN_POSE_ARRAYS`` PoseArrays on ``/otgym/traps`
 MarkerArray with spheres on ``/otgym/markers``; then it publishes a TwistStamped on
 ``/otgym/device/device0/twist`` (+x, clutch held through ``/otgym/device/device0/buttons``)
 until the traps' mean has moved ``MOVE_UM`` along +x from where they were, and
-releases. It prints one JSON line with what it saw (``result: {...}``) and exits 0,
-or prints the line with ``"failed"`` naming the first wait that ran out."""
+releases (with ``--listen-only`` as its second argument it drives nothing). It prints
+one JSON line with what it saw (``result: {...}``) and exits 0, or prints the line with
+``"failed"`` naming the first wait that ran out."""
 
 from __future__ import annotations
 
@@ -29,7 +30,7 @@ SPEED_M_S = 0.005
 """A device tip speed of 5 mm/s along x (the clutch held)."""
 
 
-def main(deadline_s: float) -> int:
+def main(deadline_s: float, drive: bool = True) -> int:
     rclpy.init()
     node = rclpy.create_node("otgym_test_probe")
     executor = SingleThreadedExecutor()
@@ -76,6 +77,7 @@ def main(deadline_s: float) -> int:
         result["marker_namespaces"] = sorted({m.ns for m in last if m.ns})
         result["marker_frame"] = last[-1].header.frame_id
         start_x = result["start_x_um"] = mean_x()
+    if ok and drive:
 
         def moved() -> bool:
             stamp = node.get_clock().now().to_msg()
@@ -103,4 +105,4 @@ def main(deadline_s: float) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(float(sys.argv[1])))
+    sys.exit(main(float(sys.argv[1]), drive=sys.argv[2:] != ["--listen-only"]))

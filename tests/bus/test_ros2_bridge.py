@@ -93,3 +93,30 @@ def test_a_bad_ros2_argument_is_one_error_line_before_the_bus_opens(ros_env, mon
     lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert exit_info.value.code == 2 and len(lines) == 1 and lines[0].startswith("error: "), lines
     assert word in lines[0], lines[0]
+
+
+@pytest.mark.slow
+def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_path):
+    """``otgym play --distributed --ros2`` (headless, the simulated stylus): a ROS 2 node
+    of its own process receives the session's traps and markers while it runs; the
+    session then ends by its duration with exit code 0."""
+    play = spawn(
+        "-m", "otgym", "play", "--headless", "--distributed", "--ros2", "--device", "simulated",
+        "--no-questionnaire", "--mode", "manual", "--duration", "60", "--out", str(tmp_path),
+    )  # fmt: skip
+    try:
+        wait_for_line(play, "nodes ready", STARTUP_S * 2)
+        probe = spawn(str(ROOT / "tests" / "bus" / "ros2_probe.py"), str(PROBE_DEADLINE_S), "--listen-only")
+        output, _ = probe.communicate(timeout=PROBE_DEADLINE_S + 60)
+        lines = [line for line in output.splitlines() if line.startswith("result: ")]
+        assert probe.returncode == 0 and lines, output[-3000:]
+        result = json.loads(lines[-1].removeprefix("result: "))
+        assert "failed" not in result, result
+        assert result["pose_arrays"] >= 10 and result["poses_per_array"] == [4], result
+        assert {"walls", "robots", "traps"} <= set(result["marker_namespaces"])
+        rest, _ = play.communicate(timeout=180)
+        assert play.returncode == 0, rest[-3000:]
+    finally:
+        if play.poll() is None:
+            os.kill(play.pid, signal.SIGKILL)
+            play.wait()

@@ -152,6 +152,7 @@ COMBINATIONS = [
     (("node", "device"), ["--device", "replay"], "--replay"),
     (("node", "device"), ["--device-name", "Right Device"], "--device touch"),
     (("play",), ["--navigator", "mpc"], "--distributed"),
+    (("play",), ["--ros2"], "--distributed"),
 ]
 
 
