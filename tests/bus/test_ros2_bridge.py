@@ -12,6 +12,7 @@ import json
 import os
 import random
 import signal
+import subprocess
 
 import pytest
 
@@ -23,6 +24,10 @@ pytest.importorskip(
 pytest.importorskip(
     "visualization_msgs.msg", reason="ROS 2's visualization_msgs wheel (extra [ros2]) cannot be imported: no ROS 2 test"
 )
+PLAY_END_S = 420.0
+"""The bound on a 60 s play session's end after the probe: the session at a fraction of
+real time under load, then the sim's end, the recorder's drain and each node's stop
+(up to 10 s each before SIGKILL)."""
 PROBE_DEADLINE_S = 120.0
 """The probe's bound on all its waits together (discovery, 10 PoseArrays, the traps moving)."""
 
@@ -114,7 +119,14 @@ def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_p
         assert "failed" not in result, result
         assert result["pose_arrays"] >= 10 and result["poses_per_array"] == [4], result
         assert {"walls", "robots", "traps"} <= set(result["marker_namespaces"])
-        rest, _ = play.communicate(timeout=180)
+        try:  # the rest of the 60 s session (slower than real time under load), then the nodes' ends
+            rest, _ = play.communicate(timeout=PLAY_END_S)
+        except subprocess.TimeoutExpired:
+            os.kill(play.pid, signal.SIGKILL)
+            rest, _ = play.communicate()
+            raise AssertionError(
+                f"otgym play did not end within {PLAY_END_S} s of the probe:\n{rest[-3000:]}"
+            ) from None
         assert play.returncode == 0, rest[-3000:]
     finally:
         if play.poll() is None:
