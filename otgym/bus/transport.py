@@ -86,7 +86,7 @@ message later than a tick is stale anyway."""
 NOT_TO_DROP = (msg.EVENTS, msg.COMMAND)
 """Topics whose every message matters (trial events carry the trials' rows, commands
 change the session): their publishers block when congested instead of dropping."""
-ROLES = ("sim", "device", "autonomy", "recorder", "ui", "foxglove")
+ROLES = ("sim", "device", "autonomy", "recorder", "ui", "foxglove", "ros2")
 MISS_HEARTBEAT_S = 0.5
 """A latched publisher's sporadic heartbeat (rmw_zenoh's for reliable, transient-local
 publishers: ``SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD``), so a ROS 2 subscriber's recovery
@@ -231,6 +231,17 @@ class Node:
             publisher = self._declare_publisher(topic)
         publisher.put(data)
 
+    def publish_ros(self, topic: str, type_name: str, data: bytes) -> str:
+        """Send ``data`` (CDR of ``type_name``) on a ROS 2 topic that is not otgym's
+        (``topic`` resolved in this node's namespace by ROS 2's rules, as ``subscribe_ros``
+        does), as a stream; returns its fully qualified name."""
+        fqn = ros_graph.resolve_topic(topic, self.namespace)
+        publisher = self._publishers.get(fqn)
+        if publisher is None:
+            publisher = self._declare_publisher(fqn, type_name, fqn)
+        publisher.put(data)
+        return fqn
+
     def wait_for_subscribers(self, topic: str, timeout_s: float = 60.0) -> None:
         """Block until a subscriber elsewhere on the bus matches this node's publisher of
         ``topic`` (zenoh's matching status: the link is up and the subscriber declared),
@@ -246,11 +257,11 @@ class Node:
                 raise TimeoutError(f"no subscriber of {topic} within {timeout_s:g} s")
             time.sleep(0.005)
 
-    def _declare_publisher(self, topic: str) -> _Publisher:
+    def _declare_publisher(self, topic: str, type_name: str | None = None, fqn: str | None = None) -> _Publisher:
         with self._lock:
             if topic in self._publishers:
                 return self._publishers[topic]
-            type_name, fqn = msg.topic_type(topic), self.fqn(topic)
+            type_name, fqn = type_name or msg.topic_type(topic), fqn or self.fqn(topic)
             key = ros_graph.data_key(self.domain, fqn, type_name, TYPE_HASH[type_name])
             if topic in msg.LATCHED:
                 publisher = zenoh.ext.declare_advanced_publisher(  # rare and not to be lost: blocks when congested

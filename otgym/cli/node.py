@@ -10,7 +10,8 @@ one sub-command per role, each with only its own options:
   as devices ui0, ui1 and the keys as commands; trials.csv and questionnaires.csv into
   ``--out``;
 - ``foxglove``: the running session served to Foxglove over a WebSocket
-  (``otgym.cli.node_foxglove``).
+  (``otgym.cli.node_foxglove``);
+- ``ros2``: the session bridged to a ROS 2 graph through rclpy (``otgym.bus.ros2_bridge``).
 
 Every role takes the bus options (``--listen``, ``--connect``, ``--zenoh-config``;
 loopback only unless they name other endpoints) and ``--namespace``: every node is a
@@ -37,7 +38,7 @@ SESSION_END_RECORDED = "recorded: session_end"
 
 node_app = typer.Typer(
     name="node",
-    help="Run one node of the distributed runtime (sim, device, recorder, autonomy, ui, foxglove) until stopped.",
+    help="Run one node of the distributed runtime (sim, device, recorder, autonomy, ui, foxglove, ros2) until stopped.",
     no_args_is_help=True,
     add_completion=False,
 )
@@ -433,3 +434,32 @@ def foxglove(
 
     stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
     foxglove_node(stop, endpoints, host=host, port=port)
+
+
+@node_app.command("ros2", context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
+def ros2(
+    ctx: typer.Context,
+    listen: Listen = None,
+    connect: Connect = None,
+    zenoh_config: ZenohConfig = None,
+    namespace: Namespace = "/",
+) -> None:
+    """The session bridged to a ROS 2 graph (rclpy, RMW_IMPLEMENTATION): otgym's outputs and
+    /otgym/markers to ROS 2, teleoperation, commands and autonomy increments back. Settings
+    are ROS 2 parameters after --ros-args (devices, autonomy, twist_topics,
+    twist_stamped_topics, markers_period_s).
+
+    Example: otgym node ros2 --namespace /
+    """
+    from otgym.bus.ros2_bridge import serve
+
+    extra = list(ctx.args)
+    if extra and extra[0] != "--ros-args":
+        raise ValueError(f"unexpected argument {extra[0]!r}: ROS 2 arguments follow --ros-args")
+    stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
+    counts = serve(stop, endpoints, extra, _ready)
+    print(
+        f"ros2: {counts['to_ros']} messages to ROS 2, {counts['to_otgym']} to otgym; "
+        f"{counts['dropped']} dropped by the checks",
+        flush=True,
+    )

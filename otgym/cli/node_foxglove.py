@@ -1,5 +1,5 @@
 """``otgym node foxglove``: the running session served to Foxglove (foxglove-sdk's
-WebSocket server, protocol ``foxglove.websocket.v1``) on ``--host``/``--port``
+WebSocket server, subprotocol ``foxglove.sdk.v1``, the one its handshake accepts) on ``--host``/``--port``
 (127.0.0.1:8765: loopback only unless told otherwise). It subscribes to the sim's
 topics like any node (``--connect``, ``--namespace``) and sends what
 ``otgym.bus.foxglove_scene`` makes of them: the 3D scene on ``/otgym/scene``

@@ -166,12 +166,28 @@ def _as_bad_parameter(check):
     return callback
 
 
+IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
+"""zenoh's protocols whose address is HOST:PORT (zenoh's endpoint syntax:
+PROTOCOL/ADDRESS[?METADATA][#CONFIG])."""
+
+
 def _endpoints(values: list[str]) -> list[str]:
+    """Each value a zenoh endpoint; for an IP protocol, a host and a port in [0, 65535]
+    (0: any free port), which zenoh itself would refuse only once the session opens."""
     import re
 
     for value in values:
         if not re.fullmatch(r"[a-z][a-z0-9-]*/\S+", value):
             raise ValueError(f"{value!r} is not a zenoh endpoint (PROTOCOL/ADDRESS, e.g. tcp/127.0.0.1:7447)")
+        protocol, address = value.split("/", 1)
+        if protocol not in IP_PROTOCOLS:
+            continue
+        address = re.split(r"[?#]", address, maxsplit=1)[0]
+        host, colon, port = address.rpartition(":")
+        if not colon or not host or not port.isdigit():
+            raise ValueError(f"{value!r}: a {protocol} endpoint needs HOST:PORT (e.g. {protocol}/127.0.0.1:7447)")
+        if int(port) > 65535:
+            raise ValueError(f"{value!r}: the port must lie in [0, 65535], not {port}")
     return values
 
 

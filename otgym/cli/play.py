@@ -36,6 +36,11 @@ def register(app: typer.Typer) -> None:
             "window as the ui node.",
         ),
         navigator: str = options.navigator("route"),
+        ros2: bool = typer.Option(
+            False,
+            "--ros2",
+            help="With --distributed: also run otgym node ros2, the session on a ROS 2 graph (extra ros2).",
+        ),
         out: Path = options.out_dir(..., "Folder for trials.csv, session.mcap (and questionnaires.csv)."),
     ) -> None:
         """The interactive task in a window: global and microscope views, cues, keys 1/2/3
@@ -60,12 +65,19 @@ def register(app: typer.Typer) -> None:
                 "--navigator mpc needs --distributed: its replans (about 74 ms each) run in the "
                 "autonomy node's own process, not in the simulation's"
             )
+        if ros2 and not distributed:
+            raise ValueError("--ros2 needs --distributed: the ROS 2 bridge is a node on the session's bus")
+        if ros2:
+            from otgym.bus.ros2_bridge import available, install_hint
+
+            if not available():
+                raise ValueError(f"--ros2 {install_hint()}")
         if headless:
             os.environ["SDL_VIDEODRIVER"] = "dummy"
             os.environ["SDL_AUDIODRIVER"] = "dummy"
         arguments = (chip, mode, device, participant, seed, duration, not no_questionnaire, screenshot, out)
         if distributed:
-            run_distributed(*arguments, navigator=navigator)
+            run_distributed(*arguments, navigator=navigator, ros2=ros2)
         else:
             run_play(*arguments, navigator=navigator)
 
@@ -276,9 +288,11 @@ def run_distributed(
     screenshot: Path | None,
     out: Path,
     navigator: str = "route",
+    ros2: bool = False,
 ) -> None:
-    """The sim, device, recorder (and, in shared or autonomous mode, autonomy) nodes as
-    local processes on a loopback port; this process is the ui node (the window).
+    """The sim, device, recorder (and, in shared or autonomous mode, autonomy; with
+    ``ros2``, the ROS 2 bridge, driving no device: the window's stay the window's) nodes
+    as local processes on a loopback port; this process is the ui node (the window).
     All stop when the window closes or when one of them fails (one ``error:`` line,
     exit code 1)."""
     from otgym.bus.sim_node import build_task
@@ -332,6 +346,8 @@ def run_distributed(
             for label, arguments in device_nodes:
                 nodes.start(label, arguments)
             nodes.start("recorder", ["recorder", "--out", str(out), "--connect", endpoint])
+            if ros2:
+                nodes.start("ros2", ["ros2", "--connect", endpoint, "--ros-args", "-p", "devices:=[]"])
             if remote_autonomy and "autonomy" not in nodes.children:
                 nodes.start("autonomy", autonomy)
             print(f"starting {len(nodes.children)} nodes on {endpoint} ({', '.join(nodes.children)}) ...", flush=True)
@@ -346,7 +362,7 @@ def run_distributed(
                 nodes, endpoint, layout, window_kind, shown, out, questionnaire, screenshot, failed
             )
     finally:
-        nodes.stop_all(order=["sim", "autonomy", *[label for label, _ in device_nodes], "recorder"])
+        nodes.stop_all(order=["ros2", "sim", "autonomy", *[label for label, _ in device_nodes], "recorder"])
     if failed:
         print(f"error: {failed[0]}", file=sys.stderr)
         raise SystemExit(1)

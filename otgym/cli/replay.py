@@ -52,7 +52,7 @@ def register(app: typer.Typer) -> None:
 
         from otgym.experiments.output_folder import check_out_dir
         from otgym.record.frames import render_frames
-        from otgym.record.mcap_file import read_recording
+        from otgym.record.mcap_file import check_mcap, read_recording
         from otgym.record.replay import session_scene, summary
         from otgym.record.video import frame_ticks, write_video
 
@@ -63,6 +63,7 @@ def register(app: typer.Typer) -> None:
         if not 64 <= width <= 7680:
             raise ValueError(f"--width must lie in [64, 7680] pixels, got {width}")
         frame_ticks(1, 0.02, fps, speed)  # checks --fps and --speed before any work
+        check_mcap(file)  # a file that is not MCAP, before any folder is made
         if out is not None or video:
             check_out_dir(out if out is not None else file.parent)  # writable, before any work
         recording = read_recording(file)

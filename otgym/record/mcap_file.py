@@ -32,7 +32,7 @@ import zstandard
 from mcap.exceptions import InvalidMagic, McapError
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
-from mcap.writer import CompressionType, Writer
+from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 FLUSH_PERIOD_S = 1.0
 CHUNK_BYTES = 1 << 20
@@ -183,6 +183,17 @@ class Recording:
 
     def topic(self, name: str) -> list[RecordedMessage]:
         return [message for message in self.messages if message.topic == name]
+
+
+def check_mcap(path) -> None:
+    """ValueError unless the file ``path`` begins with MCAP's 8-byte magic (the MCAP
+    specification: ``0x89 M C A P 0 \\r \\n``). A file cut short after its magic is
+    still MCAP (``read_recording`` reads it as truncated); an empty or shorter file, or
+    one that begins otherwise, is not."""
+    with open(path, "rb") as stream:
+        head = stream.read(len(MCAP0_MAGIC))
+    if head != MCAP0_MAGIC:
+        raise ValueError(f"{path} is not an MCAP file" + (" (it is empty)" if not head else ""))
 
 
 def read_recording(path) -> Recording:

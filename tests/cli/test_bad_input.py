@@ -126,7 +126,11 @@ STRING_CASES = {
     "X,Y": [Case("three numbers", "1,2,3"), Case("nan", "nan,5"), Case("words", "x,y")],
     "NUMBERS": [Case("nan", "5,nan"), Case("empty", ""), Case("negative", "-1")],
     "MODES": [Case("unknown mode", "manual,flying"), Case("empty", "")],
-    "ENDPOINT": [Case("not an endpoint", "nowhere")],
+    "ENDPOINT": [
+        Case("not an endpoint", "nowhere"),
+        Case("port out of range", "tcp/127.0.0.1:99999"),
+        Case("no port", "tcp/127.0.0.1"),
+    ],
     "NAMES": [Case("bad name", "bad name!")],
     "NAMESPACE": [Case("not a ROS 2 namespace", "/rig 1")],
     "TOPIC": [Case("not a ROS 2 topic", "/cmd vel")],
@@ -149,6 +153,7 @@ COMBINATIONS = [
     (("node", "device"), ["--device", "replay"], "--replay"),
     (("node", "device"), ["--device-name", "Right Device"], "--device touch"),
     (("play",), ["--navigator", "mpc"], "--distributed"),
+    (("play",), ["--ros2"], "--distributed"),
 ]
 
 
@@ -355,3 +360,31 @@ def test_every_command_has_a_valid_example_and_bad_cases():
     for path, command in commands:
         command.make_context(" ".join(path), example_argv(path, command), resilient_parsing=True)
     assert len(covered) >= len(commands) - 1
+
+
+NOT_MCAP = {
+    "empty": b"",
+    "shorter than MCAP's magic": b"abc",
+    "text": b"this is no recording\n" * 4,
+}
+"""Files that ``otgym replay`` is given as recordings but that are not MCAP (the FILE
+argument is checked for existence by the command-line library; its content by otgym)."""
+
+
+@pytest.mark.parametrize("with_out", [False, True], ids=["summary", "--out"])
+@pytest.mark.parametrize("label", list(NOT_MCAP))
+def test_replay_refuses_a_file_that_is_not_mcap(tmp_path, monkeypatch, capsys, no_expensive_work, label, with_out):
+    folder = tmp_path / "case"
+    folder.mkdir()
+    monkeypatch.chdir(folder)
+    (folder / "session.mcap").write_bytes(NOT_MCAP[label])
+    before = sorted(p.relative_to(folder) for p in folder.rglob("*"))
+    with pytest.raises(SystemExit) as exit_info:
+        cli_app.main(["replay", "session.mcap", *(["--out", "frames"] if with_out else [])])
+    captured = capsys.readouterr()
+    lines = [line for line in captured.err.splitlines() if line.strip()]
+    assert exit_info.value.code == 2, (exit_info.value.code, captured.err[-2000:], captured.out[-500:])
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "not an MCAP file" in lines[0], captured.err
+    assert captured.out == "", captured.out
+    assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == before, "it wrote files"
+    assert not no_expensive_work
