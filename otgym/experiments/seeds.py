@@ -93,7 +93,8 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         "training",
         0,
         4,
-        "benchmarks/training.py's training seeds; pretrain's candidates 0-2 (seed 2 shipped, seed 1 before it); "
+        "benchmarks/training.py's training seeds; pretrain's candidates 0-2 (seed 1 shipped, as the policy "
+        "file's metadata says; seed 2 before it); "
         "otgym train's default 0; the reward variants of RewardWeights' docstring (seed 0, seed 1)",
     ),
     SeedUse(
