@@ -46,12 +46,13 @@ Places, per phase:
   from alpha ``otgym.task.task.FINE_TUNE_ALPHA``, 0.4), watching the pace at which the
   robots carry the cell (the pace intended once acting). Then the hand corrects by
   feedback: each sub-movement reaches, at the manual mapping, for the difference
-  between where the person wants the robots when it ends and where they expect them
-  (seen, plus their own motion since, plus the unexplained motion extrapolated). Its
+  between where the person wants the robots when it ends (a place moving on at the
+  intended velocity, at most ``shared_lead_um`` from the robots as perceived) and where
+  they expect them (seen, plus their own motion since, plus the unexplained motion
+  extrapolated). Its
   effect on the traps is alpha times that; what is left is corrected at the next
   sub-movement. The blend is never inverted: no division by alpha, no use of the
-  autonomy's command (docs/decisions/0026-participant-perceives-the-window.md; it
-  replaces the inversion of decision 0005).
+  autonomy's command (docs/decisions/0026-participant-perceives-the-window.md).
 
 Stylus units: chip um -> stylus mm through the retargeting scale (tau) and plane; the
 hands feel the feedback force (``otgym.teleop.feedback.chip_force_n`` on the trap forces
