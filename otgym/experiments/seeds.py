@@ -93,7 +93,8 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         "training",
         0,
         4,
-        "benchmarks/training.py's training seeds; pretrain's candidates 0-2 (seed 2 shipped, seed 1 before it); "
+        "benchmarks/training.py's training seeds; pretrain's candidates 0-2 (seed 1 shipped, as the policy "
+        "file's metadata says; seed 2 before it); "
         "otgym train's default 0; the reward variants of RewardWeights' docstring (seed 0, seed 1)",
     ),
     SeedUse(
@@ -147,7 +148,8 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         90,
         "issue 29 item 5: the human model's sourced changes (lapses, tremor and drift, one cue threshold) "
         "on study seed 90 (scenarios 900000-900007); otgym experiment human-sensitivity's default; "
-        "the --trace example of docs/study.md (shared-control --seed 90 --trace 0:0)",
+        "the --trace example of docs/study.md (shared-control --seed 90 --trace 0:0); issue 40 item 1: "
+        "the participant who perceives the window against the old one (4 x 2, manual and shared, 900000-900001)",
     ),
     # the demo's transport
     _one("transport", 1, "the demo's whole-path transport (otgym demo --runs 8 --seed 1)"),

@@ -9,8 +9,10 @@ by ``otgym demo``'s report beside its own small runs:
 - ``fig8.json``: the report runs of ``otgym experiment shared-control`` (Fig. 8 restated,
   one run per autonomy), collected from their output folders by
   ``python -m otgym.experiments.shipped_results fig8 OUT.json LABEL=DIR...``
-  (``collect_fig8_run``): each folder's ``summary.csv``, ``acceptance.json`` and, where
-  present, ``route_bound.json``, with the command read from ``command.txt``.
+  (``collect_fig8_run``): each folder's ``summary.csv``, ``acceptance.json`` (with the
+  route bound it judged item (c) against) and ``stats.json`` (the repeated-measures
+  ANOVA and the Holm-corrected paired tests, p-values included), with the command read
+  from ``command.txt``.
 
 Pure reading and text formatting; every number printed comes from these files.
 """
@@ -112,9 +114,10 @@ def collect_fig8_run(label: str, out_dir: Path) -> dict:
     """One shared-control output folder as a ``fig8.json`` run: label, command (from
     ``command.txt``, which the person who ran it writes), seed and its status (from
     ``acceptance.json``), per-mode rows (``FIG8_MODE_FIELDS`` of ``summary.csv``), the
-    acceptance items and the route bound. Raises FileNotFoundError naming a missing file."""
+    acceptance items, the route bound and ``tests`` (``fig8_tests`` of ``stats.json``).
+    Raises FileNotFoundError naming a missing file."""
     out_dir = Path(out_dir)
-    for name in ("summary.csv", "acceptance.json", "command.txt"):
+    for name in ("summary.csv", "acceptance.json", "stats.json", "command.txt"):
         if not (out_dir / name).is_file():
             raise FileNotFoundError(f"{out_dir / name} is missing: not a finished shared-control run folder?")
     acceptance = json.loads((out_dir / "acceptance.json").read_text())
@@ -131,13 +134,87 @@ def collect_fig8_run(label: str, out_dir: Path) -> dict:
         "route_bound_s": acceptance.get("route_bound_s"),
         "modes": modes,
         "items": {key: value for key, value in acceptance.items() if isinstance(value, bool)},
+        "tests": fig8_tests(json.loads((out_dir / "stats.json").read_text())),
+        "tests_source": "stats.json of the run folder",
     }
+
+
+def fig8_tests(stats: dict) -> dict:
+    """Per metric of a run's ``stats.json`` (``otgym.study.compare_modes``: success, time):
+    the participants tested, the repeated-measures ANOVA (F, its degrees of freedom, p)
+    and each pair's paired t-test (T of a minus b, dof, p uncorrected and Holm-corrected);
+    NaN statistics stay null."""
+    tests = {}
+    for metric, result in stats.items():
+        anova = result.get("anova") or {}
+        tests[metric] = {
+            "n_participants": result.get("n_participants"),
+            "anova": {key: anova.get(key) for key in ("F", "ddof1", "ddof2", "p")},
+            "pairs": [
+                {key: pair.get(key) for key in ("a", "b", "T", "dof", "p_unc", "p_holm")}
+                for pair in result.get("posthoc", [])
+            ],
+        }
+    return tests
+
+
+def _pair(run: dict, metric: str, a: str, b: str) -> dict | None:
+    """The paired test of modes ``a`` and ``b`` on ``metric`` in a fig8.json run, or None."""
+    for pair in ((run.get("tests") or {}).get(metric) or {}).get("pairs", []):
+        if {pair["a"], pair["b"]} == {a, b}:
+            return pair
+    return None
+
+
+def _test_text(pair: dict | None) -> str:
+    """'paired t(7) = -1.20, Holm p = 0.27' from a pair's figures (what is known of them)."""
+    if pair is None or pair.get("p_holm") is None:
+        return "no paired test recorded"
+    t = "" if pair.get("T") is None or pair.get("dof") is None else f"paired t({pair['dof']:g}) = {pair['T']:.2f}, "
+    return f"{t}Holm p = {pair['p_holm']:.2g}"
+
+
+def _item_line(run: dict, item: str, passed: bool) -> str:
+    """One acceptance item with the statistic behind it: (a) and (d) their modes' success
+    means and paired test (a (d) that passes on point estimates with Holm p >= 0.05, or
+    with no test recorded, says it is not shown significant), (b) and (c) the time ratio."""
+    modes = {row["mode"]: row for row in run["modes"]}
+    verdict = "passes" if passed else "**misses**"
+
+    def success(mode):
+        value = modes.get(mode, {}).get("success_mean")
+        return "-" if value is None else f"{100 * value:.1f} %"
+
+    def time_s(mode):
+        return modes.get(mode, {}).get("completion_time_mean_s")
+
+    if item.startswith("(d)") and "manual" in modes and "shared" in modes:
+        pair = _pair(run, "success", "manual", "shared")
+        measured = f"shared {success('shared')} against manual {success('manual')}, {_test_text(pair)}"
+        significant = pair is not None and pair.get("p_holm") is not None and pair["p_holm"] < 0.05
+        if passed and not significant:
+            verdict = (
+                "passes on point estimates only; the difference is **not significant**"
+                if pair is not None and pair.get("p_holm") is not None
+                else "passes on point estimates only; **not tested**"
+            )
+        return f"- {verdict}: {item} ({measured})"
+    if item.startswith("(a)") and "autonomous" in modes and "shared" in modes:
+        pair = _pair(run, "success", "autonomous", "shared")
+        return f"- {verdict}: {item} (autonomous {success('autonomous')} against shared {success('shared')}, {_test_text(pair)})"
+    if item.startswith("(b)") and time_s("manual") and time_s("shared"):
+        return f"- {verdict}: {item} (manual {time_s('manual'):.1f} s against shared {time_s('shared'):.1f} s: {time_s('manual') / time_s('shared'):.2f}x)"
+    if item.startswith("(c)") and time_s("shared") and run.get("route_bound_s"):
+        bound = run["route_bound_s"]
+        return f"- {verdict}: {item} (shared {time_s('shared'):.1f} s against the bound {bound:.1f} s: {time_s('shared') / bound:.2f}x)"
+    return f"- {verdict}: {item}"
 
 
 def fig8_lines(fig8: dict | None) -> list[str]:
     """The shipped Fig. 8 report runs: per run, its command, seed and size, a row per mode
     (obstacles avoided / met with the 95 % Wilson interval, goals, time, trap losses) and
-    each acceptance item passed or missed. Empty when nothing is shipped."""
+    each acceptance item passed or missed with its statistic (``_item_line``). Empty when
+    nothing is shipped."""
     if not fig8 or not fig8.get("runs"):
         return []
     lines = [
@@ -181,7 +258,7 @@ def fig8_lines(fig8: dict | None) -> list[str]:
             )
         lines += [
             "",
-            *(f"- {'passes' if passed else '**misses**'}: {item}" for item, passed in run["items"].items()),
+            *(_item_line(run, item, passed) for item, passed in run["items"].items()),
             "",
         ]
     return lines

@@ -1,6 +1,6 @@
 """Simulated participants whose task-level parameters differ between environments:
 one ``SimulatedParticipants`` per distinct ``ParticipantTask``, each over its own rows of
-the batch, behind the same three calls (``intend``, ``moved``, ``feel``). Lets one batch
+the batch, behind the same two calls (``intend``, ``feel``). Lets one batch
 of trials compare task parameters (``otgym experiment human-sensitivity``) at the cost
 of one batch, not one per value."""
 
@@ -13,10 +13,11 @@ import numpy as np
 from otgym.human.params import HumanParams
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import N_HANDS, SimulatedParticipants
+from otgym.human.percept import DISPLAY_LATENCY_S, Percept, ShownRoute
 
 
 def _rows(obs, rows: np.ndarray):
-    """The observation of the environments ``rows`` only (every array field sliced)."""
+    """The observation or percept of the environments ``rows`` only (every array field sliced)."""
     return type(obs)(
         **{name: value[rows] if isinstance(value, np.ndarray) else value for name, value in vars(obs).items()}
     )
@@ -34,12 +35,13 @@ class ParticipantGroups:
         params: Sequence[HumanParams],
         tick_s: float,
         seed: int,
-        navigator,
+        route: ShownRoute,
         retarget,
         feedback,
         bend_distance_um: float,
         tasks: Sequence[ParticipantTask],
         wall_distance_um=None,
+        display_latency_s: float = DISPLAY_LATENCY_S,
     ):
         if len(tasks) != len(params):
             raise ValueError(f"{len(tasks)} participant tasks for {len(params)} participants")
@@ -52,27 +54,22 @@ class ParticipantGroups:
                 [params[i] for i in rows],
                 tick_s,
                 seed + g,
-                navigator,
+                route,
                 retarget,
                 feedback,
                 bend_distance_um,
                 task,
                 wall_distance_um,
+                display_latency_s,
             )
             self.groups.append((rows, people))
 
-    def intend(self, obs, mode: np.ndarray, alpha: np.ndarray, robot_increment_um: np.ndarray, trap_robot):
-        """dP_h (E, 2 hands, 2) um: each group's ``intend`` on its rows."""
+    def intend(self, percept: Percept, trap_robot):
+        """dP_h (E, 2 hands, 2) um: each group's ``intend`` on its rows of ``percept``."""
         out = np.zeros((self.n_env, N_HANDS, 2))
         for rows, people in self.groups:
-            out[rows] = people.intend(_rows(obs, rows), mode[rows], alpha[rows], robot_increment_um[rows], trap_robot)
+            out[rows] = people.intend(_rows(percept, rows), trap_robot)
         return out
-
-    def moved(self, trap_increment_um: np.ndarray, human_weight: np.ndarray, trap_robot) -> None:
-        """Each group's efference copy (``SimulatedParticipants.moved``) on its rows."""
-        increments, weight = np.asarray(trap_increment_um), np.asarray(human_weight)
-        for rows, people in self.groups:
-            people.moved(increments[rows], weight[rows], trap_robot)
 
     def feel(self, obs, trap_force_pn: np.ndarray, trap_robot) -> None:
         """Each group's stylus force (``SimulatedParticipants.feel``) on its rows."""

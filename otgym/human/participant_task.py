@@ -50,6 +50,12 @@ class ParticipantTask:
     along_angle_deg: float = 45.0
     side_step_resolution_um: float = 0.5
     squeeze_um: float = 1.0
+    shared_lead_um: float = 2.0
+    """Shared mode, acting on the cue: the place the person intends for the robots moves
+    on at the intended velocity, but at most this far from where they perceive the
+    robots (a place that ran away while the robots could not follow would make the hands
+    jump when they could). Assumed (reasoning, no source): range 1-5 um, of the order of
+    the grip's own tolerances (``open_gap_um``) and below ``lookahead_um``."""
     bimanual: bool = True
     """True: one stylus per robot (the paper's set-up). False: one stylus moves all four
     traps as a rigid formation (the grip cannot be squeezed by the hands)."""

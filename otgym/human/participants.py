@@ -7,13 +7,20 @@ level: where the person wants each robot to be when a sub-movement ends. Paramet
 ``otgym.human.participant_task.ParticipantTask``; obstacle avoidance:
 ``otgym.human.avoidance``.
 
-Perception. The person sees the scene one reaction time late and knows what they have
-commanded since (an efference copy: the motor system predicts the current state from the
-delayed one and its own commands, a Smith predictor; Miall, Weir, Wolpert & Stein, J.
-Motor Behav. 25, 203, 1993): the traps' commanded motion since what is seen, plus the
-planned motion still on its way through the arm's lag and the input filter (forgotten
-over ``pending_memory_s``: motion the retargeting's dead band swallowed never arrives).
-Each sub-movement is a reach to a place, re-planned at the next correction.
+Perception. The person perceives only the window (``otgym.human.percept.Percept``: the
+scene as drawn, with the window's latency, and the cue panel; never the autonomy's
+command), the stylus force, and their own hand. They see the window one reaction time
+late and know what their own hand has done since (an efference copy: the motor system
+predicts the current state from the delayed one and its own commands, a Smith
+predictor; Miall, Weir, Wolpert & Stein, J. Motor Behav. 25, 203, 1993): their hand's
+trap motion since what is seen, weighted by the share alpha the panel shows (1 in
+manual mode), plus the planned motion still on its way through the arm's lag and the
+input filter (forgotten over ``pending_memory_s``: motion the retargeting's dead band
+swallowed never arrives). The person has adapted to the window's latency (their own
+motion is compared with the picture of the same moment: **assumed**, as after a
+practice block). Motion of the robots that their hand does not explain (in shared mode,
+the autonomy's part, as seen over a glimpse) is extrapolated like the obstacles' and
+the cell's. Each sub-movement is a reach to a place, re-planned at the next correction.
 
 Places, per phase:
 
@@ -35,11 +42,17 @@ Places, per phase:
 * CARRY: the places move along the route at the intended assembly speed,
   ``carry_speed_um_s`` in manual mode, or the velocity ``choose_velocity`` picks when an
   obstacle threatens.
-* Shared mode: the hand rests until the window's fine-tune cue shows (alpha at least
-  ``otgym.task.task.FINE_TUNE_ALPHA``, 0.4, the one constant the window's cue uses), then
-  commands dP_h = (dP_want - (1 - alpha) dP_r) / alpha within the trap-speed clamp, at
-  the autonomy's pace at most its cruise speed
-  (docs/decisions/0005-participant-shared-mode-effort.md).
+* Shared mode: the hand rests until the fine-tune prompt is seen (the window shows it
+  from alpha ``otgym.task.task.FINE_TUNE_ALPHA``, 0.4), watching the pace at which the
+  robots carry the cell (the pace intended once acting). Then the hand corrects by
+  feedback: each sub-movement reaches, at the manual mapping, for the difference
+  between where the person wants the robots when it ends (a place moving on at the
+  intended velocity, at most ``shared_lead_um`` from the robots as perceived) and where
+  they expect them (seen, plus their own motion since, plus the unexplained motion
+  extrapolated). Its
+  effect on the traps is alpha times that; what is left is corrected at the next
+  sub-movement. The blend is never inverted: no division by alpha, no use of the
+  autonomy's command (docs/decisions/0027-participant-perceives-the-window.md).
 
 Stylus units: chip um -> stylus mm through the retargeting scale (tau) and plane; the
 hands feel the feedback force (``otgym.teleop.feedback.chip_force_n`` on the trap forces
@@ -54,8 +67,9 @@ from otgym.human.avoidance import choose_velocity, unit
 from otgym.human.motor import HumanMotor
 from otgym.human.params import HumanParams
 from otgym.human.participant_task import ParticipantTask
+from otgym.human.percept import DISPLAY_LATENCY_S, Percept, ShownRoute, latency_ticks
 from otgym.task.geometry import rotate
-from otgym.task.task import APPROACH, CARRY, FINE_TUNE_ALPHA
+from otgym.task.task import APPROACH, CARRY
 from otgym.teleop.feedback import FeedbackConfig, chip_force_n
 from otgym.teleop.retarget import BatchRetargeter, RetargetConfig
 
@@ -80,28 +94,30 @@ def robots_heading(traps_um, offsets_um, trap_robot):
 class SimulatedParticipants:
     """E simulated participants (one per environment), each with two hands.
 
-    Per tick: ``intend(obs, ...)`` gives the hands' trap increments dP_h, then
-    ``moved(dP_s, human_weight)`` tells the participants what the traps were commanded
-    to do (for their efference copy; ``human_weight`` (E,) is tau * alpha, the share of
-    dP_h in dP_s) and ``feel(obs, ...)`` what their hands feel next."""
+    Per tick: ``intend(percept, trap_robot)`` gives the hands' trap increments dP_h from
+    what the window shows (``otgym.human.percept.Percept``) and ``feel(obs, ...)`` the
+    stylus force each hand feels next. ``route``: the route and the robots' shape as the
+    window shows them; ``display_latency_s``: the window's latency, to which the person
+    has adapted."""
 
     def __init__(
         self,
         params: list[HumanParams],
         tick_s: float,
         seed: int,
-        navigator,
+        route: ShownRoute,
         retarget: RetargetConfig,
         feedback: FeedbackConfig,
         bend_distance_um: float,
         task: ParticipantTask = ParticipantTask(),
         wall_distance_um=None,
+        display_latency_s: float = DISPLAY_LATENCY_S,
     ):
         self.n_env = len(params)
         self.wall_distance_um = wall_distance_um
         """``(n, 2) um -> (n,)`` distance to the chip's walls, or None (no walls)."""
         self.tick_s = tick_s
-        self.navigator = navigator
+        self.route = route
         self.task = task
         self.retarget_config = retarget
         self.feedback_config = feedback
@@ -111,13 +127,17 @@ class SimulatedParticipants:
             hands, 1.0 / tick_s, np.random.default_rng(seed), hands_per_person=N_HANDS if task.bimanual else 1
         )
         self.retargeter = BatchRetargeter(retarget, 1.0 / tick_s, self.n_env * N_HANDS)
-        self.delay_s = self.motor.delay_ticks[::N_HANDS] * tick_s
+        self._latency_ticks = latency_ticks(display_latency_s, tick_s)
+        self.delay_s = (self.motor.delay_ticks[::N_HANDS] + self._latency_ticks) * tick_s
+        """(E,) how old what the person perceives is: their reaction delay plus the window's latency."""
         self._glimpses = max(1, int(round(task.glimpse_s / tick_s)))
         self._history: list[np.ndarray] = []
-        self._moved_um: np.ndarray | None = None
-        self._unexecuted_um = np.zeros((self.n_env, N_HANDS, 2))
+        self._own_um: np.ndarray | None = None  # the hands' own trap motion, summed (efference copy)
+        self._own_shown: list[np.ndarray] = []  # the same, as old as the window's picture
         self._pending_um = np.zeros((self.n_env, N_HANDS, 2))
         self._pending_keep = float(np.exp(-tick_s / task.pending_memory_s))
+        self._seen_pace_um_s = np.full(self.n_env, task.carry_speed_um_s)  # the robots' pace, watched
+        self._intended_um: np.ndarray | None = None  # shared mode: where the person wants the formation's centre
         self.feedback_n = np.zeros((self.n_env, N_HANDS, 2))
         self.closing = np.zeros(self.n_env, bool)
 
@@ -125,7 +145,7 @@ class SimulatedParticipants:
         """Each trap's place (E, T, 2): around the cell at the robots' present orientation,
         closed or held open (module docstring); updates ``closing``."""
         task = self.task
-        offsets = np.asarray(self.navigator.offsets_um, float)
+        offsets = np.asarray(self.route.offsets_um, float)
         heading = robots_heading(traps_now, offsets, trap_robot)
         centre = (traps_now - rotate(offsets[None], heading)).mean(axis=1)  # the formation centre the traps imply
         along = np.abs(np.sum((cell_now - centre) * np.stack([np.cos(heading), np.sin(heading)], axis=-1), axis=-1))
@@ -138,6 +158,23 @@ class SimulatedParticipants:
         opened = offsets + np.where(closing[:, None, None], 0.0, task.open_gap_um * side[None, :, None] * [0.0, 1.0])
         about = np.where(((phase == CARRY) & closing)[:, None], centre, cell_now)
         return about[:, None] + rotate(opened, heading)
+
+    def _intended_places(self, places, want, acting):
+        """Shared mode, acting (``acting`` (E,)): the grip places (E, T, 2) about the
+        place the person intends for the formation, which moves on at the intended
+        velocity ``want`` (E, 2) from where they perceived the robots when the cue showed,
+        at most ``shared_lead_um`` from where they perceive them now; elsewhere
+        ``places`` as they are (about the robots as perceived)."""
+        perceived = places.mean(axis=1)
+        if self._intended_um is None:
+            self._intended_um = perceived.copy()
+        intended = np.where(acting[:, None], self._intended_um + want * self.tick_s, perceived)
+        lead = intended - perceived
+        lead = (
+            lead * np.minimum(1.0, self.task.shared_lead_um / np.maximum(np.linalg.norm(lead, axis=-1), 1e-12))[:, None]
+        )
+        self._intended_um = perceived + lead
+        return places + np.where(acting[:, None, None], lead[:, None], 0.0)
 
     def _guard_closing(self, reach_um, want, duration, traps_now, places, phase, trap_robot):
         """While approaching, each hand closes its robot on the cell (moves it toward the
@@ -192,28 +229,28 @@ class SimulatedParticipants:
         free_steps = np.where(blocked.any(axis=-1), np.argmax(blocked, axis=-1) - 1, len(steps_um) - 1)
         return steps_um[np.maximum(free_steps, 0)]
 
-    def moved(self, trap_increment_um: np.ndarray, human_weight: np.ndarray, trap_robot) -> None:
-        """The traps' commanded increments (E, T, 2) um this tick, plus the planned hand
-        motion not yet executed (weighted by ``human_weight`` (E,)): the efference copy."""
-        weight = np.asarray(human_weight, float)[:, None, None]
-        self._pending_um = self._pending_um * self._pending_keep + weight * self._unexecuted_um
-        self._moved_um = self._moved_um + np.asarray(trap_increment_um, float)
-
-    def _perceive(self, obs, trap_robot):
-        """What each participant sees now (one reaction time late): cell, traps,
-        obstacles, the cell's arc and phase, their drift over a glimpse, and the trap
-        motion commanded since what is seen."""
-        if self._moved_um is None:
-            self._moved_um = np.zeros_like(obs.trap_xy_um)
-        n_traps, n_obs = obs.trap_xy_um.shape[1], obs.obstacle_xy_um.shape[1]
+    def _perceive(self, percept: Percept, trap_robot):
+        """What each participant perceives now (one reaction time after the window showed
+        it): cell, traps, obstacles, the cell's arc and phase, the fine-tune prompt and
+        alpha as shown; the drift of the cell, the obstacles and the robots' motion their
+        own hand does not explain, over a glimpse; their own trap motion since what is
+        seen."""
+        n_traps, n_obs = percept.trap_xy_um.shape[1], percept.obstacle_xy_um.shape[1]
+        if self._own_um is None:
+            self._own_um = np.zeros((self.n_env, n_traps, 2))
+        self._own_shown.append(self._own_um.copy())
+        if len(self._own_shown) > self._latency_ticks + 1:
+            self._own_shown.pop(0)
         now = np.concatenate(
             [
-                obs.cell_xy_um,
-                obs.trap_xy_um.reshape(self.n_env, -1),
-                obs.obstacle_xy_um.reshape(self.n_env, -1),
-                obs.cell_arc_um[:, None],
-                obs.phase[:, None].astype(float),
-                self._moved_um.reshape(self.n_env, -1),
+                percept.cell_xy_um,
+                percept.trap_xy_um.reshape(self.n_env, -1),
+                percept.obstacle_xy_um.reshape(self.n_env, -1),
+                percept.cell_arc_um[:, None],
+                percept.phase[:, None].astype(float),
+                self._own_shown[0].reshape(self.n_env, -1),  # own motion at the picture's moment
+                percept.alpha_shown[:, None],
+                percept.fine_tune_shown[:, None].astype(float),
             ],
             axis=1,
         )
@@ -221,42 +258,52 @@ class SimulatedParticipants:
         self._history.append(seen)
         if len(self._history) > self._glimpses + 1:
             self._history.pop(0)
-        split = np.cumsum([2, 2 * n_traps, 2 * n_obs, 1, 1])
-        cell, traps, obstacles, arc, phase, moved = np.split(seen, split, axis=1)
+        split = np.cumsum([2, 2 * n_traps, 2 * n_obs, 1, 1, 2 * n_traps, 1])
+        cell, traps, obstacles, arc, phase, own, alpha, prompt = np.split(seen, split, axis=1)
         earlier = np.split(self._history[0], split, axis=1)
         elapsed = max(len(self._history) - 1, 1) * self.tick_s
         obstacles = obstacles.reshape(self.n_env, n_obs, 2)
-        velocity = (obstacles - earlier[2].reshape(self.n_env, n_obs, 2)) / elapsed
-        cell_velocity = (cell - earlier[0]) / elapsed
-        since_um = self._moved_um - moved.reshape(self.n_env, n_traps, 2) + self._pending_um[:, trap_robot]
-        return (
-            cell,
-            cell_velocity,
-            traps.reshape(self.n_env, n_traps, 2),
-            obstacles,
-            velocity,
-            arc[:, 0],
-            phase[:, 0].round().astype(int),
-            since_um,
+        traps = traps.reshape(self.n_env, n_traps, 2)
+        own = own.reshape(self.n_env, n_traps, 2)
+        unexplained = (
+            (traps - earlier[1].reshape(traps.shape)) - (own - earlier[5].reshape(own.shape))
+        ) / elapsed  # the robots' seen motion less the hand's own
+        return dict(
+            cell=cell,
+            cell_velocity=(cell - earlier[0]) / elapsed,
+            traps=traps,
+            obstacles=obstacles,
+            velocity=(obstacles - earlier[2].reshape(self.n_env, n_obs, 2)) / elapsed,
+            arc=arc[:, 0],
+            phase=phase[:, 0].round().astype(int),
+            since_um=self._own_um - own + self._pending_um[:, trap_robot],
+            unexplained_um_s=unexplained,
+            alpha=np.clip(alpha[:, 0], 0.0, 1.0),
+            prompt=prompt[:, 0] > 0.5,
         )
 
-    def intend(self, obs, mode: np.ndarray, alpha: np.ndarray, robot_increment_um: np.ndarray, trap_robot):
-        """Plan the hands' sub-movements (those due) and return dP_h (E, 2 hands, 2) um for this tick."""
+    def intend(self, percept: Percept, trap_robot):
+        """Plan the hands' sub-movements (those due) from what the window shows
+        (``percept``) and return dP_h (E, 2 hands, 2) um for this tick."""
         task = self.task
-        cell, cell_velocity, traps, obstacles, velocity, arc, phase, since_um = self._perceive(obs, trap_robot)
+        seen = self._perceive(percept, trap_robot)
+        cell, cell_velocity, obstacles, velocity = (seen[k] for k in ("cell", "cell_velocity", "obstacles", "velocity"))
+        phase, since_um = seen["phase"], seen["since_um"]
         delay = self.delay_s[:, None]
         carrying = (phase == CARRY)[:, None]
-        traps_now = traps + since_um
-        cell_now = np.where(carrying, cell + since_um.mean(axis=1), cell + cell_velocity * delay)
-        obstacles_now = obstacles + velocity * delay[:, :, None]
-        route_direction = unit(self.navigator.route_point_at(arc + task.lookahead_um) - cell_now)
-        autonomy_um_s = robot_increment_um / self.tick_s  # (E, T, 2)
-        shared = mode == "shared"
-        pace = np.where(
-            shared,
-            np.minimum(np.linalg.norm(autonomy_um_s.mean(axis=1), axis=-1), self.navigator.cruise_speed_um_s),
-            task.carry_speed_um_s,
+        shared = np.asarray(percept.mode) == "shared"
+        acting = shared & carrying[:, 0] & seen["prompt"]  # the fine-tune prompt seen: the hands act
+        # the robots' motion the hands do not explain (the autonomy's part, as seen), extrapolated
+        other_um_s = np.where(shared[:, None, None], seen["unexplained_um_s"], 0.0)
+        traps_now = seen["traps"] + since_um + other_um_s * delay[:, :, None]
+        cell_now = np.where(
+            carrying, cell + since_um.mean(axis=1) + other_um_s.mean(axis=1) * delay, cell + cell_velocity * delay
         )
+        obstacles_now = obstacles + velocity * delay[:, :, None]
+        route_direction = unit(self.route.point_at(seen["arc"] + task.lookahead_um) - cell_now)
+        watching = shared & carrying[:, 0] & ~seen["prompt"]  # the hand rests: the pace the robots keep
+        self._seen_pace_um_s = np.where(watching, np.linalg.norm(cell_velocity, axis=-1), self._seen_pace_um_s)
+        pace = np.where(shared, self._seen_pace_um_s, task.carry_speed_um_s)
         want = np.where(
             carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH, cell_velocity, 0.0)
         )
@@ -264,6 +311,7 @@ class SimulatedParticipants:
         chosen, _ = choose_velocity(cell_now, obstacles_now, velocity, want, route_direction, task, room)
         want = np.where(carrying, chosen, want)
         places = self._grip_places(cell_now, traps_now, phase, trap_robot)
+        places = self._intended_places(places, want, acting)
         error = np.stack([(places - traps_now)[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
         if not task.bimanual:  # one hand moves the formation: only the common part of the correction
             error = np.repeat(error.mean(axis=1, keepdims=True), N_HANDS, axis=1)
@@ -274,27 +322,26 @@ class SimulatedParticipants:
             np.linalg.norm(error, axis=-1).ravel() / scale, tolerance_mm, limit_mm_s
         ).reshape(self.n_env, N_HANDS)
         # where the hands go in this sub-movement: the places where they will be when it
-        # ends, kept off the walls
+        # ends, kept off the walls, less the motion the robots make without the hands
         ahead = places + want[:, None] * duration[:, trap_robot, None]  # (E, T, 2)
         off_wall = self._off_walls(ahead, (phase == CARRY) & self.closing, trap_robot) - ahead
 
         def per_hand(traps):
             return np.stack([traps[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
 
+        drift = per_hand(other_um_s)  # (E, hands, 2) um/s
         reach_um = per_hand(ahead - traps_now)
         duration = self.motor.submovement_duration_s(
-            np.linalg.norm(reach_um + per_hand(off_wall), axis=-1).ravel() / scale, tolerance_mm, limit_mm_s
+            np.linalg.norm(reach_um - drift * duration[..., None] + per_hand(off_wall), axis=-1).ravel() / scale,
+            tolerance_mm,
+            limit_mm_s,
         ).reshape(self.n_env, N_HANDS)
         reach_um = self._guard_closing(reach_um, want, duration, traps_now, places, phase, trap_robot)
-        reach_um = reach_um + per_hand(off_wall)  # a wall is escaped at once, not closed on carefully
+        reach_um = reach_um + per_hand(off_wall) - drift * duration[..., None]  # a wall is escaped at once
         if not task.bimanual:
             reach_um = np.repeat(reach_um.mean(axis=1, keepdims=True), N_HANDS, axis=1)
         hand_um_s = reach_um / duration[..., None]
-        robot_hand = np.stack([autonomy_um_s[:, trap_robot == r].mean(axis=1) for r in range(N_HANDS)], axis=1)
-        safe_alpha = np.maximum(alpha, 1e-3)[:, None, None]
-        override = (hand_um_s - (1 - safe_alpha) * robot_hand) / safe_alpha
-        cue = carrying[:, 0] & (alpha >= FINE_TUNE_ALPHA)
-        hand_um_s = np.where(shared[:, None, None], np.where(cue[:, None, None], override, 0.0), hand_um_s)
+        hand_um_s = np.where(shared[:, None, None] & ~acting[:, None, None], 0.0, hand_um_s)
         planar_mm_s = (hand_um_s * np.array([1.0, -1.0]) / scale).reshape(-1, 2)  # chip -> stylus x, y
         speed_mm_s = np.maximum(np.linalg.norm(planar_mm_s, axis=-1), 1e-6)
         self.motor.plan(
@@ -307,7 +354,10 @@ class SimulatedParticipants:
         increments = self.retargeter(stylus).reshape(self.n_env, N_HANDS, 2)
         if not task.bimanual:
             increments, planned_um = (np.repeat(a[:, :1], N_HANDS, axis=1) for a in (increments, planned_um))
-        self._unexecuted_um = planned_um - increments
+        # efference copy: the hands' own trap motion, weighted by the share the panel shows
+        weight = seen["alpha"][:, None, None]
+        self._pending_um = self._pending_um * self._pending_keep + weight * (planned_um - increments)
+        self._own_um = self._own_um + weight * increments[:, trap_robot]
         return increments
 
     def feel(self, obs, trap_force_pn: np.ndarray, trap_robot):

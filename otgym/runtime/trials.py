@@ -36,7 +36,8 @@ from otgym.human.params import HumanParams
 from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
-from otgym.runtime.tick import control_tick
+from otgym.human.percept import DISPLAY_LATENCY_S, ShownRoute, WindowDisplay
+from otgym.runtime.tick import arbitration_modes, control_tick, mode_alpha
 from otgym.runtime.trace import TickView
 from otgym.shared import MODES, ArbitrationConfig
 from otgym.task.scenario import Scenario
@@ -128,6 +129,7 @@ def run_trials(
     recorder: Callable[[TickView], None] | None = None,
     participant_tasks: Sequence[ParticipantTask] | None = None,
     speed_policy=None,
+    display_latency_s: float = DISPLAY_LATENCY_S,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route``, ``mpc`` or ``rl``). The
@@ -143,7 +145,10 @@ def run_trials(
     participant its own task parameters instead of ``participant_task``
     (``otgym.human.participant_groups``). ``rl`` trials and, with
     ``shared_autonomy="rl"``, shared ones get the learned-speed navigator's dP_r
-    (``speed_policy``, default the shipped ``SPEED_POLICY``)."""
+    (``speed_policy``, default the shipped ``SPEED_POLICY``). The participants perceive
+    only the window (``otgym.human.percept``): after each tick it shows the scene, the
+    mode and the alpha the tick used, ``display_latency_s`` late; they never get the
+    autonomy's dP_r."""
     if not specs:
         raise ValueError("no trials to run")
     if recorder is not None and participant_tasks is not None:
@@ -186,15 +191,18 @@ def run_trials(
         [participants[s.participant] for s in specs],
         tick,
         seed,
-        navigator,
+        ShownRoute(np.asarray(task.route_um), np.asarray(task.route_arc_um), np.asarray(task.offsets_um)),
         retarget,
         feedback,
         law.escape_distance,
         participant_task if participant_tasks is None else list(participant_tasks),
         task.wall_distance_um,
+        display_latency_s,
     )
     max_step = retarget.max_trap_speed_um_s * tick
     obs = state.observation
+    display = WindowDisplay(tick, display_latency_s)  # what the participants see: the window, late
+    display.show(obs, arbitration_modes(modes), mode_alpha(modes, obs.nearest_obstacle_gap_um, arbitration))
     total_ticks = int(np.ceil(task.config.time_limit_s / tick))
     for index in range(total_ticks):
         robot = navigator.increments(obs)
@@ -206,14 +214,14 @@ def run_trials(
             obs,
             modes,
             robot,
-            lambda modes, alpha: people.intend(obs, modes, alpha, robot, task.trap_robot)[:, task.trap_robot],
+            lambda modes, alpha: people.intend(display.percept(), task.trap_robot)[:, task.trap_robot],
             arbitration,
             max_step,
         )
         key, step_key = jax.random.split(key)
         seen = obs
         obs = task.step(state, command.shared_um, step_key, command.alpha)
-        people.moved(command.shared_um, arbitration.tau * command.alpha, task.trap_robot)
+        display.show(obs, command.modes, command.alpha)
         people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
         if recorder is not None:
             lapsed = people.motor.lapsed.reshape(len(specs), -1).any(axis=1)

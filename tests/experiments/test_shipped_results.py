@@ -32,6 +32,22 @@ def write_run(folder, *, with_command=True):
             }
         )
     )
+    (folder / "stats.json").write_text(
+        json.dumps(
+            {
+                "success": {
+                    "metric": "success",
+                    "n_participants": 8,
+                    "anova": {"F": 310.0, "ddof1": 2, "ddof2": 14, "p": 1e-10, "eps": 0.6},
+                    "posthoc": [
+                        {"a": "manual", "b": "shared", "T": 1.21, "dof": 7.0, "p_unc": 0.27, "p_holm": 0.27},
+                        {"a": "autonomous", "b": "shared", "T": -95.8, "dof": 7.0, "p_unc": 4e-12, "p_holm": 1.1e-11},
+                    ],
+                },
+                "time": {"metric": "time", "n_participants": 8, "anova": {"F": None}, "posthoc": []},
+            }
+        )
+    )
     if with_command:
         (folder / "command.txt").write_text("otgym experiment shared-control --out DIR\n")
 
@@ -51,11 +67,46 @@ def test_a_run_folder_becomes_a_fig8_run_and_its_paragraph_quotes_every_figure(t
     assert "held-out seed 7500, 8 participants x 8 trials per mode" in text
     assert "| manual | 191 / 203 = 94.1 % [90.0, 96.6] | 94.5 ± 12.0 % | 58 of 64 | 150.8 ± 12.5 | 6 |" in text
     assert "| autonomous | - |" in text
-    assert "- passes: (b) manual time >= 1.8x shared time" in text
-    assert "- **misses**: (d) shared avoids at least as many as manual" in text
+    assert "- passes: (b) manual time >= 1.8x shared time (manual 150.8 s against shared 78.4 s: 1.92x)" in text
+    assert (
+        "- **misses**: (d) shared avoids at least as many as manual "
+        "(shared 92.7 % against manual 94.5 %, paired t(7) = 1.21, Holm p = 0.27)" in text
+    )
+    assert run["tests"]["success"]["pairs"][0]["p_holm"] == 0.27  # the p-values travel into fig8.json
+    assert run["tests"]["success"]["anova"] == {"F": 310.0, "ddof1": 2, "ddof2": 14, "p": 1e-10}
     run["seed_status"] = "development seed"
     assert "development seed 7500" in "\n".join(sr.fig8_lines({"runs": [run]}))
     assert sr.fig8_lines(None) == [] and sr.fig8_lines({"runs": []}) == []
+
+
+def test_an_item_d_that_passes_without_significance_is_not_printed_as_a_bare_pass(tmp_path):
+    """(d) passed on point estimates with Holm p = 0.27: the line gives the statistic and
+    says the difference is not significant; a significant one reads as a plain pass, and
+    a run without recorded tests says (d) was not tested."""
+    write_run(tmp_path / "route")
+    run = sr.collect_fig8_run("route autonomy", tmp_path / "route")
+    run["items"] = {"(d) shared avoids at least as many as manual": True}
+    text = "\n".join(sr.fig8_lines({"runs": [run]}))
+    assert "- passes: (d)" not in text
+    assert (
+        "- passes on point estimates only; the difference is **not significant**: (d) shared avoids at least "
+        "as many as manual (shared 92.7 % against manual 94.5 %, paired t(7) = 1.21, Holm p = 0.27)" in text
+    )
+    run["tests"]["success"]["pairs"][0]["p_holm"] = 0.01
+    assert "- passes: (d) shared avoids at least as many as manual (" in "\n".join(sr.fig8_lines({"runs": [run]}))
+    run["tests"] = None
+    text = "\n".join(sr.fig8_lines({"runs": [run]}))
+    assert "passes on point estimates only; **not tested**: (d)" in text and "no paired test recorded" in text
+
+
+def test_the_shipped_fig8_gives_item_d_its_p_value():
+    """The shipped report run of the route follower carries (d)'s Holm p (0.27) and the
+    demo's report says it is not significant."""
+    fig8 = sr.shipped_fig8()
+    route = fig8["runs"][0]
+    assert route["items"]["(d) shared avoids at least as many as manual"] is True
+    text = "\n".join(sr.fig8_lines(fig8))
+    assert "Holm p = 0.27)" in text and "**not significant**: (d)" in text
 
 
 def test_a_folder_without_its_command_is_refused_by_name(tmp_path):

@@ -4,17 +4,22 @@ held or moved by hand), so each test isolates one decision of the model.
 
 "Steady" participants have every motor error switched off (no extent, direction or
 signal-dependent noise, no tremor or drift, no lapses): their motion is then the model's
-intention through its delays, lags and the retargeting filter, deterministic."""
+intention through its delays, lags and the retargeting filter, deterministic. The tests
+show them the scene directly (``percept_from_window`` of the test's observation, no
+window latency), so they are built with ``display_latency_s=0``."""
+
+import ast
+import inspect
 
 import numpy as np
 import pytest
 
-from otgym.autonomy.navigator import RouteNavigator
 from otgym.human.avoidance import choose_velocity, miss_um
 from otgym.human.params import HumanParams, sample_population
 from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
+from otgym.human.percept import PERCEPT_FIELDS, ShownRoute, percept_from_window
 from otgym.runtime.trials import TASK_RETARGET
 from otgym.task.task import APPROACH, CARRY, FINE_TUNE_ALPHA, Observation
 from otgym.teleop.feedback import FeedbackConfig
@@ -34,15 +39,20 @@ STEADY = HumanParams(
 TASK = ParticipantTask()
 
 
-def navigator():
+def shown_route():
     route = np.stack([np.linspace(0.0, 300.0, 2401), np.zeros(2401)], axis=1)
-    return RouteNavigator(route, route[:, 0].copy(), OFFSETS_UM, TICK_S)
+    return ShownRoute(route, route[:, 0].copy(), OFFSETS_UM)
 
 
 def people(params, seed=0, task=TASK, wall_distance_um=None):
     return SimulatedParticipants(
-        params, TICK_S, seed, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, task, wall_distance_um
+        params, TICK_S, seed, shown_route(), TASK_RETARGET, FeedbackConfig(), 0.6, task, wall_distance_um, 0.0
     )
+
+
+def look(participants, obs, modes, alpha):
+    """The participants' step on the scene ``obs`` as the window would show it."""
+    return participants.intend(percept_from_window(obs, np.asarray(modes), alpha), TRAP_ROBOT)
 
 
 def wall_below(y_um):
@@ -80,9 +90,8 @@ def drive(participants, obs, modes, ticks, alpha=None, autonomy=None):
     autonomy = np.zeros((n_env, 4, 2)) if autonomy is None else autonomy
     total = np.zeros((n_env, 2, 2))
     for _ in range(ticks):
-        hands = participants.intend(obs, np.asarray(modes), alpha, autonomy, TRAP_ROBOT)
+        hands = look(participants, obs, modes, alpha)
         command = alpha[:, None, None] * hands[:, TRAP_ROBOT] + (1 - alpha[:, None, None]) * autonomy
-        participants.moved(command, alpha, TRAP_ROBOT)
         obs.trap_xy_um = obs.trap_xy_um + command
         carried = (obs.phase == CARRY)[:, None]
         obs.cell_xy_um = obs.cell_xy_um + np.where(carried, command.mean(axis=1), 0.0)
@@ -261,26 +270,32 @@ def test_the_person_side_steps_an_obstacle_that_stands_in_the_corridor():
     assert chosen[1, 0] <= 1.0 + 1e-9, chosen[1]  # slowed, held or backed, not side-stepping past it
 
 
-def test_shared_mode_rests_until_the_cue_then_overrides_the_autonomy():
+def crossing_threat(participants, alpha, ticks=60):
+    """Shared mode, the autonomy carrying along +x at 5 um/s, an obstacle 12 um ahead
+    and 12 um to the side crossing the route at 2 um/s; the traps and the gripped cell
+    move by the blend at ``alpha`` (the scene the window shows). Returns the summed hand
+    increments (1, 2 hands, 2)."""
+    cell = np.array([[10.0, 0.0]])
+    autonomy = np.full((1, 4, 2), [5.0 * TICK_S, 0.0])
+    threat = scene(cell, cell[:, None] + OFFSETS_UM, CARRY, obstacle_xy=((22.0, -12.0),))
+    hands = np.zeros((1, 2, 2))
+    for tick in range(ticks):
+        threat.obstacle_xy_um = np.array([[[22.0, -12.0 + 2.0 * TICK_S * tick]]])
+        hands += drive(participants, threat, ["shared"], 1, alpha=alpha, autonomy=autonomy)
+    return hands
+
+
+def test_shared_mode_rests_until_the_cue_then_works_against_the_autonomy():
     """Shared mode, the autonomy carrying along +x at 5 um/s: with no obstacle the
     steady participant's hands stay still (they let the autonomy drive); with an
-    obstacle about to cross ahead and alpha 0.5 (the cue), they push back against the
-    autonomy (-x), so that the blend slows or stops the assembly."""
-    cell = np.array([[10.0, 0.0], [10.0, 0.0]])
-    traps = cell[:, None] + OFFSETS_UM
-    autonomy = np.full((2, 4, 2), [5.0 * TICK_S, 0.0])
-    calm = scene(cell[:1], traps[:1], CARRY)
-    rest = drive(people([STEADY]), calm, ["shared"], 50, alpha=np.array([0.1]), autonomy=autonomy[:1])
+    obstacle about to cross ahead and alpha 0.5 (the cue shown), they push back against
+    the motion they see (-x), so that the blend slows the assembly."""
+    cell = np.array([[10.0, 0.0]])
+    autonomy = np.full((1, 4, 2), [5.0 * TICK_S, 0.0])
+    calm = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
+    rest = drive(people([STEADY]), calm, ["shared"], 50, alpha=np.array([0.1]), autonomy=autonomy)
     np.testing.assert_array_equal(rest, 0.0)
-    threat = scene(cell[1:], traps[1:], CARRY, obstacle_xy=((22.0, -12.0),))
-    threat.obstacle_xy_um = np.array([[[22.0, -12.0]]])
-    participants = people([STEADY])
-    hands = np.zeros((1, 2, 2))
-    for tick in range(60):  # the obstacle moves up across the route at 2 um/s
-        threat.obstacle_xy_um = np.array([[[22.0, -12.0 + 2.0 * TICK_S * tick]]])
-        step = participants.intend(threat, np.array(["shared"]), np.array([0.5]), autonomy[1:], TRAP_ROBOT)
-        participants.moved(0.5 * step[:, TRAP_ROBOT] + 0.5 * autonomy[1:], np.array([0.5]), TRAP_ROBOT)
-        hands += step
+    hands = crossing_threat(people([STEADY]), np.array([0.5]))
     assert np.all(hands[0, :, 0] < -0.5), hands
 
 
@@ -291,36 +306,109 @@ def test_participants_take_over_exactly_where_the_window_cue_shows(below):
     hands rest (exactly still); at the threshold (the cue shown) they push back."""
     alpha = np.array([FINE_TUNE_ALPHA - 0.01 if below else FINE_TUNE_ALPHA])
     assert cues.fine_tune_prompt(float(alpha[0]), "shared") is not below
-    cell = np.array([[10.0, 0.0]])
-    autonomy = np.full((1, 4, 2), [5.0 * TICK_S, 0.0])
-    threat = scene(cell, cell[:, None] + OFFSETS_UM, CARRY, obstacle_xy=((22.0, -12.0),))
-    participants = people([STEADY])
-    hands = np.zeros((1, 2, 2))
-    for tick in range(60):
-        threat.obstacle_xy_um = np.array([[[22.0, -12.0 + 2.0 * TICK_S * tick]]])
-        step = participants.intend(threat, np.array(["shared"]), alpha, autonomy, TRAP_ROBOT)
-        participants.moved(alpha[0] * step[:, TRAP_ROBOT] + (1 - alpha[0]) * autonomy, alpha, TRAP_ROBOT)
-        hands += step
+    hands = crossing_threat(people([STEADY]), alpha)
     if below:
         np.testing.assert_array_equal(hands, 0.0)
     else:
         assert np.all(hands[0, :, 0] < -0.5), hands
 
 
-def test_shared_mode_at_the_cue_with_no_threat_keeps_the_autonomy_pace():
-    """Shared mode at alpha 0.5 (the cue shown) with no obstacle near: the steady
-    participant moves along with the autonomy (+x at 5 um/s), so the blend keeps at
-    least 80 % of its pace over the last second of 3 s (a resting hand would halve it:
-    2.5 um/s)."""
+def test_shared_mode_at_the_cue_with_no_threat_keeps_the_pace_it_watched():
+    """Shared mode, the autonomy at 5 um/s: for 3 s at alpha 0.1 (no cue) the hands rest
+    and the robots carry the cell at 4.5 um/s; then at alpha 0.5 (the cue shown) with no
+    obstacle near, the steady participant moves the robots on at the pace they watched:
+    over the last second of 3 s the assembly keeps at least 80 % of 4.5 um/s (a resting
+    hand would leave 2.5 um/s, the autonomy's half)."""
     cell = np.array([[10.0, 0.0]])
     autonomy = np.full((1, 4, 2), [5.0 * TICK_S, 0.0])
     obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
     participants = people([STEADY])
+    drive(participants, obs, ["shared"], 150, alpha=np.array([0.1]), autonomy=autonomy)
     drive(participants, obs, ["shared"], 100, alpha=np.array([0.5]), autonomy=autonomy)
     start = obs.cell_xy_um.copy()
     drive(participants, obs, ["shared"], 50, alpha=np.array([0.5]), autonomy=autonomy)
     pace_um_s = (obs.cell_xy_um - start)[0] / (50 * TICK_S)
-    assert pace_um_s[0] >= 0.8 * 5.0, pace_um_s
+    assert pace_um_s[0] >= 0.8 * 4.5, pace_um_s
+
+
+def test_the_participant_step_takes_only_what_the_window_shows():
+    """Structure (docs/decisions/0027): the participants' step takes a ``Percept`` and
+    the trap-to-hand map only; the percept's fields are the window's picture and cue
+    panel, none an autonomy command; no participant module names the autonomy's
+    command, imports the autonomy, or is told the traps' blended command afterwards
+    (the old ``moved``). Fails for a participant that reads dP_r or the exact alpha."""
+    import otgym.human.avoidance
+    import otgym.human.participant_groups
+    import otgym.human.participants
+    import otgym.human.percept
+
+    for step in (SimulatedParticipants.intend, ParticipantGroups.intend):
+        assert list(inspect.signature(step).parameters) == ["self", "percept", "trap_robot"]
+    for cls in (SimulatedParticipants, ParticipantGroups):
+        assert not hasattr(cls, "moved")
+    assert set(PERCEPT_FIELDS) == {
+        "mode",
+        "phase",
+        "cell_xy_um",
+        "cell_arc_um",
+        "trap_xy_um",
+        "obstacle_xy_um",
+        "alpha_shown",
+        "fine_tune_shown",
+        "nearest_gap_um",
+    }
+    banned = ("robot_increment", "autonomy", "navigator", "dp_r", "shared_um", "human_weight")
+    for module in (
+        otgym.human.participants,
+        otgym.human.participant_groups,
+        otgym.human.avoidance,
+        otgym.human.percept,
+    ):
+        tree = ast.parse(inspect.getsource(module))
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                names = [getattr(node, "module", None) or ""] + [alias.name for alias in node.names]
+                assert not any(name.startswith("otgym.autonomy") for name in names), (module.__name__, names)
+            identifier = (
+                node.id
+                if isinstance(node, ast.Name)
+                else node.attr
+                if isinstance(node, ast.Attribute)
+                else node.arg
+                if isinstance(node, ast.arg)
+                else None
+            )
+            if identifier is not None:
+                assert not any(word in identifier.lower() for word in banned), (module.__name__, identifier)
+
+
+def test_the_hands_answer_the_motion_they_see_not_the_command_behind_it():
+    """Two runs of the same steady participant at the cue (alpha 0.5, an obstacle
+    crossing ahead) against two different autonomy commands that the window shows
+    identically (the test's scene moves by the hands' share only, as if the autonomy
+    were still): their hands move identically, tick by tick. Shown the robots drifting
+    forward instead, the same participant pushes back harder: the correction comes from
+    the picture."""
+    cell = np.array([[10.0, 0.0]])
+
+    def run(drift_um_s):
+        participants = people([STEADY])
+        obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY, obstacle_xy=((22.0, -12.0),))
+        steps = []
+        for tick in range(60):
+            obs.obstacle_xy_um = np.array([[[22.0, -12.0 + 2.0 * TICK_S * tick]]])
+            hands = look(participants, obs, ["shared"], np.array([0.5]))
+            shown = 0.5 * hands[:, TRAP_ROBOT] + drift_um_s * TICK_S * np.array([1.0, 0.0])
+            obs.trap_xy_um = obs.trap_xy_um + shown
+            obs.cell_xy_um = obs.cell_xy_um + shown.mean(axis=1)
+            obs.cell_arc_um = obs.cell_xy_um[:, 0].copy()
+            steps.append(hands)
+        return np.asarray(steps)
+
+    still, again = run(0.0), run(0.0)  # the autonomy's command differs; nothing shows it
+    np.testing.assert_array_equal(still, again)
+    drifting = run(2.5)
+    assert drifting.sum(axis=0)[0, :, 0].mean() < still.sum(axis=0)[0, :, 0].mean() - 0.5
 
 
 def carry_past_an_oncoming_obstacle(participants, walls_below_um, seconds=25.0):
@@ -360,12 +448,12 @@ def test_the_person_steps_aside_from_an_obstacle_coming_down_the_route(monkeypat
     assert closest_um < touch_um, closest_um
 
 
-def test_shared_mode_paces_side_steps_at_most_at_the_cruise_speed(monkeypatch):
-    """Shared mode: the person's intended pace is the autonomy's, but no more than its
-    cruise speed (5 um/s), also when the autonomy pulls the assembly at 15 um/s (back
-    toward its commanded place); at 3 um/s it is 3 um/s. Every option the person weighs
-    (here the pace of what they intend) is then at most that fast: side-steps at the
-    pull's speed carried handles into walls."""
+def test_shared_mode_intends_the_pace_it_watched_the_robots_keep(monkeypatch):
+    """Shared mode: while the hands rest (no cue) the person watches the pace at which
+    the robots carry the cell (3 um/s here, 8 um/s there: the autonomy's, as seen) and,
+    once the cue shows, intends that pace: every option the person weighs is built on it
+    (``choose_velocity``'s intended velocity). Not the autonomy's command: the pace comes
+    from the picture."""
     import otgym.human.participants as participants_module
 
     seen = []
@@ -377,11 +465,11 @@ def test_shared_mode_paces_side_steps_at_most_at_the_cruise_speed(monkeypatch):
     monkeypatch.setattr(participants_module, "choose_velocity", spy)
     cell = np.array([[10.0, 0.0], [10.0, 0.0]])
     obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
-    autonomy = np.stack([np.full((4, 2), [15.0 * TICK_S, 0.0]), np.full((4, 2), [3.0 * TICK_S, 0.0])])
+    autonomy = np.stack([np.full((4, 2), [3.0 * TICK_S, 0.0]), np.full((4, 2), [8.0 * TICK_S, 0.0])])
     participants = people([STEADY, STEADY])
-    assert participants.navigator.cruise_speed_um_s == 5.0
-    participants.intend(obs, np.array(["shared"] * 2), np.array([0.5, 0.5]), autonomy, TRAP_ROBOT)
-    np.testing.assert_allclose(seen[-1], [5.0, 3.0])
+    drive(participants, obs, ["shared"] * 2, 100, alpha=np.array([0.0, 0.0]), autonomy=autonomy)
+    drive(participants, obs, ["shared"] * 2, 1, alpha=np.array([0.5, 0.5]), autonomy=autonomy)
+    np.testing.assert_allclose(seen[-1], [3.0, 8.0], rtol=1e-6)
 
 
 def test_the_person_squeezes_past_a_standing_obstacle_rather_than_wait_beside_it():
@@ -433,7 +521,7 @@ def test_participant_groups_give_each_environment_its_own_task():
 
     def groups(tasks):
         return ParticipantGroups(
-            [STEADY] * 2, TICK_S, 0, navigator(), TASK_RETARGET, FeedbackConfig(), 0.6, tasks, None
+            [STEADY] * 2, TICK_S, 0, shown_route(), TASK_RETARGET, FeedbackConfig(), 0.6, tasks, None, 0.0
         )
 
     alone = drive(people([STEADY] * 2), obs(), ["manual"] * 2, 200)
