@@ -129,6 +129,7 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     # scenarios reached outside their study seed's own runs
     _one("scenarios", 10001, "shared diagnosis of an obstacle held against a wall (side-step before waiting)"),
     SeedUse("scenarios", 20001, 20008, "manual diagnosis: wall clearance, two hands planning as one"),
+    SeedUse("scenarios", 15000, 15063, "the demo's whole path: run i of otgym demo --seed 1 on 15000 + i"),
     SeedUse(
         "scenarios",
         900000,
