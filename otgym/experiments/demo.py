@@ -48,9 +48,11 @@ Measured on 2 cores: the full evaluation's 256 (``otgym evaluate``) take about 3
 minutes; with 16 the stage takes 15-20 s with warm caches and 20-45 s cold, most of it
 compiling."""
 
-DEMO_RUNS = 2
+DEMO_RUNS = 1
 """Whole-path scenarios of the demo, each run by the route follower and by the MPC,
-all in one batch of 20 ms ticks until its slowest trial ends."""
+all in one batch of 20 ms ticks until its slowest trial ends. One: the MPC replans
+every 0.1 s, 74 ms of CPU per environment (docs/mpc.md), about 35 s for one run's
+whole path, the demo's costliest part; ``--runs`` adds more."""
 
 DEMO_SPEED_UM_S = 5.0
 """The whole-path route follower's constant speed: the autonomous mode's pace
