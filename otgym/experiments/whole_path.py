@@ -108,32 +108,33 @@ class WholePathDemo:
 
 
 class _CellSampler:
-    """``run_trials``' recorder: every ``SAMPLE_EVERY_TICKS`` ticks, each running
-    trial's time, phase, cell position and nearest obstacle gap, and the obstacles'
-    positions (copies: it changes nothing it sees)."""
+    """``run_trials``' recorder: every ``SAMPLE_EVERY_TICKS`` ticks and at the tick
+    each trial ends, each running trial's time, phase, cell position and nearest
+    obstacle gap; every ``SAMPLE_EVERY_TICKS`` ticks the obstacles' positions (copies:
+    it changes nothing it sees)."""
 
     def __init__(self, progress: Callable[[float], None] | None):
         self.ticks = 0
         self.rows: list[tuple] = []
         self.obstacles: list[np.ndarray] = []  # (E, K, 2) per sample
-        self.running: list[np.ndarray] = []  # (E,) per sample
         self.progress = progress
+        self._done: np.ndarray | None = None
 
     def __call__(self, view) -> None:
         self.ticks += 1
-        if self.ticks % SAMPLE_EVERY_TICKS:
-            return
-        obs, done = view.obs, np.asarray(view.state.metrics.done)
-        running = ~done | (obs.time_s == np.asarray(view.state.metrics.completion_time_s))
+        obs, done = view.obs, np.array(view.state.metrics.done, bool)
+        ended = done & ~(np.zeros_like(done) if self._done is None else self._done)
+        self._done = done
+        sampled = self.ticks % SAMPLE_EVERY_TICKS == 0
         gaps = obs.nearest_obstacle_gap_um
-        for env in np.flatnonzero(running):
+        for env in np.flatnonzero(ended | (sampled & ~done)):
             self.rows.append(
                 (env, float(obs.time_s[env]), int(obs.phase[env]), *map(float, obs.cell_xy_um[env]), float(gaps[env]))
             )
-        self.obstacles.append(np.array(obs.obstacle_xy_um, float))
-        self.running.append(running.copy())
-        if self.progress is not None:
-            self.progress(float(np.max(obs.time_s)))
+        if sampled:
+            self.obstacles.append(np.array(obs.obstacle_xy_um, float))
+            if self.progress is not None:
+                self.progress(float(np.max(obs.time_s)))
 
 
 def run(demo: WholePathDemo, out_dir: Path, progress: Callable[[int, int], None] | None = None) -> dict:
