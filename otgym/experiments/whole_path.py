@@ -215,8 +215,8 @@ def summarize(demo: WholePathDemo, rows: list[dict], route_length_um: float) -> 
 
 
 def _figure(task, specs, cells, sampler: _CellSampler, summary: dict, path: Path) -> None:
-    """The chip with each trial's cell path (the baseline dashed, the recommended
-    autonomy solid; one colour per run) and the obstacles' tracks of run 0 (grey)."""
+    """The chip with each trial's cell path (the route follower dashed orange, the
+    autonomy solid blue) and the obstacles' tracks of run 0 (grey)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -234,7 +234,6 @@ def _figure(task, specs, cells, sampler: _CellSampler, summary: dict, path: Path
         for k in range(obstacles.shape[2]):
             track = obstacles[:, first[0], k]
             ax.plot(track[:, 0], track[:, 1], color="0.35", lw=1.0, label="obstacles (run 0)" if k == 0 else None)
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     by_mode = {row["mode"]: row for row in summary["modes"]}
     for (mode, run), group in cells.groupby(["mode", "run"], sort=False):
         row = by_mode[mode]
@@ -243,7 +242,7 @@ def _figure(task, specs, cells, sampler: _CellSampler, summary: dict, path: Path
         ax.plot(
             group["cell_x_um"],
             group["cell_y_um"],
-            color=colours[run % len(colours)],
+            color="tab:orange" if baseline else "tab:blue",
             lw=1.0 if baseline else 1.8,
             ls="--" if baseline else "-",
             label=label,
@@ -252,10 +251,9 @@ def _figure(task, specs, cells, sampler: _CellSampler, summary: dict, path: Path
     ax.set_ylim(extent[2], extent[3])
     ax.set_xlabel("x (um)")
     ax.set_ylabel("y (um)")
-    ax.set_title(
-        f"The cell's path past the moving obstacles, seed {summary['seed']}, scenarios "
-        f"{summary['scenarios'][0]}-{summary['scenarios'][-1]}"
-    )
+    scenarios = summary["scenarios"]
+    named = f"scenario {scenarios[0]}" if len(scenarios) == 1 else f"scenarios {scenarios[0]}-{scenarios[-1]}"
+    ax.set_title(f"The cell's path past the moving obstacles, seed {summary['seed']}, {named}")
     ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
