@@ -86,7 +86,7 @@ def register(app: typer.Typer) -> None:
         against constant speeds (Table II, safety violins), carry the cell along the
         whole path past moving obstacles with the MPC beside the constant-speed route
         follower, run a small manual/autonomous/shared study (Fig. 8), and write
-        report.md beside the paper's numbers. Small samples, about two minutes on two
+        report.md beside the paper's numbers. Small samples, a few minutes on two
         cores; every size is printed with its result.
 
         Example: otgym demo --out results

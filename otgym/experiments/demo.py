@@ -1,5 +1,6 @@
 """The main job, ``otgym demo``: the paper's pipeline end to end on the default chip,
-headless, at sizes that fit about two minutes on two CPU cores.
+headless, at small sizes: a few minutes on two CPU cores, most of it the study and the
+whole path's MPC.
 
 1. ``plan/``: A* + B-spline on the chip image against a simulated manual path
    (Table I, ``otgym.planning``).
@@ -389,7 +390,7 @@ def run_demo(
     beside = " (the study ran beside the planning, the speed control and the whole path)" if study is not None else ""
     header = (
         f"Policy `{policy_path.name}` (preset `{task.name}`, trained {meta.get('env_steps', '?')} steps), "
-        f"seed {config.seed}. The demo runs small samples to fit about two minutes on two cores; each "
+        f"seed {config.seed}. The demo runs small samples to fit a few minutes on two cores; each "
         f"section gives its sample size and the command of its full-size run. Wall times: "
         + ", ".join(f"{name[:-2].replace('_', ' ')} {seconds:.0f} s" for name, seconds in timings.items())
         + f"{beside}; {total:.0f} s in all."
