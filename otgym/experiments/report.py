@@ -190,7 +190,8 @@ def whole_path_section(summary: dict) -> list[str]:
         )
     lines += [
         "",
-        f"{summary['runs']} run{'s' * (summary['runs'] > 1)} per autonomy show the behaviour, not a rate: "
+        f"{summary['runs']} run{'s' * (summary['runs'] > 1)} per autonomy "
+        f"{'show' if summary['runs'] > 1 else 'shows'} the behaviour, not a rate: "
         f"{summary['measured_text']}. Files: "
         "`whole_path/trials.csv`, `whole_path/cells.csv`, figure `whole_path/whole_path.png`.",
         "",
