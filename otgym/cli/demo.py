@@ -16,7 +16,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from otgym.cli import options
-from otgym.experiments.demo import DEMO_EPISODES, DEMO_RUNS, FULL_EPISODES, SIZE_RANGES, StudyConfig
+from otgym.experiments.demo import DEMO_EPISODES, DEMO_RUNS, DEMO_SPEED_UM_S, FULL_EPISODES, SIZE_RANGES, StudyConfig
 
 
 def _range(name: str) -> str:
@@ -43,16 +43,17 @@ def register(app: typer.Typer) -> None:
             f"{_range('episodes')}; `otgym evaluate` runs the full {FULL_EPISODES}.",
         ),
         speed_um_s: float = typer.Option(
-            4.0,
+            DEMO_SPEED_UM_S,
             "--speed-um-s",
             **_bounds("speed_um_s"),
-            help=f"Constant speed of the whole-path transport, um/s, {_range('speed_um_s')}.",
+            help=f"Constant speed of the whole path's route follower (the baseline beside the MPC), um/s, "
+            f"{_range('speed_um_s')}.",
         ),
         runs: int = typer.Option(
             DEMO_RUNS,
             "--runs",
             **_bounds("runs"),
-            help=f"Whole-path transports simulated at once (own noise and obstacles), {_range('runs')}.",
+            help=f"Whole-path scenarios, each run by the route follower and the MPC in one batch, {_range('runs')}.",
         ),
         seed: int = options.seed(1, "Random seed of the episodes, runs and study,"),
         study_participants: int = typer.Option(
@@ -83,8 +84,9 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Plan on the default chip (Table I), evaluate the pretrained speed controller
         against constant speeds (Table II, safety violins), carry the cell along the
-        whole path, run a small manual/autonomous/shared study (Fig. 8), and write
-        report.md beside the paper's numbers. Small samples, about two minutes on two
+        whole path past moving obstacles with the MPC beside the constant-speed route
+        follower, run a small manual/autonomous/shared study (Fig. 8), and write
+        report.md beside the paper's numbers. Small samples, a few minutes on two
         cores; every size is printed with its result.
 
         Example: otgym demo --out results
@@ -136,7 +138,7 @@ def register(app: typer.Typer) -> None:
 
             summary = run_demo(config, out, stage, report, detail)
         console.print((out / "speed_control" / "table.md").read_text(), markup=False)
-        safety, limits, transport = summary["safety"]["RL"], summary["limits"], summary["transport"]
+        safety, limits, whole_path = summary["safety"]["RL"], summary["limits"], summary["whole_path"]
         console.print(
             f"RL safety over {safety['samples']} force samples of {summary['episodes']} episodes: contact "
             f"force < {limits['force_pn']:g} pN in {safety['force_below_limit']:.2%} of them, handle within "
@@ -144,11 +146,16 @@ def register(app: typer.Typer) -> None:
             highlight=False,
         )
         console.print(
-            f"whole path: {transport['reached_goal']} of {transport['runs']} runs carried the cell "
-            f"{transport['path_length_um']} um at {transport['speed_um_s']:g} um/s",
+            f"whole path past the moving obstacles ({whole_path['route_length_um']:g} um, seed {whole_path['seed']}): "
+            + "; ".join(
+                f"{row['name']} reached the goal in {row['reached_goal']} of {row['runs']} runs "
+                f"({row['reached_goal_clean']} untouched), avoided {row['obstacles_avoided']} of "
+                f"{row['obstacles_encountered']} obstacles met"
+                for row in whole_path["modes"]
+            ),
             highlight=False,
         )
-        written = "plan/, speed_control/, transport/"
+        written = "plan/, speed_control/, whole_path/"
         study = summary["shared_control"]
         if study is not None:
             from otgym.study.paper_fig8 import PAPER_FIG8

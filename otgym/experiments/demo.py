@@ -1,5 +1,6 @@
 """The main job, ``otgym demo``: the paper's pipeline end to end on the default chip,
-headless, at sizes that fit about two minutes on two CPU cores.
+headless, at small sizes: a few minutes on two CPU cores, most of it the study and the
+whole path's MPC.
 
 1. ``plan/``: A* + B-spline on the chip image against a simulated manual path
    (Table I, ``otgym.planning``).
@@ -7,8 +8,10 @@ headless, at sizes that fit about two minutes on two CPU cores.
    speeds on the same seeded episodes of the ``paper`` preset (Table II and the safety
    violins of Fig. 7, ``otgym.experiments.speed_control_eval``); the demo runs
    ``DEMO_EPISODES`` episodes per policy, ``otgym evaluate`` the full 256.
-3. ``transport/``: the cell carried along the whole planned path at a constant speed
-   in the ``realistic`` preset (``otgym.experiments.transport``).
+3. ``whole_path/``: the cell carried from the chip's start to its goal past the
+   interactive task's moving obstacles by the autonomy otgym recommends (the MPC)
+   beside the constant-speed route follower, on the same seeded scenarios
+   (``otgym.experiments.whole_path``).
 4. ``shared_control/``: a small manual / autonomous / shared study with simulated
    participants (the paper's Fig. 8; ``otgym.experiments.shared_control``, whose full
    size is ``otgym experiment shared-control``), its trials cut at 90 s of simulated
@@ -34,11 +37,11 @@ from typing import TYPE_CHECKING
 from otgym.experiments.output_folder import check_out_dir
 
 if TYPE_CHECKING:  # imported when needed: the command line reads this module's sizes without loading JAX
-    from otgym.experiments.transport import TransportDemo
+    from otgym.experiments.whole_path import WholePathDemo
 
 PLAN_ROBOT_RADIUS_UM = 5.0
 """Robot radius of the Table I plan (the ``otgym plan`` default: one robot, as the
-paper's Table I); the transport plans for the whole two-robot assembly instead."""
+paper's Table I); the whole path plans for the whole two-robot assembly instead."""
 
 DEMO_EPISODES = 16
 """Speed-control episodes per policy in the demo (8 policies: RL, G1..G6, untrained).
@@ -46,10 +49,16 @@ Measured on 2 cores: the full evaluation's 256 (``otgym evaluate``) take about 3
 minutes; with 16 the stage takes 15-20 s with warm caches and 20-45 s cold, most of it
 compiling."""
 
-DEMO_RUNS = 2
-"""Whole-path transports simulated at once in the demo (each its own noise and
-obstacles; 384 control steps of 2000 physics steps). Measured: 2 runs cost about 1.3
-times one; the stage takes 25-45 s."""
+DEMO_RUNS = 1
+"""Whole-path scenarios of the demo, each run by the route follower and by the MPC,
+all in one batch of 20 ms ticks until its slowest trial ends. One: the MPC replans
+every 0.1 s, 74 ms of CPU per environment (docs/mpc.md), about 35 s for one run's
+whole path, the demo's costliest part; ``--runs`` adds more."""
+
+DEMO_SPEED_UM_S = 5.0
+"""The whole-path route follower's constant speed: the autonomous mode's pace
+(``otgym.runtime.trials.CRUISE_SPEED_UM_S``), around which the scenarios' crossing
+times are drawn."""
 
 FULL_EPISODES = 256
 """Episodes per policy of the full evaluation, ``otgym evaluate``."""
@@ -131,31 +140,31 @@ class DemoConfig:
     policy: str = "pretrained"
     episodes: int = DEMO_EPISODES
     seed: int = 1
-    transport: TransportDemo = dataclasses.field(default_factory=lambda: _transport(n_runs=DEMO_RUNS, seed=1))
+    whole_path: WholePathDemo = dataclasses.field(default_factory=lambda: _whole_path(runs=DEMO_RUNS, seed=1))
     study: StudyConfig | None = StudyConfig()
     """None leaves the shared-control study out."""
     background_study: bool = True
-    """Run the study in a thread beside the speed control and the transport (they share
+    """Run the study in a thread beside the speed control and the whole path (they share
     no state; the demo's work is mostly single-threaded, so two cores run both)."""
 
     def __post_init__(self):
         check_range("--episodes", self.episodes, *SIZE_RANGES["episodes"])
         check_range("--seed", self.seed, *SIZE_RANGES["seed"])
-        check_range("--runs", self.transport.n_runs, *SIZE_RANGES["runs"])
-        check_range("--speed-um-s", self.transport.speed_um_s, *SIZE_RANGES["speed_um_s"], integer=False, unit=" um/s")
-        check_range("transport seed", self.transport.seed, *SIZE_RANGES["seed"])
+        check_range("--runs", self.whole_path.runs, *SIZE_RANGES["runs"])
+        check_range("--speed-um-s", self.whole_path.speed_um_s, *SIZE_RANGES["speed_um_s"], integer=False, unit=" um/s")
+        check_range("whole-path seed", self.whole_path.seed, *SIZE_RANGES["seed"])
 
 
-def _transport(**options) -> TransportDemo:
-    from otgym.experiments.transport import TransportDemo
+def _whole_path(**options) -> WholePathDemo:
+    from otgym.experiments.whole_path import WholePathDemo
 
-    return TransportDemo(**options)
+    return WholePathDemo(**options)
 
 
 def demo_config(
     policy: str = "pretrained",
     episodes: int = DEMO_EPISODES,
-    speed_um_s: float = 4.0,
+    speed_um_s: float = DEMO_SPEED_UM_S,
     runs: int = DEMO_RUNS,
     seed: int = 1,
     study_participants: int = StudyConfig.participants,
@@ -182,20 +191,23 @@ def demo_config(
         seed=seed,
         study=study,
         background_study=background_study,
-        transport=_transport(speed_um_s=float(speed_um_s), n_runs=runs, seed=seed),
+        whole_path=_whole_path(speed_um_s=float(speed_um_s), runs=runs, seed=seed),
     )
 
 
 def stage_names(config: DemoConfig) -> list[str]:
     """The demo's stages in the order they start, one progress line each, with their
     sizes. The study, when there is one, starts second and runs in the background."""
-    transport = config.transport
+    from otgym.experiments.whole_path import MODE_NAMES
+
+    whole_path = config.whole_path
     names = [
         "planning on the default chip (Table I)",
         f"speed control: RL, G1..G6 and untrained, {config.episodes} episodes each (Table II, Fig. 7; "
         f"the full {FULL_EPISODES}: otgym evaluate)",
-        f"carrying the cell along the whole path: {transport.n_runs} run{'s' * (transport.n_runs > 1)} at "
-        f"{transport.speed_um_s:g} um/s",
+        f"carrying the cell along the whole path past the moving obstacles: {whole_path.runs} "
+        f"scenario{'s' * (whole_path.runs > 1)}, the {MODE_NAMES[whole_path.autonomy]} beside the route follower at "
+        f"{whole_path.speed_um_s:g} um/s",
     ]
     if config.study is not None:
         study = config.study
@@ -249,28 +261,30 @@ def run_demo(
     detail: Callable[[str], None] = lambda _: None,
 ) -> dict:
     """Run the stages into ``out_dir``; ``stage(text)`` announces each (``stage_names``),
-    ``progress(done, total)`` follows the transport's control steps and ``detail(text)``
+    ``progress(done, total)`` follows the whole path's simulated seconds and ``detail(text)``
     the study's batches (from the study's thread when it runs in the background).
     Returns a summary (also written as ``summary.json``). Policy and output-folder
     problems raise before any work.
 
     Most of the demo's work runs on one core (compiling, and Python between small
-    XLA calls), so with ``config.background_study`` the study runs in a thread beside
-    the planning, the speed control and the transport, started once the chip's fields
-    are on disk (what every stage reads; numba compiles the planner both threads use
-    once, under its compiler lock). It is the demo's longest stage, so it starts first.
-    Its results do not depend on it."""
+    XLA calls), so the chip's fields (what every later stage reads) are solved in a
+    thread beside the planning (which reads only the chip's image), and with
+    ``config.background_study`` the study runs in that thread as soon as they are on
+    disk, beside the planning, the speed control and the whole path (numba compiles
+    the planner both threads use once, under its compiler lock). It is the demo's
+    longest stage, so it starts first. No result depends on which thread runs what."""
     from otgym.envs import speed_control as spc
     from otgym.envs import transport as tr
     from otgym.envs.presets import preset
     from otgym.experiments import report, shipped_results
     from otgym.experiments.speed_control_eval import evaluate, write_results
-    from otgym.experiments.transport import run as run_transport
+    from otgym.experiments.whole_path import run as run_whole_path
     from otgym.human.operator import simulate_operator
     from otgym.planning.pipeline import plan_path, write_plan
     from otgym.rl.policy import PRETRAINED_POLICY, load_policy, policy_meta, resolve_policy
     from otgym.sim.cache import chip_fields
     from otgym.sim.chip import load_chip
+    from otgym.task.task import InteractiveConfig
 
     policy_path = resolve_policy(config.policy)
     task = preset(policy_meta(policy_path).get("preset", "paper"))
@@ -298,20 +312,32 @@ def run_demo(
     announce(1)
     start = time.perf_counter()
     chip = load_chip("default")
-    chip_fields(chip)  # walls and flow, solved once into the disk cache for every later stage
-    if config.study is not None and config.background_study:
+    background_study = config.study is not None and config.background_study
+    fields_ready = threading.Event()
+
+    def fields_then_study():
+        chip_fields(chip)  # walls and flow, solved once into the disk cache for every later stage
+        if not background_study:
+            fields_ready.set()
+            return None
         announce(2)  # the study, the demo's longest stage, needs only the fields: it starts beside the planning
-        study = _Background(study_work)
+        fields_ready.set()
+        return study_work()
+
+    # the planning reads only the chip's image: it runs while the fields are solved
+    study = _Background(fields_then_study)
     try:
-        transport = config.transport
-        plan = plan_path(
-            chip.image, chip.pixel_size_um, transport.start_um, transport.goal_um, PLAN_ROBOT_RADIUS_UM, threshold=0.5
-        )
-        manual_um = simulate_operator(
-            plan.occupancy.planning, chip.pixel_size_um, transport.start_um, transport.goal_um
-        )
+        ends = InteractiveConfig().start_um, InteractiveConfig().goal_um  # the task's route: the default chip's ports
+        plan = plan_path(chip.image, chip.pixel_size_um, *ends, PLAN_ROBOT_RADIUS_UM, threshold=0.5)
+        manual_um = simulate_operator(plan.occupancy.planning, chip.pixel_size_um, *ends)
         metrics = write_plan(plan, manual_um, out_dir / "plan")
+        while not fields_ready.wait(0.05):
+            if not study.running():
+                study.result()  # raises the fields' error
         timings["plan_s"] = time.perf_counter() - start
+        if not background_study:
+            study.result()
+            study = None
         if config.study is not None and not config.background_study:
             announce(2)
             study_result = study_work()
@@ -326,8 +352,8 @@ def run_demo(
 
         announce(count)
         start = time.perf_counter()
-        transport_summary = run_transport(transport, out_dir / "transport", progress)
-        timings["transport_s"] = time.perf_counter() - start
+        whole_path_summary = run_whole_path(config.whole_path, out_dir / "whole_path", progress)
+        timings["whole_path_s"] = time.perf_counter() - start
         if study is not None:
             if study.running():
                 stage("waiting for the shared-control study")
@@ -352,7 +378,7 @@ def run_demo(
             front=shipped_results.shipped_front() if policy_path == PRETRAINED_POLICY else None,
         ),
         report.planning_section(metrics),
-        report.transport_section(transport_summary),
+        report.whole_path_section(whole_path_summary),
     ]
     study_summary = None
     if config.study is not None:
@@ -361,10 +387,10 @@ def run_demo(
             report.shared_control_section(study_summary["modes"], study_summary["size"], shipped_results.shipped_fig8())
         )
     total = time.perf_counter() - began
-    beside = " (the study ran beside the planning, the speed control and the transport)" if study is not None else ""
+    beside = " (the study ran beside the planning, the speed control and the whole path)" if study is not None else ""
     header = (
         f"Policy `{policy_path.name}` (preset `{task.name}`, trained {meta.get('env_steps', '?')} steps), "
-        f"seed {config.seed}. The demo runs small samples to fit about two minutes on two cores; each "
+        f"seed {config.seed}. The demo runs small samples to fit a few minutes on two cores; each "
         f"section gives its sample size and the command of its full-size run. Wall times: "
         + ", ".join(f"{name[:-2].replace('_', ' ')} {seconds:.0f} s" for name, seconds in timings.items())
         + f"{beside}; {total:.0f} s in all."
@@ -374,7 +400,7 @@ def run_demo(
     summary = {
         "table_ii": rows,
         "safety": safety,
-        "transport": transport_summary,
+        "whole_path": whole_path_summary,
         "table_i": {name: dataclasses.asdict(row) for name, row in metrics.items()},
         "rl_asr": rl["ASR"],
         "rl_atct_s": rl["ATCT_s"],

@@ -103,7 +103,12 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     _one("training", 29, "the interactive task's learned speed policy (otgym.experiments.train_interactive_speed)"),
     # shared-control study seeds (population, scenarios seed*10000+t, simulation seed+i)
     _one("study", 0, "otgym experiment shared-control's old default: the first Fig. 8 runs, participant development"),
-    _one("study", 1, "participant development (shared 94.9 %, careful closing); the demo's study (10000-10002)"),
+    _one(
+        "study",
+        1,
+        "participant development (shared 94.9 %, careful closing); the demo's study (10000-10002); the MPC tried "
+        "for the demo's whole path on 10000-10001",
+    ),
     _one("study", 2, "shared-control diagnosis loop (64 trials; side-steps into walls; the rm-ANOVA's crash)"),
     _one("study", 5, "Fig. 8 on a 'fresh' seed, followed by participant changes"),
     _one("study", 7, "participant change measured (shared goal 98 -> 78 %); benchmarks/interactive.py's scenario 7"),
@@ -130,6 +135,12 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     # scenarios reached outside their study seed's own runs
     _one("scenarios", 10001, "shared diagnosis of an obstacle held against a wall (side-step before waiting)"),
     SeedUse("scenarios", 20001, 20008, "manual diagnosis: wall clearance, two hands planning as one"),
+    SeedUse(
+        "scenarios",
+        15000,
+        15063,
+        "the demo's whole path: run i of otgym demo --seed 1 on 15000 + i; the learned speed tried on 15000-15002",
+    ),
     SeedUse(
         "scenarios",
         900000,

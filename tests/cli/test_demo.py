@@ -3,7 +3,6 @@ policy against the constant speeds, carries a cell through the chip, runs a smal
 shared-control study and writes its files and report.md, one progress line per stage;
 bad input is one clear line before any work."""
 
-import csv
 import json
 import threading
 import time
@@ -15,61 +14,35 @@ import pytest
 from otgym.cli.app import main
 from otgym.envs import transport as tr
 from otgym.experiments import demo as demo_module
-from otgym.experiments.transport import TransportDemo, run
+from otgym.experiments.whole_path import WholePathDemo
+from otgym.experiments.whole_path import run as run_whole_path
 from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
 from otgym.study import wilson_interval
+from otgym.task.task import InteractiveConfig
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
 
-SHORT_LEG = TransportDemo(start_um=(15.0, 40.0), goal_um=(60.0, 40.0), n_runs=2)
-
 
 @pytest.mark.slow
-def test_transport_demo_carries_the_cell_to_the_goal_and_writes_its_files(tmp_path):
-    """A short leg of the top-left branch (45 um at 4 um/s, two runs at once): the cell
-    ends within 1 um of the goal in the run shown, carried only by contact."""
-    demo = SHORT_LEG
-    summary = run(demo, tmp_path)
-    rows = list(csv.DictReader(open(tmp_path / "trajectory.csv")))
-    assert summary["reached_goal"] >= 1
-    end = np.array([float(rows[-1]["cell_x_um"]), float(rows[-1]["cell_y_um"])])
-    assert np.linalg.norm(end - np.array(demo.goal_um)) < 1.0
-    assert all(float(r["contact_force_a_pn"]) > 0 and float(r["contact_force_b_pn"]) > 0 for r in rows)
-    path = np.loadtxt(tmp_path / "path.csv", delimiter=",", skiprows=1)
-    assert np.linalg.norm(path[0] - demo.start_um) < 1.0 and np.linalg.norm(path[-1] - demo.goal_um) < 1.0
-    assert (tmp_path / "transport.png").stat().st_size > 20_000
+def test_the_whole_path_reaches_the_goal_past_the_obstacles_with_the_mpc(tmp_path):
+    """The demo's first whole-path scenario (seed 1: scenario 15000), run by the
+    route follower at 5 um/s and the MPC in one batch: the MPC carries the cell to the
+    goal without losing a trap, and the files hold what the summary says. Fails if the
+    MPC's run does not reach the goal."""
+    summary = run_whole_path(WholePathDemo(runs=1, seed=1), tmp_path)
+    follower, mpc = summary["modes"]
+    assert summary["scenarios"] == [15000] and (follower["mode"], mpc["mode"]) == ("autonomous", "mpc")
+    assert mpc["reached_goal"] == 1 and mpc["trap_losses"] == 0, summary
+    trials = pd.read_csv(tmp_path / "trials.csv")
+    assert list(trials["mode"]) == ["autonomous", "mpc"] and list(trials["scenario"]) == [15000, 15000]
+    assert list(trials["reached_goal"]) == [follower["reached_goal"] == 1, True]
+    cells = pd.read_csv(tmp_path / "cells.csv")
+    end = cells[cells["mode"] == "mpc"].iloc[-1]
+    goal = np.array(InteractiveConfig().goal_um)
+    tolerance = InteractiveConfig().goal_tolerance_um
+    assert np.linalg.norm([end["cell_x_um"] - goal[0], end["cell_y_um"] - goal[1]]) < tolerance + 0.5
+    assert (tmp_path / "whole_path.png").stat().st_size > 20_000
     assert json.loads((tmp_path / "summary.json").read_text()) == summary
-
-
-@pytest.mark.slow
-def test_transport_figure_shows_the_shown_run_where_it_stopped(tmp_path, monkeypatch):
-    """The short leg with 24 obstacles (2 runs at 4 um/s, seed 6): both runs are stopped
-    by obstacles, the shown run (the first) at 71 % of the leg, the other later, so the
-    batch goes on stepping after the shown run stopped. The figure draws the shown run's
-    bodies where its trajectory ends (the cell's sphere within 0.01 um of the last
-    trajectory row, which trajectory.csv keeps to five digits), not where its
-    environment drifted afterwards. Failed before the fix (on the whole path): the cell
-    was drawn 143 um further on, near the goal."""
-    from otgym.experiments import transport as transport_module
-    from otgym.sim import scene as sc
-
-    drawn = {}
-    monkeypatch.setattr(
-        transport_module, "_figure", lambda chip, scene, frame, traps, *rest: drawn.update(scene=scene, frame=frame)
-    )
-    demo = TransportDemo(
-        start_um=SHORT_LEG.start_um, goal_um=SHORT_LEG.goal_um, n_runs=2, seed=6, scene=sc.SceneConfig(n_obstacles=24)
-    )
-    summary = run(demo, tmp_path)
-    rows = list(csv.DictReader(open(tmp_path / "trajectory.csv")))
-    assert summary["reached_goal"] == 0 and summary["shown_run"] == 0
-    shown_fraction = float(rows[-1]["arc_um"]) / summary["path_length_um"]
-    assert shown_fraction < 0.75  # not vacuous: it stopped early ...
-    assert summary["mean_completed_fraction"] > shown_fraction + 0.02  # ... and the other run went on
-    scene = drawn["scene"]
-    cell_sphere = list(np.asarray(scene.model.sphere_body)).index(scene.payload)
-    end = np.array([float(rows[-1]["cell_x_um"]), float(rows[-1]["cell_y_um"])])
-    assert np.linalg.norm(drawn["frame"][cell_sphere] - end) < 0.01
 
 
 @pytest.mark.parametrize(
@@ -136,8 +109,8 @@ def _recomputed_rows(trials: pd.DataFrame) -> dict:
 
 @pytest.mark.slow
 def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, capsys, monkeypatch, fixed_action_q_params):
-    """The whole main job from the command line, small: a short leg of the transport, 4
-    episodes with a policy that always drives at the slowest level (its Table II row
+    """The whole main job from the command line, small: one whole-path scenario cut at
+    4 s of simulated time (the grip and the first replans of the MPC), 4 episodes with a policy that always drives at the slowest level (its Table II row
     equals G1's exactly in time), and a study of 2 participants x 1 trial x 3 modes cut
     at 30 s, long enough for the assembly to reach the obstacles' crossings (the demo's
     20 s cut once met none: its Fig. 8 said "avoided 0 of 0"). One line per stage on a
@@ -147,8 +120,8 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     policy = save_policy(tmp_path / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(HIDDEN)})
     monkeypatch.setattr(
         demo_module,
-        "_transport",
-        lambda **options: TransportDemo(start_um=SHORT_LEG.start_um, goal_um=SHORT_LEG.goal_um, **options),
+        "_whole_path",
+        lambda **options: WholePathDemo(time_limit_s=4.0, **options),
     )
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as exit_info:
@@ -162,7 +135,7 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
                 "--episodes",
                 str(EPISODES),
                 "--runs",
-                "2",
+                "1",
                 "--study-participants",
                 "2",
                 "--study-trials",
@@ -177,7 +150,10 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     assert [line[:5] for line in stages] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
     assert "planning" in stages[0] and "2 simulated participants" in stages[1] and "in the background" in stages[1]
     assert "3 modes in one batch, trials cut at 30 s" in stages[1]
-    assert f"{EPISODES} episodes each" in stages[2] and "2 runs" in stages[3]
+    assert (
+        f"{EPISODES} episodes each" in stages[2]
+        and "1 scenario, the MPC beside the route follower at 5 um/s" in stages[3]
+    )
     for name in (
         "report.md",
         "summary.json",
@@ -186,7 +162,9 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
         "speed_control/table.csv",
         "speed_control/safety.png",
         "speed_control/safety.json",
-        "transport/transport.png",
+        "whole_path/whole_path.png",
+        "whole_path/trials.csv",
+        "whole_path/cells.csv",
         "shared_control/trials.csv",
         "shared_control/summary.csv",
         "shared_control/summary.md",
@@ -205,7 +183,11 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     # the policy drives at G1, so it is never first against any constant speed as safe as it
     assert "The fastest constant speed at least as safe is G" in report and "RL is not significantly faster" in report
     assert f"the same {EPISODES} seeded episodes" in report and "--episodes 256" in report
-    assert f"{summary['transport']['reached_goal']} of 2 runs" in report
+    follower, mpc = summary["whole_path"]["modes"]
+    assert mpc["reached_goal"] == follower["reached_goal"] == 0  # cut at 4 s, far from the goal
+    assert "| MPC | 1 | 0 of 1 [" in report and "| route follower at 5 um/s | 1 | 0 of 1 [" in report
+    assert "seeded scenario 10000" not in report and "scenario 15000 (seed 1" in report
+    assert "whole path past the moving obstacles" in printed and "MPC reached the goal in 0 of 1 runs" in printed
     assert summary["rl_asr"] == rows["RL"]["ASR"]
 
     trials = pd.read_csv(out / "shared_control" / "trials.csv")

@@ -289,7 +289,7 @@ def test_edges_of_the_ranges_are_accepted_and_zero_participants_leaves_the_study
         study_trials=8,
         study_time_limit_s=300.0,
     )
-    assert (config.episodes, config.transport.n_runs, config.seed, config.transport.seed) == (
+    assert (config.episodes, config.whole_path.runs, config.seed, config.whole_path.seed) == (
         4096,
         64,
         2**32 - 1,
