@@ -198,7 +198,7 @@ def demo_config(
 def stage_names(config: DemoConfig) -> list[str]:
     """The demo's stages in the order they start, one progress line each, with their
     sizes. The study, when there is one, starts second and runs in the background."""
-    from otgym.experiments.whole_path import MODE_NAMES
+    from otgym.experiments.whole_path import mode_name
 
     whole_path = config.whole_path
     names = [
@@ -206,7 +206,7 @@ def stage_names(config: DemoConfig) -> list[str]:
         f"speed control: RL, G1..G6 and untrained, {config.episodes} episodes each (Table II, Fig. 7; "
         f"the full {FULL_EPISODES}: otgym evaluate)",
         f"carrying the cell along the whole path past the moving obstacles: {whole_path.runs} "
-        f"scenario{'s' * (whole_path.runs > 1)}, the {MODE_NAMES[whole_path.autonomy]} beside the route follower at "
+        f"scenario{'s' * (whole_path.runs > 1)}, the {mode_name(whole_path.autonomy)} beside the route follower at "
         f"{whole_path.speed_um_s:g} um/s",
     ]
     if config.study is not None:

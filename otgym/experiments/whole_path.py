@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from otgym import registry
 from otgym.experiments.seeds import SCENARIOS_PER_STUDY_SEED
 
 RECOMMENDED_AUTONOMY = "mpc"
@@ -50,26 +51,19 @@ participants x trials (at most 128) of the seed's 10,000."""
 SAMPLE_EVERY_TICKS = 10
 """cells.csv and the figure keep every 10th 20 ms tick (0.2 s)."""
 
-MODE_NAMES = {"autonomous": "route follower", "mpc": "MPC", "rl": "learned speed"}
+AUTONOMY_MODES = tuple(
+    entry.name for entry in registry.entries("navigators", "trial-mode") if "measured" in entry.extras
+)
+"""The autonomies the section can show beside the route follower: the navigators with a
+mode of their own in the trials and a measured full-size result (``otgym list
+navigators``)."""
 
-AUTONOMY_TEXT = {
-    "mpc": (
-        "the MPC (model-predictive navigation: it predicts the obstacles and steps aside or waits)",
-        "the MPC's measured rate is 128 of 128 goals and 459 of 460 obstacles avoided on 128 held-out "
-        "scenarios (`otgym experiment shared-control --modes mpc`, seed 13; docs/mpc.md)",
-    ),
-    "rl": (
-        "the learned speed (the route follower whose speed a DQN chooses: it slows or waits for obstacles "
-        "ahead, but never steps aside)",
-        "the learned speed's measured rate is 147 of 221 obstacles avoided (66.5 %) against the 5 um/s route "
-        "follower's 128 of 232 on the held-out report seed 7600 (docs/rl-navigator.md)",
-    ),
-}
-"""Per autonomy: what it is, and its full-size result, for the report."""
 
-AUTONOMY_MODES = tuple(AUTONOMY_TEXT)
-"""The autonomies the section can show beside the route follower (trial modes of
-``otgym.runtime.trials``)."""
+def mode_name(mode: str) -> str:
+    """A trial mode's name in the report: the route follower, or the navigator's label."""
+    navigator = "route" if mode == BASELINE_MODE else mode
+    return registry.entry("navigators", navigator).extras.get("label", mode)
+
 
 CELL_COLUMNS = ("mode", "run", "scenario", "t_s", "phase", "cell_x_um", "cell_y_um", "nearest_obstacle_gap_um")
 
@@ -188,7 +182,7 @@ def summarize(demo: WholePathDemo, rows: list[dict], route_length_um: float) -> 
         modes.append(
             {
                 "mode": mode,
-                "name": MODE_NAMES.get(mode, mode) + ("" if mode == demo.autonomy else f" at {demo.speed_um_s:g} um/s"),
+                "name": mode_name(mode) + ("" if mode == demo.autonomy else f" at {demo.speed_um_s:g} um/s"),
                 "runs": len(mine),
                 "reached_goal": len(reached),
                 "reached_goal_clean": sum(row["collisions"] == 0 and row["trap_losses"] == 0 for row in reached),
@@ -208,8 +202,8 @@ def summarize(demo: WholePathDemo, rows: list[dict], route_length_um: float) -> 
         "time_limit_s": demo.time_limit_s,
         "route_length_um": round(route_length_um, 1),
         "recommended": demo.autonomy,
-        "autonomy_text": AUTONOMY_TEXT[demo.autonomy][0],
-        "measured_text": AUTONOMY_TEXT[demo.autonomy][1],
+        "autonomy_text": registry.entry("navigators", demo.autonomy).extras["about"],
+        "measured_text": registry.entry("navigators", demo.autonomy).extras["measured"],
         "modes": modes,
     }
 

@@ -6,7 +6,9 @@ Tags say what a part is usable for. Devices: ``play`` (``otgym play --device``),
 ``node`` (``otgym node device --device``), ``window`` (the window node's own input),
 ``driver`` (a ``Device`` that ``otgym.teleop.device.open_device`` builds by name).
 Navigators: ``trial-mode`` (also a mode of the batched trials, beside manual, shared
-and autonomous), ``shared`` (the autonomy that shared control blends with).
+and autonomous), ``shared`` (the autonomy that shared control blends with); extras
+``label`` (its short name in reports), ``about`` (what it does, in a report's words) and
+``measured`` (its measured full-size result on the shared-control study, with where).
 Tasks' extras: ``gym_id`` and ``vector`` (the Gymnasium id and vector entry point),
 ``functional`` (the module of its pure ``make_params``, ``reset`` and ``step``, which
 ``otgym.envs.gymnax_env`` wraps as a gymnax environment).
@@ -121,7 +123,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.autonomy.navigator:RouteNavigator",
         "the formation follows the planned route at a cruise speed (the paper's autonomy)",
         ("shared",),
-        {},
+        {"label": "route follower"},
     ),
     (
         "navigators",
@@ -129,7 +131,12 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.autonomy.mpc_navigator:MPCNavigator",
         "model-predictive navigation: replans the formation's motion around predicted obstacles",
         ("trial-mode", "shared"),
-        {},
+        {
+            "label": "MPC",
+            "about": "the MPC (model-predictive navigation: it predicts the obstacles and steps aside or waits)",
+            "measured": "the MPC's measured rate is 128 of 128 goals and 459 of 460 obstacles avoided on 128 "
+            "held-out scenarios (`otgym experiment shared-control --modes mpc`, seed 13; docs/mpc.md)",
+        },
     ),
     (
         "navigators",
@@ -137,7 +144,13 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.autonomy.rl_navigator:RLNavigator",
         "the route navigator with a learned speed (a DQN trained on the interactive task)",
         ("trial-mode", "shared"),
-        {},
+        {
+            "label": "learned speed",
+            "about": "the learned speed (the route follower whose speed a DQN chooses: it slows or waits for "
+            "obstacles ahead, but never steps aside)",
+            "measured": "the learned speed's measured rate is 147 of 221 obstacles avoided (66.5 %) against the "
+            "5 um/s route follower's 128 of 232 on the held-out report seed 7600 (docs/rl-navigator.md)",
+        },
     ),
     # shared-control laws
     (
