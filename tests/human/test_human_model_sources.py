@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from otgym.human import participants as participants_module
+from otgym.human import percept as percept_module
 from otgym.human.motor import HumanMotor, _drift_filter, _tremor_filter
 from otgym.human.params import HumanParams, sample_population, scaled
 from otgym.human.participant_task import ParticipantTask
@@ -112,11 +112,11 @@ def test_tremor_power_lies_in_its_band_and_the_drift_below_2_hz():
 
 
 def test_the_fine_tune_cue_and_the_participants_share_one_threshold():
-    """One definition (otgym.task.task), imported by the window's cue and the
-    participants; no task parameter of the participants' own; and the source has one
-    assignment of it."""
+    """One definition (otgym.task.task), imported by the window's cue and by the percept
+    the participants act on (the cue as shown); no task parameter of the participants'
+    own; and the source has one assignment of it."""
     assert cues.FINE_TUNE_ALPHA is task_module.FINE_TUNE_ALPHA
-    assert participants_module.FINE_TUNE_ALPHA is task_module.FINE_TUNE_ALPHA
+    assert percept_module.FINE_TUNE_ALPHA is task_module.FINE_TUNE_ALPHA
     assert task_module.FINE_TUNE_ALPHA == 0.4
     assert not any("alpha" in field.name for field in dataclasses.fields(ParticipantTask))
     root = Path(task_module.__file__).parents[1]
