@@ -38,10 +38,18 @@ _KEY_PARITY = np.uint32(0x1BD11BDA)
 
 class SubstepNoise(NamedTuple):
     """``inputs``: a pytree with a leading substep axis, to be fed to the integration
-    loop's scan; ``draw(inputs[s])``: the noise of substep s, shape ``shape``."""
+    loop's scan; ``draw(inputs[s])``: the noise of substep s, shape ``shape``.
+
+    Drawn in the loop, ``draw`` is ``from_bits(bits(inputs[s]))``: the hash's random
+    bits, then the normal values made from them. The loop computes a substep's bits one
+    substep ahead and carries them, so that they are materialised once: computed where
+    they are read, XLA recomputes the 20 hash rounds in each fusion that reads a part
+    of the noise (four per substep of the standard scene). None with the up-front draw."""
 
     inputs: object
     draw: Callable
+    bits: Callable | None = None
+    from_bits: Callable | None = None
 
 
 def _threefry_words(key):
@@ -88,10 +96,10 @@ def threefry2x32(key0, key1, count0, count1):
     return x0, x1
 
 
-def normal_from_counter(words, first_high, first_low, shape: tuple):
-    """float32 normal values of shape ``shape`` at counters first, first + 1, ... in
-    row-major order: bitwise ``jax.random.normal(key, (n,) + shape)`` at those flat
-    indices. ``words``: the key's uint32 pair; ``first_high/low``: the first counter's words."""
+def bits_from_counter(words, first_high, first_low, shape: tuple):
+    """The random uint32 bits of shape ``shape`` at counters first, first + 1, ... in
+    row-major order, those ``jax.random.normal`` turns into values (``normal_from_bits``).
+    ``words``: the key's uint32 pair; ``first_high/low``: the first counter's words."""
     strides = np.cumprod((1,) + shape[::-1][:-1])[::-1]
     offset = sum(
         jax.lax.broadcasted_iota(jnp.uint32, shape, axis) * np.uint32(stride) for axis, stride in enumerate(strides)
@@ -99,11 +107,22 @@ def normal_from_counter(words, first_high, first_low, shape: tuple):
     low = first_low + offset
     high = first_high + (low < first_low).astype(jnp.uint32)  # carry into the high word
     bits1, bits2 = threefry2x32(words[0], words[1], jnp.broadcast_to(high, shape), low)
-    bits = jnp.bitwise_xor(bits1, bits2)
+    return jnp.bitwise_xor(bits1, bits2)
+
+
+def normal_from_bits(bits):
+    """float32 normal values from random bits, as ``jax.random.normal`` makes them."""
     mantissa = jax.lax.shift_right_logical(bits, np.uint32(32 - 23)) | _FLOAT32_ONE_BITS
     floats = jax.lax.bitcast_convert_type(mantissa, jnp.float32) - np.float32(1.0)
     uniform = jax.lax.max(_UNIFORM_LOW, floats * _UNIFORM_SPAN + _UNIFORM_LOW)
     return _SQRT2 * jax.lax.erf_inv(uniform)
+
+
+def normal_from_counter(words, first_high, first_low, shape: tuple):
+    """float32 normal values of shape ``shape`` at counters first, first + 1, ... in
+    row-major order: bitwise ``jax.random.normal(key, (n,) + shape)`` at those flat
+    indices. ``words``: the key's uint32 pair; ``first_high/low``: the first counter's words."""
+    return normal_from_bits(bits_from_counter(words, first_high, first_low, shape))
 
 
 def substep_noise(key, substeps: int, shape: tuple, dtype) -> SubstepNoise:
@@ -118,4 +137,6 @@ def substep_noise(key, substeps: int, shape: tuple, dtype) -> SubstepNoise:
     return SubstepNoise(
         (jnp.asarray(high), jnp.asarray(low)),
         lambda counter: normal_from_counter(words, counter[0], counter[1], tuple(shape)),
+        lambda counter: bits_from_counter(words, counter[0], counter[1], tuple(shape)),
+        normal_from_bits,
     )

@@ -48,10 +48,13 @@ def test_hash_is_bitwise_jax_threefry2x32():
 
 
 def test_the_integration_loop_holds_no_loop_of_its_own():
-    """The compiled one-environment step of a 7-body model has one loop, the substeps'.
-    JAX's threefry primitive lowers on the CPU to a loop of five trips; drawn through it,
-    each substep ran that loop too, which at one environment (where a step's time is
-    mostly the runtime's per-operation cost) made the step about 30 % more instructions."""
+    """The compiled one-environment step of a 7-body model has one loop, the substeps',
+    and the hash's 20 rounds (20 left rotations) are compiled twice: the first substep's
+    bits before the loop, the next substep's in it. JAX's threefry primitive lowers on
+    the CPU to a loop of five trips; drawn through it, each substep ran that loop too,
+    which at one environment (where a step's time is mostly the runtime's per-operation
+    cost) made the step about 30 % more instructions. Computed where they are read, the
+    bits were recomputed in each of four fusions."""
     config = ph.PhysicsConfig(dt_s=1e-4, substeps=10)
     bodies = [ph.two_handle_robot("a"), ph.two_handle_robot("b"), ph.cell("c")]
     bodies += [ph.obstacle(f"o{i}", kinematic=False) for i in range(4)]
@@ -62,6 +65,7 @@ def test_the_integration_loop_holds_no_loop_of_its_own():
     assert nz.drawn_in_loop(key, jnp.float32)
     text = jax.jit(ph.control_step_batch).lower(model, state, ph.Controls.zeros(model, 1), key).compile().as_text()
     assert text.count(" while(") == 1, f"{text.count(' while(')} loops in the compiled step"
+    assert text.count(" shift-left(") == 2 * 20, f"{text.count(' shift-left(')} left shifts"
 
 
 def test_counters_carry_into_the_high_word():
