@@ -327,7 +327,8 @@ def run_demo(
     # the planning reads only the chip's image: it runs while the fields are solved
     study = _Background(fields_then_study)
     try:
-        ends = InteractiveConfig().start_um, InteractiveConfig().goal_um  # the task's route: the default chip's ports
+        task_config = InteractiveConfig()  # the task's route: between the chip's sites
+        ends = chip.site_um(task_config.start_um), chip.site_um(task_config.goal_um)
         plan = plan_path(chip.image, chip.pixel_size_um, *ends, PLAN_ROBOT_RADIUS_UM, threshold=0.5)
         manual_um = simulate_operator(plan.occupancy.planning, chip.pixel_size_um, *ends)
         metrics = write_plan(plan, manual_um, out_dir / "plan")

@@ -17,6 +17,7 @@ from otgym.experiments import demo as demo_module
 from otgym.experiments.whole_path import WholePathDemo
 from otgym.experiments.whole_path import run as run_whole_path
 from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
+from otgym.sim.chip import load_chip
 from otgym.study import wilson_interval
 from otgym.task.task import InteractiveConfig
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
@@ -38,7 +39,7 @@ def test_the_whole_path_reaches_the_goal_past_the_obstacles_with_the_mpc(tmp_pat
     assert list(trials["reached_goal"]) == [follower["reached_goal"] == 1, True]
     cells = pd.read_csv(tmp_path / "cells.csv")
     end = cells[cells["mode"] == "mpc"].iloc[-1]
-    goal = np.array(InteractiveConfig().goal_um)
+    goal = np.array(load_chip("default").site_um(InteractiveConfig().goal_um))
     tolerance = InteractiveConfig().goal_tolerance_um
     assert np.linalg.norm([end["cell_x_um"] - goal[0], end["cell_y_um"] - goal[1]]) < tolerance + 0.5
     assert (tmp_path / "whole_path.png").stat().st_size > 20_000
