@@ -5,8 +5,9 @@ starts, hence a fresh process: ``sharded_rollouts.py``). That one process comput
 part on one device (no mesh: the programs of a one-device process) and then split over
 both devices.
 
-Per-environment results are bitwise equal at these sizes (4 physics environments, 64
-training, 4 evaluation): JAX's partitionable threefry PRNG gives every element of a draw
+Per-environment training and evaluation results are bitwise equal at these sizes (64
+training, 4 evaluation environments), the physics rollout's (4 environments) to float32
+round-off with JAX 0.10.2 (bitwise with earlier versions): JAX's partitionable threefry PRNG gives every element of a draw
 the same value however the draw is split. Not at every size: an evaluation of 32
 environments split 16/16 differed by round-off (up to 1.8e-4 pN), so these sizes are
 the claim, not a general one (docs/cluster.md). Sums over environments
@@ -24,6 +25,11 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 SUMS_OVER_ENVIRONMENTS = ("train_return_sum", "train_loss")
+PHYSICS_ROUND_OFF_UM = 1e-5
+"""The physics rollout split 2/2 against one device: float32 round-off, which with JAX
+0.10.2 came to 8.9e-8 um in the poses and 5.1e-7 um in the trap distances (they were
+bitwise with earlier JAX). Twenty times that is still five orders of magnitude below
+the values (0.1-6 um), so a split that mixed up or dropped environments fails."""
 PARTS = ["physics", "training", "evaluation"]
 
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("sharded_rollouts")]  # one worker runs the process once
@@ -59,12 +65,16 @@ def check_same(rollouts, parts):
     for name in arrays:
         if name in SUMS_OVER_ENVIRONMENTS:
             np.testing.assert_allclose(two[name], one[name], rtol=2e-6, atol=1e-6, err_msg=name)
+        elif name.startswith("physics_"):
+            np.testing.assert_allclose(two[name], one[name], rtol=0, atol=PHYSICS_ROUND_OFF_UM, err_msg=name)
+            assert np.ptp(one[name]) > 1e3 * PHYSICS_ROUND_OFF_UM, name  # the tolerance is far below the values
         else:
             assert two[name].tobytes() == one[name].tobytes(), f"{name} differs when split over 2 devices"
 
 
-def test_physics_rollout_split_over_two_devices_is_bitwise_the_one_device_rollout(rollouts):
-    """Four environments, four control steps of 20 substeps with moving traps."""
+def test_physics_rollout_split_over_two_devices_is_the_one_device_rollout(rollouts):
+    """Four environments, four control steps of 20 substeps with moving traps, equal to
+    float32 round-off (``PHYSICS_ROUND_OFF_UM``)."""
     check_same(rollouts, ["physics"])
 
 
