@@ -32,15 +32,24 @@ POLL_S = 0.5
 STARTUP_DEADLINE_S = 600.0
 
 
+_HANDED_OUT: set[int] = set()
+"""Ports this process has handed out: nothing listens on them until Ray starts, so a
+later draw must not take one again (Ray refuses to start two components on one port)."""
+
+
 def free_port(ip: str, low: int = 20000, high: int = 29999) -> int:
-    """A TCP port in [low, high] that nothing listens on at ``ip`` now."""
+    """A TCP port in [low, high] that nothing listens on at ``ip`` now and that this
+    process has not handed out before."""
     for _ in range(200):
         port = secrets.randbelow(high - low) + low
+        if port in _HANDED_OUT:
+            continue
         with socket.socket() as probe:
             try:
                 probe.bind((ip, port))
             except OSError:
                 continue
+            _HANDED_OUT.add(port)
             return port
     raise RuntimeError(f"no free port in {low}-{high} on {ip}")
 
