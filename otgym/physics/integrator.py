@@ -356,6 +356,11 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         jnp.zeros((model.n_traps, n_env), dtype),
         jnp.zeros(n_env, dtype),
     )
+    ahead = noise.bits is not None  # each substep's random bits computed one substep ahead, carried
+    inputs = noise.inputs
+    if ahead:
+        carry = carry + (noise.bits(jax.tree.map(lambda a: a[0], inputs)),)
+        inputs = jax.tree.map(lambda a: jnp.roll(a, -1, axis=0), inputs)  # substep s gets s + 1's inputs
     carry = shard_environment_tree(carry, -1)  # split over every local device (one: unchanged)
     trap_start = (trap_t[:, 0], trap_t[:, 1])
     refresh = model.field_refresh
@@ -373,26 +378,30 @@ def control_step_batch(model: Model, state: PhysicsState, controls: Controls, ke
         threefry rounds into each fusion that reads one of its rows."""
         return jax.lax.optimization_barrier(noise.draw(inputs[0])), inputs[1]
 
+    def advance(carry, inputs, fields, body_drag):
+        if not ahead:
+            return _substep(model, step_controls, trap_start, fields, body_drag, carry, with_noise(inputs))
+        now = jax.lax.optimization_barrier(noise.from_bits(carry[-1])), inputs[1]
+        new, _ = _substep(model, step_controls, trap_start, fields, body_drag, carry[:-1], now)
+        return new + (noise.bits(inputs[0]),), None
+
     def block(carry, inputs):
         fields, body_drag = sample(carry)
-        return jax.lax.scan(
-            lambda c, i: _substep(model, step_controls, trap_start, fields, body_drag, c, with_noise(i)),
-            carry,
-            inputs,
-        )
+        return jax.lax.scan(lambda c, i: advance(c, i, fields, body_drag), carry, inputs)
 
     if refresh == 1:  # one flat loop: a scan of one-step blocks costs a loop level per step
 
         def single(carry, inputs):
-            return _substep(model, step_controls, trap_start, *sample(carry), carry, with_noise(inputs))
+            return advance(carry, inputs, *sample(carry))
 
-        carry, _ = jax.lax.scan(single, carry, (noise.inputs, jnp.arange(model.substeps)))
+        carry, _ = jax.lax.scan(single, carry, (inputs, jnp.arange(model.substeps)))
     else:
         inputs = (
-            jax.tree.map(lambda a: a.reshape((blocks, refresh) + a.shape[1:]), noise.inputs),
+            jax.tree.map(lambda a: a.reshape((blocks, refresh) + a.shape[1:]), inputs),
             jnp.arange(model.substeps).reshape(blocks, refresh),
         )
         carry, _ = jax.lax.scan(block, carry, inputs)
+    carry = carry[:13]  # the carried bits, if any, are the (unused) next step's
     (
         px,
         py,

@@ -27,20 +27,29 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.extend.random import threefry2x32_p
 
 _FLOAT32_ONE_BITS = np.uint32(0x3F800000)
 _UNIFORM_LOW = np.nextafter(np.float32(-1.0), np.float32(0.0), dtype=np.float32)
 _UNIFORM_SPAN = np.float32(1.0) - _UNIFORM_LOW
 _SQRT2 = np.float32(np.sqrt(2))
+_ROTATIONS = ((13, 15, 26, 6), (17, 29, 16, 24))
+_KEY_PARITY = np.uint32(0x1BD11BDA)
 
 
 class SubstepNoise(NamedTuple):
     """``inputs``: a pytree with a leading substep axis, to be fed to the integration
-    loop's scan; ``draw(inputs[s])``: the noise of substep s, shape ``shape``."""
+    loop's scan; ``draw(inputs[s])``: the noise of substep s, shape ``shape``.
+
+    Drawn in the loop, ``draw`` is ``from_bits(bits(inputs[s]))``: the hash's random
+    bits, then the normal values made from them. The loop computes a substep's bits one
+    substep ahead and carries them, so that they are materialised once: computed where
+    they are read, XLA recomputes the 20 hash rounds in each fusion that reads a part
+    of the noise (four per substep of the standard scene). None with the up-front draw."""
 
     inputs: object
     draw: Callable
+    bits: Callable | None = None
+    from_bits: Callable | None = None
 
 
 def _threefry_words(key):
@@ -65,22 +74,55 @@ def first_counters(substeps: int, per_substep: int):
     return (counts >> np.uint64(32)).astype(np.uint32), (counts & np.uint64(0xFFFFFFFF)).astype(np.uint32)
 
 
-def normal_from_counter(words, first_high, first_low, shape: tuple):
-    """float32 normal values of shape ``shape`` at counters first, first + 1, ... in
-    row-major order: bitwise ``jax.random.normal(key, (n,) + shape)`` at those flat
-    indices. ``words``: the key's uint32 pair; ``first_high/low``: the first counter's words."""
+def threefry2x32(key0, key1, count0, count1):
+    """Threefry-2x32 with 20 rounds (Salmon et al., "Parallel random numbers: as easy as
+    1, 2, 3", SC 2011; the hash of JAX's threefry PRNG): the two uint32 output words
+    for the key (key0, key1) and the counter words (count0, count1), elementwise.
+
+    Written out as plain integer operations, so that XLA fuses the 20 rounds with
+    whatever computes the counters and reads the bits. JAX's own primitive lowers on the
+    CPU to a loop of five iterations, which inside the integration loop costs five
+    trips through the runtime per substep. Bitwise the primitive's result (integer
+    arithmetic; ``tests/physics/test_noise.py`` compares them)."""
+    keys = (key0, key1, key0 ^ key1 ^ _KEY_PARITY)
+    x0, x1 = count0 + keys[0], count1 + keys[1]
+    for group in range(5):
+        for rotation in _ROTATIONS[group % 2]:
+            x0 = x0 + x1
+            x1 = jax.lax.shift_left(x1, np.uint32(rotation)) | jax.lax.shift_right_logical(x1, np.uint32(32 - rotation))
+            x1 = x0 ^ x1
+        x0 = x0 + keys[(group + 1) % 3]
+        x1 = x1 + keys[(group + 2) % 3] + np.uint32(group + 1)
+    return x0, x1
+
+
+def bits_from_counter(words, first_high, first_low, shape: tuple):
+    """The random uint32 bits of shape ``shape`` at counters first, first + 1, ... in
+    row-major order, those ``jax.random.normal`` turns into values (``normal_from_bits``).
+    ``words``: the key's uint32 pair; ``first_high/low``: the first counter's words."""
     strides = np.cumprod((1,) + shape[::-1][:-1])[::-1]
     offset = sum(
         jax.lax.broadcasted_iota(jnp.uint32, shape, axis) * np.uint32(stride) for axis, stride in enumerate(strides)
     )
     low = first_low + offset
     high = first_high + (low < first_low).astype(jnp.uint32)  # carry into the high word
-    bits1, bits2 = threefry2x32_p.bind(words[0], words[1], jnp.broadcast_to(high, shape), low)
-    bits = jnp.bitwise_xor(bits1, bits2)
+    bits1, bits2 = threefry2x32(words[0], words[1], jnp.broadcast_to(high, shape), low)
+    return jnp.bitwise_xor(bits1, bits2)
+
+
+def normal_from_bits(bits):
+    """float32 normal values from random bits, as ``jax.random.normal`` makes them."""
     mantissa = jax.lax.shift_right_logical(bits, np.uint32(32 - 23)) | _FLOAT32_ONE_BITS
     floats = jax.lax.bitcast_convert_type(mantissa, jnp.float32) - np.float32(1.0)
     uniform = jax.lax.max(_UNIFORM_LOW, floats * _UNIFORM_SPAN + _UNIFORM_LOW)
     return _SQRT2 * jax.lax.erf_inv(uniform)
+
+
+def normal_from_counter(words, first_high, first_low, shape: tuple):
+    """float32 normal values of shape ``shape`` at counters first, first + 1, ... in
+    row-major order: bitwise ``jax.random.normal(key, (n,) + shape)`` at those flat
+    indices. ``words``: the key's uint32 pair; ``first_high/low``: the first counter's words."""
+    return normal_from_bits(bits_from_counter(words, first_high, first_low, shape))
 
 
 def substep_noise(key, substeps: int, shape: tuple, dtype) -> SubstepNoise:
@@ -95,4 +137,6 @@ def substep_noise(key, substeps: int, shape: tuple, dtype) -> SubstepNoise:
     return SubstepNoise(
         (jnp.asarray(high), jnp.asarray(low)),
         lambda counter: normal_from_counter(words, counter[0], counter[1], tuple(shape)),
+        lambda counter: bits_from_counter(words, counter[0], counter[1], tuple(shape)),
+        normal_from_bits,
     )

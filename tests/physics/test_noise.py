@@ -6,6 +6,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from jax.extend.random import threefry2x32_p
 
 from otgym import physics as ph
 from otgym.physics import noise as nz
@@ -28,6 +29,43 @@ def test_each_substep_is_bitwise_its_slice_of_one_draw(key):
     expected = np.asarray(jax.random.normal(key, (11,) + shape, jnp.float32))
     got = drawn_substep_by_substep(key, 11, shape)
     assert got.tobytes() == expected.tobytes()
+
+
+def test_hash_is_bitwise_jax_threefry2x32():
+    """The written-out hash against JAX's ``threefry2x32`` primitive on 4096 random
+    counter pairs (and the extremes 0 and 2^32 - 1) for three keys, one of them all ones:
+    every output word equal (fails on a wrong rotation, key-schedule word or injection
+    constant)."""
+    rng = np.random.default_rng(0)
+    counts = rng.integers(0, 2**32, size=(2, 4096), dtype=np.uint32)
+    counts[:, :2] = [[0, 2**32 - 1], [2**32 - 1, 0]]
+    for key in ([0, 0], [2**32 - 1, 2**32 - 1], rng.integers(0, 2**32, size=2, dtype=np.uint32).tolist()):
+        key0, key1 = (jnp.uint32(word) for word in key)
+        ours = jax.jit(nz.threefry2x32)(key0, key1, counts[0], counts[1])
+        jax_words = threefry2x32_p.bind(key0, key1, jnp.asarray(counts[0]), jnp.asarray(counts[1]))
+        for mine, theirs in zip(ours, jax_words, strict=True):
+            assert np.asarray(mine).tobytes() == np.asarray(theirs).tobytes()
+
+
+def test_the_integration_loop_holds_no_loop_of_its_own():
+    """The compiled one-environment step of a 7-body model has one loop, the substeps',
+    and the hash's 20 rounds (20 left rotations) are compiled twice: the first substep's
+    bits before the loop, the next substep's in it. JAX's threefry primitive lowers on
+    the CPU to a loop of five trips; drawn through it, each substep ran that loop too,
+    which at one environment (where a step's time is mostly the runtime's per-operation
+    cost) made the step about 30 % more instructions. Computed where they are read, the
+    bits were recomputed in each of four fusions."""
+    config = ph.PhysicsConfig(dt_s=1e-4, substeps=10)
+    bodies = [ph.two_handle_robot("a"), ph.two_handle_robot("b"), ph.cell("c")]
+    bodies += [ph.obstacle(f"o{i}", kinematic=False) for i in range(4)]
+    model = ph.build_model(bodies, config)
+    pose = np.array([[0, -6.0, 0], [0, 6.0, np.pi], [0, 0, 0], [25, 0, 0], [-25, 0, 0], [0, 25, 0], [0, -25, 0]])
+    state = jax.tree.map(lambda a: a[None], ph.initial_state(model, pose))
+    key = jax.random.PRNGKey(0)
+    assert nz.drawn_in_loop(key, jnp.float32)
+    text = jax.jit(ph.control_step_batch).lower(model, state, ph.Controls.zeros(model, 1), key).compile().as_text()
+    assert text.count(" while(") == 1, f"{text.count(' while(')} loops in the compiled step"
+    assert text.count(" shift-left(") == 2 * 20, f"{text.count(' shift-left(')} left shifts"
 
 
 def test_counters_carry_into_the_high_word():
