@@ -29,7 +29,7 @@ from otgym.rl.dqn import DQNConfig
 
 
 def env_steps_per_s(params, n_envs: int = 256, n_steps: int = 20) -> float:
-    from otgym.envs import speed_control as spc
+    from otgym.tasks.transport import speed_control as spc
 
     reset, step = jax.jit(spc.reset_batch, static_argnums=2), jax.jit(spc.step_batch)
     _, state = reset(jax.random.PRNGKey(0), params, n_envs)
@@ -86,9 +86,9 @@ def adapter_seconds(total_steps: int, sample_steps: int = 1000) -> float:
 def constant_speed_evaluation(params, hidden, episodes: int, seed: int, repeats: int):
     """The constant speeds alone on the test episodes (the same for every training seed);
     the rollout's network is evaluated but not used by them."""
-    from otgym.envs import transport as tr
     from otgym.experiments.speed_control_eval import evaluate
     from otgym.rl.network import QNetwork
+    from otgym.tasks.transport import core as tr
 
     levels = tuple(range(1, params.config.n_actions + 1))
     unused = QNetwork(params.config.n_actions, tuple(hidden)).init(jax.random.PRNGKey(0), jnp.zeros((1, tr.OBS_SIZE)))
@@ -124,10 +124,10 @@ def main() -> None:
     )
     parser.add_argument("--sb3-sample", type=int, default=10_000, help="SB3 steps timed (then extrapolated)")
     args = parser.parse_args()
-    from otgym.envs import speed_control as spc
-    from otgym.envs.presets import paper
     from otgym.experiments.speed_control import train
     from otgym.experiments.speed_control_eval import acceptance, evaluate, passes
+    from otgym.tasks.transport import speed_control as spc
+    from otgym.tasks.transport.presets import paper
 
     task = paper()
     params = spc.make_params(task)

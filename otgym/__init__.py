@@ -18,16 +18,22 @@ __version__ = "0.1.0"
 
 
 def _register_gym_envs() -> None:
-    """Every registered task with a Gymnasium id (``otgym.registry``: otgym's own and
-    installed packages' ``otgym.tasks`` entry points) becomes a Gymnasium environment."""
+    """Every registered task (``otgym.registry``: otgym's own and installed packages'
+    ``otgym.tasks`` entry points) becomes a Gymnasium environment, under its entry's
+    ``gym_id`` or else ``otgym/<name>-v0``."""
     import gymnasium
 
     from otgym import registry
 
     for task in registry.entries("tasks"):
-        env_id = task.extras.get("gym_id")
-        if env_id and env_id not in gymnasium.registry:  # re-imports and reloads register once
-            gymnasium.register(env_id, entry_point=task.target, vector_entry_point=task.extras.get("vector"))
+        env_id = task.extras.get("gym_id") or f"otgym/{task.name}-v0"
+        if env_id not in gymnasium.registry:  # re-imports and reloads register once
+            gymnasium.register(
+                env_id,
+                entry_point="otgym.envs.gym_adapter:TaskEnv",
+                vector_entry_point="otgym.envs.gym_vector:TaskVectorEnv",
+                kwargs={"task": task.name},
+            )
 
 
 _register_gym_envs()

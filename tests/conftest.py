@@ -34,7 +34,7 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 @pytest.fixture(scope="session")
 def paper_params():
     """The ``paper`` preset's task parameters, built once (scene, path plan) for all tests."""
-    from otgym.envs import speed_control as spc
+    from otgym.tasks.transport import speed_control as spc
 
     return spc.make_params("paper")
 
@@ -49,8 +49,8 @@ def fixed_action_q_params():
     exact times of constant speeds."""
     import jax.numpy as jnp
 
-    from otgym.envs import transport as tr
     from otgym.rl.network import QNetwork
+    from otgym.tasks.transport import core as tr
 
     def make(action: int, n_actions: int = 6):
         params = QNetwork(n_actions, FIXED_POLICY_HIDDEN).init(jax.random.PRNGKey(0), jnp.zeros((1, tr.OBS_SIZE)))

@@ -26,8 +26,9 @@ def test_registration_is_idempotent_and_entry_points_are_strings():
         "importlib.reload(otgym)\n"
         "import otgym.envs\n"
         "spec = gymnasium.spec('otgym/CellTransport-v0')\n"
-        "assert spec.entry_point == 'otgym.envs.gym_adapter:CellTransportEnv', spec.entry_point\n"
-        "assert spec.vector_entry_point == 'otgym.envs.gym_vector:CellTransportVectorEnv'\n"
+        "assert spec.entry_point == 'otgym.envs.gym_adapter:TaskEnv', spec.entry_point\n"
+        "assert spec.vector_entry_point == 'otgym.envs.gym_vector:TaskVectorEnv'\n"
+        "assert spec.kwargs == {'task': 'cell-transport'}, spec.kwargs\n"
         "assert sum(k.startswith('otgym/') for k in gymnasium.registry) == 2\n"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

@@ -45,14 +45,14 @@ def register(app: typer.Typer) -> None:
         from otgym.experiments.output_folder import check_out_dir
 
         check_out_dir(out)
-        from otgym.envs import speed_control as spc
-        from otgym.envs import transport as tr
-        from otgym.envs.presets import preset
         from otgym.experiments.report import reference_verdict
         from otgym.experiments.seeds import development_note, mark_report_files
         from otgym.experiments.speed_control_eval import evaluate as run
         from otgym.experiments.speed_control_eval import write_results
         from otgym.rl.policy import load_policy, policy_meta, resolve_policy
+        from otgym.tasks.transport import core as tr
+        from otgym.tasks.transport import speed_control as spc
+        from otgym.tasks.transport.presets import preset
 
         path = resolve_policy(policy)
         task = preset(policy_meta(path).get("preset", "paper"))

@@ -78,12 +78,12 @@ def run_and_write(config, out: Path, command: str) -> None:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from otgym.envs import transport as tr
     from otgym.experiments.front_config import training_seeds
     from otgym.experiments.seeds import development_note
     from otgym.experiments.speed_front import run_front
     from otgym.experiments.speed_front_report import write_front
     from otgym.rl.policy import PRETRAINED_POLICY, load_policy
+    from otgym.tasks.transport import core as tr
 
     console = Console()
     note = development_note("speed-front", config.seed, batches=config.batches)

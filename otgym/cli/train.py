@@ -11,29 +11,35 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from otgym.cli import options
 
-PRESETS = ("paper", "realistic")
-
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def train(
-        preset: str = options.name("paper", "--preset", PRESETS, "Task preset."),
+        task_name: str = options.registered(
+            "speed-control", "--task", "tasks", None, "Task to train (discrete actions)."
+        ),
+        preset: str = typer.Option(None, "--preset", metavar="NAME", help="The task's preset (default: its first)."),
         out: Path = options.out_dir(Path("results/train"), "Folder for the results."),
         steps: int = typer.Option(200_000, "--steps", min=1, max=10**9, help="Environment steps in all."),
         envs: int = typer.Option(64, "--envs", min=1, max=2**20, help="Environments simulated at once."),
         seed: int = options.seed(0, "Random seed,"),
     ) -> None:
-        """Train the DQN speed controller (the paper's progressive scheme: planned path, learned speed).
+        """Train a DQN policy on a task with discrete actions; by default the paper's speed
+        controller (planned path, learned speed).
 
-        Example: otgym train --preset paper --steps 204800 --out results/train
+        Example: otgym train --task speed-control --preset paper --steps 204800 --out results/train
         """
-        from otgym.envs.presets import preset as make_preset
+        from otgym import tasks
         from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.speed_control import train as run_training
-        from otgym.experiments.speed_control import write_training
+        from otgym.experiments.speed_control import train_task, write_training
         from otgym.rl.dqn import DQNConfig
 
-        task = make_preset(preset)
+        task = tasks.load(task_name)
+        try:
+            task_config = task.config(preset)
+        except ValueError as error:
+            raise typer.BadParameter(str(error), param_hint="--preset") from None
         config = DQNConfig(n_envs=envs, total_env_steps=steps)
         check_out_dir(out)
         console = Console()
@@ -49,10 +55,17 @@ def register(app: typer.Typer) -> None:
             def report(done: int, total: int) -> None:
                 progress.update(bar, description="training", completed=done)
 
-            result = run_training(task, config, seed, report)
+            if task_name == "speed-control":  # the policy file records the speed levels
+                result = run_training(task_config, config, seed, report)
+            else:
+                params = task.make_params(task_config)
+                try:
+                    result = train_task(task, params, config, seed, report, preset=preset)
+                except ValueError as error:
+                    raise typer.BadParameter(str(error), param_hint="--task") from None
         summary = write_training(result, out)
         console.print(
-            f"[bold]otgym train[/bold] ({preset}): {summary['episodes']} episodes, "
+            f"[bold]otgym train[/bold] ({task_name}, {result.meta['preset']}): {summary['episodes']} episodes, "
             f"{summary['env_steps']} steps in {summary['wall_s']} s; final mean return "
             f"{summary['final_mean_return']}"
         )

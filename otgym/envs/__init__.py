@@ -5,6 +5,6 @@ by ``import otgym`` (``otgym/__init__.py``) as ``otgym/SpeedControl-v0`` and ``o
 versions (``gymnasium.make_vec("otgym/SpeedControl-v0", num_envs=8)``,
 ``otgym.envs.gym_vector``)."""
 
-from otgym.envs.presets import PRESETS, TaskConfig, preset
+from otgym.tasks.transport.presets import PRESETS, TaskConfig, preset
 
 __all__ = ["PRESETS", "TaskConfig", "preset"]

@@ -273,9 +273,6 @@ def run_demo(
     disk, beside the planning, the speed control and the whole path (numba compiles
     the planner both threads use once, under its compiler lock). It is the demo's
     longest stage, so it starts first. No result depends on which thread runs what."""
-    from otgym.envs import speed_control as spc
-    from otgym.envs import transport as tr
-    from otgym.envs.presets import preset
     from otgym.experiments import report, shipped_results
     from otgym.experiments.speed_control_eval import evaluate, write_results
     from otgym.experiments.whole_path import run as run_whole_path
@@ -285,6 +282,9 @@ def run_demo(
     from otgym.sim.cache import chip_fields
     from otgym.sim.chip import load_chip
     from otgym.task.task import InteractiveConfig
+    from otgym.tasks.transport import core as tr
+    from otgym.tasks.transport import speed_control as spc
+    from otgym.tasks.transport.presets import preset
 
     policy_path = resolve_policy(config.policy)
     task = preset(policy_meta(policy_path).get("preset", "paper"))

@@ -4,7 +4,7 @@ ours."""
 
 from __future__ import annotations
 
-from otgym.envs.presets import PAPER_SPEEDS_UM_S
+from otgym.tasks.transport.presets import PAPER_SPEEDS_UM_S
 
 PAPER_TABLE_I = {
     "manual": (9.6193, 314.34, 45.962),

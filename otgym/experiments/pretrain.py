@@ -19,12 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
-from otgym.envs import speed_control as spc
-from otgym.envs.presets import TaskConfig, paper
 from otgym.experiments.speed_control import TrainResult, train
 from otgym.experiments.speed_control_eval import evaluate
 from otgym.rl.dqn import DQNConfig
 from otgym.rl.policy import PRETRAINED_POLICY, save_policy
+from otgym.tasks.transport import speed_control as spc
+from otgym.tasks.transport.presets import TaskConfig, paper
 
 VALIDATION_SEED = 1000
 VALIDATION_EPISODES = 256

@@ -2,7 +2,7 @@
 
 Runs the shipped policy (greedy) and uniformly random speeds on the same seeded
 episodes of the ``paper`` preset and records every term of every step's reward
-(``otgym.envs.transport.reward_terms``, weighted as trained). Per policy and term:
+(``otgym.tasks.transport.core.reward_terms``, weighted as trained). Per policy and term:
 the fraction of steps where it is not zero (where it binds), its mean and range, and
 its share of the summed absolute reward. A term that is zero, or the same, in every
 step teaches nothing but the episode's length; the table says which.
@@ -22,9 +22,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from otgym.envs import speed_control as spc
-from otgym.envs import transport as tr
 from otgym.rl.network import QNetwork
+from otgym.tasks.transport import core as tr
+from otgym.tasks.transport import speed_control as spc
 
 POLICIES = ("RL", "random")
 
@@ -146,9 +146,9 @@ def main(argv=None) -> None:
         parser.error(f"--episodes must be an integer in [1, 4096], got {args.episodes}")
     if not 0 <= args.seed < 2**32:
         parser.error(f"--seed must be an integer in [0, {2**32 - 1}], got {args.seed}")
-    from otgym.envs.presets import preset
     from otgym.experiments.output_folder import check_out_dir
     from otgym.rl.policy import load_policy, policy_meta, resolve_policy
+    from otgym.tasks.transport.presets import preset
 
     try:
         check_out_dir(args.out)

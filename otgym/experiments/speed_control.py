@@ -1,7 +1,9 @@
-"""Training job of the learned speed controller (paper section II-C, III-B): DQN
-(``otgym.rl.dqn``) on the ``SpeedControl`` task of a preset, the whole loop in
-``jit``; writes the policy file and the learning curve (cumulative reward per
-episode, the paper's Fig. 6c)."""
+"""DQN training of any task with a discrete action space (``otgym.rl.dqn`` on the
+task's batched ``reset_batch`` / ``step_batch`` / ``auto_reset``, the whole loop in
+``jit``): ``train_task`` for a registered task (``otgym train --task``), ``train`` for
+the learned speed controller of a ``SpeedControl`` preset (paper section II-C, III-B).
+Writes the policy file and the learning curve (cumulative reward per episode, the
+paper's Fig. 6c)."""
 
 from __future__ import annotations
 
@@ -10,25 +12,33 @@ import json
 import time
 from pathlib import Path
 
+import gymnasium as gym
 import jax
 import numpy as np
 
-from otgym.envs import speed_control as spc
-from otgym.envs import transport as tr
-from otgym.envs.presets import TaskConfig
+from otgym import tasks
 from otgym.rl.dqn import DQNConfig, Env, make_train
 from otgym.rl.policy import save_policy
+from otgym.tasks.base import Task
+from otgym.tasks.transport import core as tr
+from otgym.tasks.transport.presets import TaskConfig
 
 CURVE_WINDOW = 50
 
 
-def make_env(params: tr.TransportParams) -> Env:
+def make_env(params: tr.TransportParams, task: Task | None = None) -> Env:
+    """The DQN's batched environment of ``task`` (default: speed control) with ``params``;
+    ValueError if the task's actions are not discrete."""
+    task = task if task is not None else tasks.load("speed-control")
+    space = task.action_space(params)
+    if not isinstance(space, gym.spaces.Discrete):
+        raise ValueError(f"task {task.name!r} has {type(space).__name__} actions; DQN needs a discrete action space")
     return Env(
-        reset=lambda key, n: spc.reset_batch(key, params, n),
-        step=lambda key, state, action: spc.step_batch(key, state, action, params),
-        auto_reset=lambda key, obs, state, done: tr.auto_reset(key, params, obs, state, done),
-        obs_size=tr.OBS_SIZE,
-        n_actions=params.config.n_actions,
+        reset=lambda key, n: task.reset_batch(key, params, n),
+        step=lambda key, state, action: task.step_batch(key, state, action, params),
+        auto_reset=lambda key, obs, state, done: task.auto_reset(key, params, obs, state, done),
+        obs_size=task.observation_size(params),
+        n_actions=int(space.n),
     )
 
 
@@ -49,11 +59,30 @@ def train(
     progress=None,
     params: tr.TransportParams | None = None,
 ) -> TrainResult:
-    """Train one seed chunk by chunk (each chunk one jitted call, the runner staying
-    on the device); ``progress(done_chunks, n_chunks)`` after each."""
+    """Train the speed controller of preset ``task`` for one seed (``train_task``)."""
+    speed = tasks.load("speed-control")
+    params = speed.make_params(task) if params is None else params
+    extra = {"preset": task.name, "speed_levels_um_s": list(task.speed_levels_um_s)}
+    return train_task(speed, params, config, seed, progress, extra)
+
+
+def train_task(
+    task: Task | str,
+    params=None,
+    config: DQNConfig = DQNConfig(),
+    seed: int = 0,
+    progress=None,
+    extra_meta: dict | None = None,
+    preset: str | None = None,
+) -> TrainResult:
+    """Train ``task`` (a Task or a registered name; ``params`` default: its ``preset``'s)
+    for one seed, chunk by chunk (each chunk one jitted call, the runner staying on the
+    device); ``progress(done_chunks, n_chunks)`` after each."""
     start = time.perf_counter()
-    params = spc.make_params(task) if params is None else params
-    init, run_chunk, _ = make_train(config, make_env(params))
+    task = tasks.load(task) if isinstance(task, str) else task
+    params = task.make_params(task.config(preset)) if params is None else params
+    env = make_env(params, task)
+    init, run_chunk, _ = make_train(config, env)
     runner = jax.jit(init)(jax.random.PRNGKey(seed))
     run_chunk = jax.jit(run_chunk)
     chunks = []
@@ -69,10 +98,11 @@ def train(
         metrics["return_sum"][ended] / metrics["episodes"][ended], metrics["episodes"][ended].astype(int)
     )
     meta = {
-        "preset": task.name,
-        "obs_size": tr.OBS_SIZE,
-        "n_actions": task.n_actions,
-        "speed_levels_um_s": list(task.speed_levels_um_s),
+        "task": task.name,
+        "preset": preset or task.presets()[0],
+        "obs_size": env.obs_size,
+        "n_actions": env.n_actions,
+        **(extra_meta or {}),
         "hidden": list(config.hidden),
         "env_steps": config.n_chunks * config.chunk_iters * config.n_envs,
         "seed": seed,
@@ -92,7 +122,7 @@ def write_training(result: TrainResult, out_dir: Path) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     save_policy(out_dir / "policy.npz", result.q_params, result.meta)
-    _curve(result.episode_returns, out_dir / "learning_curve.png", result.meta["preset"])
+    _curve(result.episode_returns, out_dir / "learning_curve.png", result.meta)
     summary = {
         "episodes": result.episodes,
         "env_steps": result.env_steps,
@@ -103,7 +133,7 @@ def write_training(result: TrainResult, out_dir: Path) -> dict:
     return summary
 
 
-def _curve(returns: np.ndarray, path: Path, preset: str) -> None:
+def _curve(returns: np.ndarray, path: Path, meta: dict) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -117,7 +147,7 @@ def _curve(returns: np.ndarray, path: Path, preset: str) -> None:
         ax.plot(episodes[CURVE_WINDOW - 1 :], smooth, color="tab:blue", label=f"mean of {CURVE_WINDOW}")
     ax.set_xlabel("episode")
     ax.set_ylabel("cumulative reward per episode")
-    ax.set_title(f"DQN speed control, preset {preset}")
+    ax.set_title(f"DQN, task {meta.get('task', 'speed-control')}, preset {meta['preset']}")
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -23,11 +23,11 @@ import jax.numpy as jnp
 import numpy as np
 from scipy.stats import binomtest
 
-from otgym.envs import speed_control as spc
-from otgym.envs import transport as tr
 from otgym.experiments.paper_tables import table_ii_markdown
 from otgym.rl.network import QNetwork
 from otgym.study.stats import wilson_interval
+from otgym.tasks.transport import core as tr
+from otgym.tasks.transport import speed_control as spc
 
 
 @dataclasses.dataclass

@@ -23,15 +23,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from otgym.envs import speed_control as spc
-from otgym.envs import transport as tr
-from otgym.envs.presets import TaskConfig, paper
 from otgym.experiments import seeds as seed_protocol
 from otgym.experiments.front_config import FrontConfig, group_name, training_seeds
 from otgym.experiments.front_stats import Outcomes
 from otgym.experiments.speed_control import train
 from otgym.rl.dqn import DQNConfig
 from otgym.rl.network import QNetwork
+from otgym.tasks.transport import core as tr
+from otgym.tasks.transport import speed_control as spc
+from otgym.tasks.transport.presets import TaskConfig, paper
 
 FRONT_DQN = DQNConfig()
 """Training configuration of every family member: the shipped policy's."""

@@ -21,25 +21,21 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
     (
         "tasks",
         "speed-control",
-        "otgym.envs.gym_adapter:SpeedControlEnv",
+        "otgym.tasks.transport:SpeedControl",
         "the paper's learning task: pick the robots' speed along the planned path past moving obstacles",
         (),
         {
             "gym_id": "otgym/SpeedControl-v0",
-            "vector": "otgym.envs.gym_vector:SpeedControlVectorEnv",
-            "functional": "otgym.envs.speed_control",
         },
     ),
     (
         "tasks",
         "cell-transport",
-        "otgym.envs.gym_adapter:CellTransportEnv",
+        "otgym.tasks.transport:CellTransport",
         "speed control with the gripped cell simulated: carry it to the goal without losing it",
         (),
         {
             "gym_id": "otgym/CellTransport-v0",
-            "vector": "otgym.envs.gym_vector:CellTransportVectorEnv",
-            "functional": "otgym.envs.cell_transport",
         },
     ),
     # robots

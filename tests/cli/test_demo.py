@@ -12,7 +12,6 @@ import pandas as pd
 import pytest
 
 from otgym.cli.app import main
-from otgym.envs import transport as tr
 from otgym.experiments import demo as demo_module
 from otgym.experiments.whole_path import WholePathDemo
 from otgym.experiments.whole_path import run as run_whole_path
@@ -20,6 +19,7 @@ from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
 from otgym.sim.chip import load_chip
 from otgym.study import wilson_interval
 from otgym.task.task import InteractiveConfig
+from otgym.tasks.transport import core as tr
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
 

@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from otgym.envs import transport as tr
 from otgym.rl.policy import load_policy, save_policy
+from otgym.tasks.transport import core as tr
 from tests.conftest import FIXED_POLICY_HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
 from tests.otgym_cli import run_cli

@@ -12,8 +12,8 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 import otgym.envs  # noqa: F401  (registers the ids)
-from otgym.envs.gym_adapter import CellTransportEnv, SpeedControlEnv
-from otgym.envs.gym_vector import CellTransportVectorEnv, SpeedControlVectorEnv
+from otgym.envs.gym_adapter import TaskEnv
+from otgym.envs.gym_vector import TaskVectorEnv
 
 N = 4
 SPEED_ID, CELL_ID = "otgym/SpeedControl-v0", "otgym/CellTransport-v0"
@@ -33,23 +33,20 @@ def cell_env():
     env.close()
 
 
-@pytest.mark.parametrize(
-    "env_id, vector_class, single_class",
-    [(SPEED_ID, SpeedControlVectorEnv, SpeedControlEnv), (CELL_ID, CellTransportVectorEnv, CellTransportEnv)],
-)
-def test_make_vec_returns_the_native_vector_env_and_make_the_single_one(env_id, vector_class, single_class):
+@pytest.mark.parametrize("env_id, task", [(SPEED_ID, "speed-control"), (CELL_ID, "cell-transport")])
+def test_make_vec_returns_the_native_vector_env_and_make_the_single_one(env_id, task):
     env = gym.make_vec(env_id, num_envs=N, vectorization_mode="vector_entry_point")
-    assert type(env) is vector_class and env.num_envs == N
-    assert type(gym.make_vec(env_id, num_envs=2)) is vector_class  # the default mode for these ids
+    assert type(env) is TaskVectorEnv and env.num_envs == N and env.task.name == task
+    assert type(gym.make_vec(env_id, num_envs=2)) is TaskVectorEnv  # the default mode for these ids
     assert type(gym.make_vec(env_id, num_envs=2, vectorization_mode="sync")) is gym.vector.SyncVectorEnv
     single = gym.make(env_id)
-    assert type(single.unwrapped) is single_class
+    assert type(single.unwrapped) is TaskEnv and single.unwrapped.task.name == task
     assert env.metadata["autoreset_mode"] is AutoresetMode.SAME_STEP
     assert env.single_observation_space == single.observation_space
     assert env.single_action_space == single.action_space
     assert env.observation_space == batch_space(single.observation_space, N)
     assert env.action_space == batch_space(single.action_space, N)
-    other = vector_class(N)
+    other = TaskVectorEnv(N, task)
     assert other._step is env._step and other.params is env.params  # compiled once per (task, preset)
 
 
@@ -151,7 +148,7 @@ def test_cell_transport_step_shapes_and_reproducibility(cell_env):
 
 def test_render_gives_one_frame_per_environment(speed_env):
     assert speed_env.render() is None  # no render_mode
-    env = SpeedControlVectorEnv(N, render_mode="rgb_array")
+    env = TaskVectorEnv(N, "speed-control", render_mode="rgb_array")
     assert env.render() is None  # before reset
     env.reset(seed=2)
     frames = env.render()
@@ -198,11 +195,11 @@ def test_cell_transport_rejects_nan_wrong_shape_and_out_of_bounds(cell_env):
 @pytest.mark.parametrize("num_envs", [0, -2, 2.0, True])
 def test_bad_num_envs(num_envs):
     with pytest.raises(ValueError, match="num_envs must be a positive integer"):
-        SpeedControlVectorEnv(num_envs)
+        TaskVectorEnv(num_envs, "speed-control")
 
 
 def test_bad_render_mode_and_reset_options():
     with pytest.raises(ValueError, match="render_mode"):
-        SpeedControlVectorEnv(N, render_mode="human")
+        TaskVectorEnv(N, "speed-control", render_mode="human")
     with pytest.raises(ValueError, match="options"):
-        SpeedControlVectorEnv(N).reset(seed=0, options={"reset_mask": np.ones(N, bool)})
+        TaskVectorEnv(N, "speed-control").reset(seed=0, options={"reset_mask": np.ones(N, bool)})

@@ -7,8 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from otgym.envs import speed_control as spc
-from otgym.envs import transport as tr
+from otgym.tasks.transport import core as tr
+from otgym.tasks.transport import speed_control as spc
 
 gymnax_env = pytest.importorskip("otgym.envs.gymnax_env", reason="needs the [jax-rl] extra (gymnax<1, rejax)")
 

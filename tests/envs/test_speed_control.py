@@ -6,9 +6,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from otgym.envs import speed_control as spc
-from otgym.envs import transport as tr
-from otgym.envs.presets import paper, preset
+from otgym.tasks.transport import core as tr
+from otgym.tasks.transport import speed_control as spc
+from otgym.tasks.transport.presets import paper, preset
 
 TREND_EPISODES = 128
 N_ENVS = 2 * TREND_EPISODES  # every batched test here: the batched reset and step compile once for the module
@@ -113,7 +113,7 @@ def test_unknown_preset_and_bad_config_raise():
 
 
 def test_priced_reward_scales_the_failure_and_its_precursors_together():
-    from otgym.envs.presets import RewardWeights
+    from otgym.tasks.transport.presets import RewardWeights
 
     base = RewardWeights()
     priced = base.priced(300.0)

@@ -35,10 +35,10 @@ def physics_rollout():
 
 
 def training():
-    from otgym.envs import speed_control as spc
-    from otgym.envs.presets import preset
     from otgym.experiments.speed_control import make_env
     from otgym.rl.dqn import make_train
+    from otgym.tasks.transport import speed_control as spc
+    from otgym.tasks.transport.presets import preset
     from tests.rl.canonical import TRAIN_CONFIG as config
 
     init, run_chunk, _ = make_train(config, make_env(spc.make_params(preset("paper"))))
@@ -57,10 +57,10 @@ def training():
 
 
 def evaluation():
-    from otgym.envs import speed_control as spc
-    from otgym.envs.transport import OBS_SIZE
     from otgym.experiments.speed_control_eval import make_rollout
     from otgym.rl.network import QNetwork
+    from otgym.tasks.transport import speed_control as spc
+    from otgym.tasks.transport.core import OBS_SIZE
 
     params = spc.make_params("paper")
     hidden = (16,)

@@ -152,8 +152,8 @@ def test_table_and_figure_files(tmp_path, fastest_policy_evaluation):
 
 def test_paper_values_stand_beside_only_the_papers_speeds():
     """The ``realistic`` preset's 2-12 um/s groups are not the paper's: no paper column."""
-    from otgym.envs.presets import PAPER_SPEEDS_UM_S, realistic
     from otgym.experiments.paper_tables import table_ii_markdown
+    from otgym.tasks.transport.presets import PAPER_SPEEDS_UM_S, realistic
 
     def rows(speeds):
         interval = {"success_ci95_low": 0.51, "success_ci95_high": 1.0}

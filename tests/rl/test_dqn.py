@@ -7,10 +7,10 @@ import jax
 import numpy as np
 import pytest
 
-from otgym.envs import transport as tr
 from otgym.experiments.speed_control import make_env
 from otgym.rl.dqn import DQNConfig, epsilon, make_train
 from otgym.rl.policy import load_policy, save_policy
+from otgym.tasks.transport import core as tr
 
 TINY = DQNConfig(
     n_envs=8, total_env_steps=160, chunk_iters=10, buffer_size=64, batch_size=16, learning_starts=32, target_every=5

@@ -51,8 +51,8 @@ def test_sites_come_from_the_sidecar_and_are_checked(tmp_path, default_chip):
 
 
 def test_presets_and_the_interactive_task_start_at_the_chips_sites(default_chip):
-    from otgym.envs.presets import paper, realistic
     from otgym.task.task import InteractiveConfig
+    from otgym.tasks.transport.presets import paper, realistic
 
     config = InteractiveConfig()
     assert [default_chip.site_um(c) for c in (config.start_um, config.goal_um)] == [(15.0, 40.0), (285.0, 160.0)]

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from otgym.envs.presets import PRESETS
 from otgym.physics.bodies import two_handle_robot
 from otgym.physics.traps import TRAP_LAWS, TrapLaw
 from otgym.sim.locate import kept_median, sample
@@ -15,6 +14,7 @@ from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.scene import SceneConfig
 from otgym.sim.sensor import VisionForceSensor, sensor_errors, trap_force_pn
 from otgym.task.task import interactive_scene
+from otgym.tasks.transport.presets import PRESETS
 
 FRAMES = 1000
 FOV_PX = (140, 140)

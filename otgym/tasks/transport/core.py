@@ -32,11 +32,11 @@ import numpy as np
 from flax import struct
 
 from otgym import physics as ph
-from otgym.envs.presets import TaskConfig
 from otgym.planning import formation as fm
 from otgym.planning import plan_path
 from otgym.sim import scene as sc
 from otgym.sim.chip import Chip, load_chip
+from otgym.tasks.transport.presets import TaskConfig
 
 OBS_SIZE = 21
 LOOKAHEAD_UM = 5.0

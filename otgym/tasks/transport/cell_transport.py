@@ -4,7 +4,7 @@ RL and for teleoperation. Progress is the cell's position projected on the path
 segment; the goal is the cell within 0.5 um of the segment's end. Actions are
 clipped to +-``max_robot_speed_um_s`` per axis and NaN maps to 0 here (no error can be
 raised inside ``jit``); the Gymnasium adapter rejects both. Same observation and reward
-terms as ``SpeedControl`` (``otgym.envs.transport``), the speed term using the robots'
+terms as ``SpeedControl`` (``otgym.tasks.transport.core``), the speed term using the robots'
 mean speed along the path.
 """
 
@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from otgym.envs import transport as tr
-from otgym.envs.presets import TaskConfig, preset
-from otgym.envs.transport import TransportParams, TransportState
 from otgym.planning import formation as fm
+from otgym.tasks.transport import core as tr
+from otgym.tasks.transport.core import TransportParams, TransportState
+from otgym.tasks.transport.presets import TaskConfig, preset
 
 GOAL_TOLERANCE_UM = 0.5
 ROBOT_OF_TRAP = (0, 0, 1, 1)  # traps of robot a, then b (``scene.reset_at``)

@@ -3,7 +3,7 @@ the agent gives the speed. Each control step the action picks one of the discret
 speed levels; the four traps advance as one rigid formation along the path by
 speed x control period (``otgym.planning.formation``), the physics runs its sub-steps
 in between. The episode ends at the segment's end (goal) or on a failure, and is
-truncated after ``max_steps``. See ``otgym.envs.transport`` for observation and reward.
+truncated after ``max_steps``. See ``otgym.tasks.transport.core`` for observation and reward.
 
 Functional API (pure, jittable): ``reset(key, params) -> (obs, state)``,
 ``step(key, state, action, params) -> (obs, state, reward, terminated, truncated,
@@ -16,10 +16,10 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from otgym.envs import transport as tr
-from otgym.envs.presets import TaskConfig, preset
-from otgym.envs.transport import TransportParams, TransportState
 from otgym.planning import formation as fm
+from otgym.tasks.transport import core as tr
+from otgym.tasks.transport.core import TransportParams, TransportState
+from otgym.tasks.transport.presets import TaskConfig, preset
 
 
 def make_params(config: TaskConfig | str = "paper") -> TransportParams:
