@@ -14,7 +14,7 @@ batched over E environments; increments (E, T, 2) um per tick.
   ``carry_gain_per_s * lead_um`` (3 um/s) and its shape (the robots' places relative to
   each other, which hold the cell) corrected in full. So a person sharing control who
   holds the assembly back or steps it aside is opposed by at most 3 um/s, not by a
-  position servo (docs/decisions/0006-route-navigator-capped-correction.md).
+  position servo (docs/decisions/0046-route-navigator-capped-correction.md).
 Each trap's increment is capped at ``max_speed_um_s`` times the tick.
 
 The speed is a constant cruise speed, not the shipped DQN speed policy: that policy

@@ -3,7 +3,7 @@ obstacle scenarios (``otgym.task.scenario.ScenarioConfig``) and measure, for eac
 the share of obstacles the autonomous mode avoids, against the paper's autonomous
 success of 59 % (``otgym.study.PAPER_FIG8``).
 
-This is how ``timing_jitter_s`` (15 s) was chosen (docs/decisions/0010 and 0016: 64
+This is how ``timing_jitter_s`` (15 s) was chosen (docs/decisions/0049 and 0016: 64
 development scenarios, 900000-900063, the route navigator at 5 um/s ignoring obstacles):
 the autonomous mode only follows the route, so the spread of the obstacles' crossing
 times sets how many it meets. The autonomous mode needs no participant (alpha is 0, so

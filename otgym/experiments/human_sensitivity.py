@@ -55,7 +55,7 @@ ASSUMED_CV = tuple(name for name in POPULATION_CV if name not in ("lapse_rate_pe
 
 ASSUMED_TASK = tuple(field.name for field in dataclasses.fields(ParticipantTask) if field.name != "bimanual")
 """``ParticipantTask`` fields: none has a literature value (the geometric ones carry an
-assumed margin; the reasons for the others: docs/decisions/0001-0005); ``bimanual`` is
+assumed margin; the reasons for the others: docs/decisions/0041-0045); ``bimanual`` is
 the paper's set-up, not a parameter."""
 
 ASSUMED = ASSUMED_MOTOR + (POPULATION_SPREAD,) + ASSUMED_TASK

@@ -15,7 +15,7 @@ the route or standing in it, change the path first (waiting does not clear the w
 pedestrian-avoidance findings of Huber et al., PLoS ONE 9, e89589, 2014). With none
 safe, the widest miss; past a standing obstacle a forward option may squeeze to
 ``squeeze_um`` inside its clearance before the person holds still. Why these rules:
-docs/decisions/0004-participant-obstacle-preferences.md.
+docs/decisions/0044-participant-obstacle-preferences.md.
 """
 
 from __future__ import annotations

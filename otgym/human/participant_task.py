@@ -29,7 +29,7 @@ class ParticipantTask:
     radius), 0.95 um less than the 8.7 um radius that the clearances count, so such a
     pass still leaves about 0.45 um of water. The other fields are named in
     ``otgym.human.participants``' docstring; the reasons for their values in
-    docs/decisions/0001-0005."""
+    docs/decisions/0041-0045."""
 
     carry_speed_um_s: float = 2.0
     lookahead_um: float = 5.0

@@ -27,18 +27,18 @@ Places, per phase:
 * Grip places: each robot's traps as in the formation, at the robots' present
   orientation (a hand translates its traps and cannot turn its robot), around the cell
   while gripping and around the centre the robots' traps imply once it is held
-  (docs/decisions/0001-participant-grip-orientation.md).
+  (docs/decisions/0041-participant-grip-orientation.md).
 * APPROACH: align, then close: the robots are held ``open_gap_um`` out from their places
   around the free cell (where it will be: its drift over a glimpse, extrapolated over the
   delay and the movement) until the cell sits within ``align_tolerance_um`` of the
   formation's centre along the notches (twice that to open again); closing on a
   misaligned cell pinches it. The last ``close_guard_um`` of a close at most
-  ``close_speed_um_s`` (docs/decisions/0003-participant-careful-closing.md).
+  ``close_speed_um_s`` (docs/decisions/0043-participant-careful-closing.md).
 * A gripped cell seen more than ``seat_tolerance_um`` off-centre along the notches is let
   go and gripped again.
 * Walls: each robot's handles kept ``wall_clearance_um`` from the walls, a place closer
   moved out along the wall's normal: one robot while approaching, the whole formation
-  while carrying (docs/decisions/0002-participant-wall-clearance.md).
+  while carrying (docs/decisions/0042-participant-wall-clearance.md).
 * CARRY: the places move along the route at the intended assembly speed,
   ``carry_speed_um_s`` in manual mode, or the velocity ``choose_velocity`` picks when an
   obstacle threatens.
@@ -80,7 +80,7 @@ def robots_heading(traps_um, offsets_um, trap_robot):
     """(E,) the formation heading the robots' present orientations show: each robot's
     turn is that of the line between its own two traps (E, T, 2) against the same line in
     the formation's ``offsets_um`` (T, 2); their circular mean (not the line between the
-    robots, which tilts with any shear between them: docs/decisions/0001)."""
+    robots, which tilts with any shear between them: docs/decisions/0041)."""
     turns = []
     for robot in range(N_HANDS):
         first, second = np.flatnonzero(np.asarray(trap_robot) == robot)[:2]

@@ -8,7 +8,7 @@ spawn context; nothing but pipes and shared-memory blocks: no socket) with the B
 and OpenMP libraries limited to ``spec.threads`` threads, and the worker pins itself
 to one core (``pin_to_one_core``), so that neither they nor XLA's own thread pool take
 the other core from the window or the sim node's bus side
-(docs/decisions/0007-session-in-its-own-process.md). The worker calls ``spec.setup``
+(docs/decisions/0012-session-in-its-own-process.md). The worker calls ``spec.setup``
 (a picklable callable: the task, the bindings, the sink, the autonomy), starts the
 session and paces it by the wall clock until it is asked to quit, its parent dies, or
 (without ``hold_between_trials``) its duration is spent.
@@ -144,7 +144,7 @@ def pin_to_one_core() -> None:
     it may use. One environment's tick is latency-bound (XLA's pool of a thread per core
     gains it little), and the other cores stay free for the window, the sim node's
     answers to the devices and the haptic servo (which widens its own affinity again:
-    ``otgym.teleop.servo``). Linux only; elsewhere nothing (docs/decisions/0007)."""
+    ``otgym.teleop.servo``). Linux only; elsewhere nothing (docs/decisions/0012)."""
     if not hasattr(os, "sched_setaffinity"):
         return
     cores = sorted(os.sched_getaffinity(0))

@@ -18,14 +18,14 @@ moves along it at ``obstacle_speed_um_s`` so as to cross on time, then stays at 
 track's end; both ends keep ``park_clearance_um`` from every point of the route (the
 assembly's half-width 8.7 um plus the obstacle's 3 um plus 1.5 um), so an obstacle
 that waits or has parked never stands in the assembly's corridor: only its crossing
-does (docs/decisions/0009-scenario-park-clearance.md). The scene applies the track
+does (docs/decisions/0048-scenario-park-clearance.md). The scene applies the track
 through a bounded propulsion (``propulsion_um_s``): walls and bodies still stop it, and
 flow is compensated.
 
 ``timing_jitter_s`` (15 s) sets how many obstacles a route follower that ignores them
 meets: it is calibrated so that the task's autonomous mode (the route navigator at
 5 um/s) avoids about the paper's 59 % on development scenarios 900000-900063, never on
-the seeds that figures are measured on (docs/decisions/0010-scenario-timing-jitter.md).
+the seeds that figures are measured on (docs/decisions/0049-scenario-timing-jitter.md).
 """
 
 from __future__ import annotations

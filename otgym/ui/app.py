@@ -6,7 +6,7 @@ Processes. The window only draws and forwards input; the session (its ticks, the
 devices' retargeting and feedback, the recording) runs elsewhere, behind a driver with
 one interface, ``otgym.runtime.protocols.SessionControl``: a ``SessionProcess``
 (``otgym.runtime.worker``: its own process, what ``otgym play`` runs; why:
-docs/decisions/0007-session-in-its-own-process.md), a ``BusSession`` (``otgym.ui.node``:
+docs/decisions/0012-session-in-its-own-process.md), a ``BusSession`` (``otgym.ui.node``:
 a sim node on the bus, what ``otgym play --distributed`` and ``otgym node ui`` run), or
 a ``Session`` in this process (tests step it frame by frame).
 
@@ -54,7 +54,7 @@ import numpy as np
 os.environ.setdefault("SDL_FRAMEBUFFER_ACCELERATION", "0")
 """The window's surface is presented by the platform's own framebuffer (X11: shared
 memory), not through an OpenGL renderer, which without a GPU costs milliseconds of CPU
-per present (docs/decisions/0008-sdl-framebuffer-present.md)."""
+per present (docs/decisions/0047-sdl-framebuffer-present.md)."""
 import pygame  # noqa: E402
 
 from otgym.runtime.protocols import SessionControl  # noqa: E402

@@ -2,7 +2,7 @@
 
 ``paper``: the paper's trap law (equation 3, at most 0.30 pN per handle) and its six
 constant-speed groups, 0.27 to 0.51 um/s (Table II), in water at 20 C (1.0 mPa s), a
-medium chosen from physics, not tuned (docs/decisions/0011-paper-preset-medium.md). In
+medium chosen from physics, not tuned (docs/decisions/0005-paper-preset-medium.md). In
 it the paper's speeds are mostly safe, so the speed trade-off of the paper's Table II is
 much weaker here than published.
 The cell is carried upstream (outlet to inlet) against a weak flow (4 % of the chip's
@@ -43,7 +43,7 @@ class RewardWeights:
     more frequent than losses, so they teach the risk faster. The failure penalty alone
     cannot: the DQN's Huber loss clips the error of its rare large targets, so a failure
     pulls the Q-values down by the same gradient whatever its size. The fraction and
-    weight were chosen among five variants (docs/decisions/0012-trap-margin-shaping.md).
+    weight were chosen among five variants (docs/decisions/0025-reward-shaping.md).
 
     ``cell_margin`` (shaping, ours): ``cell_margin`` per 0.1 um by which the cell sits
     more than ``cell_margin_um`` behind the formation's centre along the path (the
