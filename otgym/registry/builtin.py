@@ -42,7 +42,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
     (
         "robots",
         "two-handle",
-        "otgym.physics.bodies:two_handle_robot",
+        "otgym.physics.robots:TWO_HANDLE",
         "the paper's microrobot: a rod of spheres with a trapped handle at each end",
         (),
         {},
@@ -50,7 +50,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
     (
         "robots",
         "four-arm",
-        "otgym.physics.bodies:four_arm_robot",
+        "otgym.physics.robots:FOUR_ARM",
         "a hub with four arms at 90 degrees, a handle at each arm's end",
         (),
         {},

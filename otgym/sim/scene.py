@@ -6,7 +6,7 @@ Kinds:
   traps) pinch one cell from both sides; the cell moves only through contact. Their
   traps start shifted by ``grip_squeeze_um`` towards the cell, so the traps press the
   robots' tips onto it (the grip force).
-* ``navigation``: one two-handle robot in its two traps.
+* ``navigation``: one robot (``robot``: any registered design) in its traps.
 * ``bead``: one calibration bead in one trap.
 All kinds add ``n_obstacles`` self-propelled obstacles (``otgym.sim.obstacles``).
 
@@ -27,14 +27,15 @@ from flax import struct
 from jax.custom_batching import custom_vmap
 
 from otgym import physics as ph
+from otgym import registry
 from otgym.physics.batching import batch_through
+from otgym.physics.robots import RobotSpec
 from otgym.physics.validation import require_non_negative, require_positive_scalar
 from otgym.sim.chip import Chip, load_chip
 from otgym.sim.fields import chip_fields
 from otgym.sim.obstacles import ObstacleMotion, next_propulsion
 
 SCENE_KINDS = ("transport", "navigation", "bead")
-GRIPPER = ph.TWO_HANDLE_GRIPPER_SPHERES
 PLACEMENT_MARGIN_UM = 0.5
 PORT_ZONE_UM = 15.0
 """An obstacle within this distance of an outlet has left the chip: it re-enters at a
@@ -48,6 +49,7 @@ class SceneConfig:
 
     kind: str = "transport"
     chip: str | Chip = "default"
+    robot: str = "two-handle"  # a registered robot (``otgym list robots``); transport needs one that grips
     trap_law: ph.TrapLaw = ph.TrapLaw("gaussian", stiffness_pn_per_um=50.0, waist_um=0.6)
     dt_s: float = 1e-4
     control_period_s: float = 0.2
@@ -75,6 +77,7 @@ class SceneConfig:
     def __post_init__(self):
         if self.kind not in SCENE_KINDS:
             raise ValueError(f"kind must be one of {SCENE_KINDS}, got {self.kind!r}")
+        registry.check("robots", self.robot)
         require_positive_scalar("control_period_s", self.control_period_s)
         require_positive_scalar("dt_s", self.dt_s)
         if self.dt_s > self.control_period_s:
@@ -142,15 +145,24 @@ class SceneEvents:
         return jnp.any(self.trap_lost, axis=-1) | self.cell_detached | self.obstacle_collision | self.wall_collision
 
 
+def robot_spec(config: SceneConfig) -> RobotSpec:
+    """The scene's robot design, from the registry (ValueError: unknown, or one that
+    cannot grip in the transport scene)."""
+    spec = registry.load("robots", config.robot)
+    if config.kind == "transport" and (not spec.can_grip or spec.n_handles != 2):
+        raise ValueError(
+            f"robot {config.robot!r} cannot carry a cell in the transport scene: it needs two handles and "
+            "grip_spheres (a gripper notch)"
+        )
+    return spec
+
+
 def _bodies(config: SceneConfig):
+    spec = robot_spec(config)
     if config.kind == "transport":
-        bodies = [
-            ph.two_handle_robot("robot_a"),
-            ph.two_handle_robot("robot_b"),
-            ph.cell("cell", radius_um=config.cell_radius_um),
-        ]
+        bodies = [spec.body("robot_a"), spec.body("robot_b"), ph.cell("cell", radius_um=config.cell_radius_um)]
     elif config.kind == "navigation":
-        bodies = [ph.two_handle_robot("robot")]
+        bodies = [spec.body("robot")]
     else:
         bodies = [ph.bead("bead", radius_um=config.bead_radius_um)]
     bodies += [
@@ -165,8 +177,9 @@ def _assembly_pose(scene_model: ph.Model, config: SceneConfig, centre, heading):
     normal = jnp.array([-jnp.sin(heading), jnp.cos(heading)])
     if config.kind != "transport":
         return jnp.concatenate([centre, heading[None]])[None]
-    gripper = scene_model.sphere_offset_um[GRIPPER[0]]  # (-spacing/2, y) about the hydrodynamic centre
-    contact = config.cell_radius_um + scene_model.sphere_radius_um[GRIPPER[0]]
+    grip = robot_spec(config).grip_spheres
+    gripper = scene_model.sphere_offset_um[grip[0]]  # (-spacing/2, y) about the hydrodynamic centre
+    contact = config.cell_radius_um + scene_model.sphere_radius_um[grip[0]]
     reach = gripper[1] + jnp.sqrt(contact**2 - gripper[0] ** 2)  # cell touching both gripper spheres
     robot_a = jnp.concatenate([centre - reach * normal, heading[None]])
     robot_b = jnp.concatenate([centre + reach * normal, (heading + jnp.pi)[None]])
@@ -236,7 +249,7 @@ def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
         robots=robots,
         payload=2 if config.kind == "transport" else 0,
         obstacles=tuple(range(n_payload, len(bodies))),
-        gripper_spheres=tuple(tuple(s + g for g in GRIPPER) for s in sphere_start),
+        gripper_spheres=tuple(tuple(s + g for g in (robot_spec(config).grip_spheres or ())) for s in sphere_start),
     )
 
 
