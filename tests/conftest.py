@@ -7,6 +7,8 @@
   cases; no deadline, since a loaded machine is no failure) and ``dev``
   (``HYPOTHESIS_PROFILE=dev``: fresh random cases each run). A failure prints the
   ``@reproduce_failure`` blob that replays it.
+- The slow tests run first (a stable reorder), so that xdist's workers share the long
+  end-to-end runs at the start instead of one worker finishing them alone at the end.
 - Fixtures shared across packages: the ``paper`` preset's task parameters, Q-network
   parameters with a fixed greedy action.
 """
@@ -25,6 +27,10 @@ from hypothesis import settings  # noqa: E402
 
 jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+
+def pytest_collection_modifyitems(config, items):
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None, print_blob=True)

@@ -107,7 +107,7 @@ def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_p
     session then ends by its duration with exit code 0."""
     play = spawn(
         "-m", "otgym", "play", "--headless", "--distributed", "--ros2", "--device", "simulated",
-        "--no-questionnaire", "--mode", "manual", "--duration", "60", "--out", str(tmp_path),
+        "--no-questionnaire", "--mode", "manual", "--duration", "30", "--out", str(tmp_path),
     )  # fmt: skip
     try:
         wait_for_line(play, "nodes ready", STARTUP_S * 2)
@@ -119,7 +119,7 @@ def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_p
         assert "failed" not in result, result
         assert result["pose_arrays"] >= 10 and result["poses_per_array"] == [4], result
         assert {"walls", "robots", "traps"} <= set(result["marker_namespaces"])
-        try:  # the rest of the 60 s session (slower than real time under load), then the nodes' ends
+        try:  # the rest of the 30 s session (slower than real time under load), then the nodes' ends
             rest, _ = play.communicate(timeout=PLAY_END_S)
         except subprocess.TimeoutExpired:
             os.kill(play.pid, signal.SIGKILL)
