@@ -60,10 +60,12 @@ def register(app: typer.Typer) -> None:
     from otgym.cli.calibrate import register as register_calibrate
     from otgym.cli.human_sensitivity import register as register_human_sensitivity
     from otgym.cli.speed_front import register as register_speed_front
+    from otgym.cli.speed_policy import register as register_speed_policy
 
     register_speed_front(experiment)
     register_calibrate(experiment)
     register_human_sensitivity(experiment)
+    register_speed_policy(experiment)
 
     @experiment.command("shared-control")
     def shared_control(

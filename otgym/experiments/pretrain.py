@@ -7,12 +7,11 @@ reported figures are not the ones it was picked on.
 Selection rule: most validation episodes completed, then the lowest mean completion
 time. Seeds run one after the other: two cores gain nothing from running them at once.
 
-    python -m otgym.experiments.pretrain [--seeds 0 1 2] [--steps 204800] [--out FILE]
+    otgym experiment pretrain [--seeds 0,1,2] [--steps 204800] [--out FILE]
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import time
 from pathlib import Path
@@ -22,7 +21,7 @@ import numpy as np
 from otgym.experiments.speed_control import TrainResult, train
 from otgym.experiments.speed_control_eval import evaluate
 from otgym.rl.dqn import DQNConfig
-from otgym.rl.policy import PRETRAINED_POLICY, save_policy
+from otgym.rl.policy import save_policy
 from otgym.tasks.transport import speed_control as spc
 from otgym.tasks.transport.presets import TaskConfig, paper
 
@@ -61,16 +60,12 @@ def train_and_select(
     return max(candidates, key=Candidate.score), candidates
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--steps", type=int, default=DQNConfig().total_env_steps)
-    parser.add_argument("--out", type=Path, default=PRETRAINED_POLICY)
-    args = parser.parse_args(argv)
+def run(seeds: list[int], steps: int, out: Path, log=print) -> Path:
+    """Train ``seeds``, keep the best on the validation episodes, write its policy to ``out``."""
     start = time.perf_counter()
     task = paper()
-    config = DQNConfig(total_env_steps=args.steps)
-    best, candidates = train_and_select(task, config, args.seeds)
+    config = DQNConfig(total_env_steps=steps)
+    best, candidates = train_and_select(task, config, seeds, log=log)
     meta = {
         **best.result.meta,
         "validation_seed": VALIDATION_SEED,
@@ -80,12 +75,9 @@ def main(argv=None) -> None:
         "candidate_seeds": [c.seed for c in candidates],
         "candidate_successes": [c.successes for c in candidates],
     }
-    save_policy(args.out, best.result.q_params, meta)
-    print(
-        f"kept seed {best.seed}; wrote {args.out} ({time.perf_counter() - start:.0f} s in all, "
+    save_policy(out, best.result.q_params, meta)
+    log(
+        f"kept seed {best.seed}; wrote {out} ({time.perf_counter() - start:.0f} s in all, "
         f"{np.sum([c.result.wall_s for c in candidates]):.0f} s training)"
     )
-
-
-if __name__ == "__main__":
-    main()
+    return out

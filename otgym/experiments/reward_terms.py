@@ -7,14 +7,13 @@ the fraction of steps where it is not zero (where it binds), its mean and range,
 its share of the summed absolute reward. A term that is zero, or the same, in every
 step teaches nothing but the episode's length; the table says which.
 
-    python -m otgym.experiments.reward_terms [--policy pretrained] [--episodes 256] [--seed 401] --out DIR
+    otgym experiment reward-terms [--policy pretrained] [--episodes 256] [--seed 401] --out DIR
 
 writes DIR/reward_terms.csv, reward_terms.md and reward_terms.png (one histogram per term).
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 from pathlib import Path
 
@@ -135,45 +134,30 @@ def write_figure(samples: dict, path: Path) -> None:
     plt.close(fig)
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--policy", default="pretrained", help="policy file or 'pretrained'")
-    parser.add_argument("--episodes", type=int, default=256)
-    parser.add_argument("--seed", type=int, default=401)
-    parser.add_argument("--out", type=Path, required=True)
-    args = parser.parse_args(argv)
-    if not 1 <= args.episodes <= 4096:
-        parser.error(f"--episodes must be an integer in [1, 4096], got {args.episodes}")
-    if not 0 <= args.seed < 2**32:
-        parser.error(f"--seed must be an integer in [0, {2**32 - 1}], got {args.seed}")
+def run(policy: str, episodes: int, seed: int, out: Path, log=print) -> None:
+    """Measure the reward terms of ``policy`` and of random speeds on ``episodes`` episodes;
+    write reward_terms.csv, .md and .png into ``out`` (ValueError or OSError for a bad
+    policy or folder, before any work)."""
     from otgym.experiments.output_folder import check_out_dir
     from otgym.rl.policy import load_policy, policy_meta, resolve_policy
     from otgym.tasks.transport.presets import preset
 
-    try:
-        check_out_dir(args.out)
-        path = resolve_policy(args.policy)
-        task = preset(policy_meta(path).get("preset", "paper"))
-        q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
-    except (ValueError, OSError) as error:
-        parser.error(str(error))
-    print(
-        f"running {args.episodes} episodes for the policy and for random speeds (compile included, about a "
-        "minute for 256 on 2 cores)",
-        flush=True,
+    check_out_dir(out)
+    path = resolve_policy(policy)
+    task = preset(policy_meta(path).get("preset", "paper"))
+    q_params, meta = load_policy(path, tr.OBS_SIZE, task.n_actions)
+    log(
+        f"running {episodes} episodes for the policy and for random speeds (compile included, about a "
+        "minute for 256 on 2 cores)"
     )
-    samples = collect(spc.make_params(task), q_params, meta["hidden"], args.episodes, args.seed)
+    samples = collect(spc.make_params(task), q_params, meta["hidden"], episodes, seed)
     rows = summarize(samples)
-    with open(args.out / "reward_terms.csv", "w", newline="") as handle:
+    with open(out / "reward_terms.csv", "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
     text = "\n".join(markdown(rows)) + "\n"
-    (args.out / "reward_terms.md").write_text(text)
-    write_figure(samples, args.out / "reward_terms.png")
-    print(text)
-    print(f"wrote {args.out}/reward_terms.csv, reward_terms.md, reward_terms.png")
-
-
-if __name__ == "__main__":
-    main()
+    (out / "reward_terms.md").write_text(text)
+    write_figure(samples, out / "reward_terms.png")
+    log(text)
+    log(f"wrote {out}/reward_terms.csv, reward_terms.md, reward_terms.png")

@@ -78,7 +78,7 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         "Table II (README) on 1024 episodes, re-run after each physics change; its misses led to issue 29",
     ),
     SeedUse("episodes", 301, 302, "benchmarks/training.py's test episodes: training reliability, 5 of 5 seeds"),
-    _one("episodes", 401, "reward terms' per-step distributions (python -m otgym.experiments.reward_terms)"),
+    _one("episodes", 401, "reward terms' per-step distributions (otgym experiment reward-terms)"),
     _one("episodes", 1000, "pretrain's validation episodes: the shipped policy picked among training seeds 0-2"),
     SeedUse(
         "episodes",

@@ -17,7 +17,7 @@ from otgym.rl.network import QNetwork
 
 PRETRAINED_POLICY = Path(__file__).resolve().parent.parent / "data" / "policies" / "speed_control_paper.npz"
 """The small policy shipped with the package: DQN speed control on the ``paper``
-preset, trained by ``python -m otgym.experiments.pretrain`` (see that module for how)."""
+preset, trained by ``otgym experiment pretrain`` (see that module for how)."""
 
 
 def resolve_policy(name_or_path) -> Path:
