@@ -99,29 +99,48 @@ def register(app: typer.Typer) -> None:
         sources: list[Path] = typer.Argument(
             ...,
             exists=True,
-            help="Session folders (trials.csv and, where answers were "
+            help="Study folders of otgym study run (one sub-folder per participant), "
+            "session folders (trials.csv and, where answers were "
             "given, questionnaires.csv; without trials.csv, its "
             "session*.mcap recordings) or MCAP files; participant "
             "ids unique across them.",
         ),
         out: Path = options.out_dir(
-            ..., "Folder for fig8.png, questionnaire_scores.csv, summary.md, summary.csv, stats.json, analysis.json."
+            ...,
+            "Folder for report.md, fig8.png, order_effects.png, questionnaire_scores.csv, summary.md, summary.csv, "
+            "stats.json, analysis.json.",
         ),
     ) -> None:
         """Success and completion time per mode (Fig. 8 a, b) and, where answers were
-        recorded, NASA-TLX and UEQ-S per mode (Fig. 8 c, d), with paired tests.
+        recorded, NASA-TLX and UEQ-S per mode (Fig. 8 c, d), with paired tests; mixed-effects
+        models with a participant random effect and, for study folders, order effects
+        (mode x block position); all in report.md.
 
         Example: otgym study analyze results/session-p1 results/session-p2 --out results/analysis
         """
         from otgym.experiments.output_folder import check_out_dir
         from otgym.study.analyze import analyze as run
+        from otgym.study.participants import study_participants
 
-        tables = [_source(path) for path in sources]  # before touching --out
+        tables, orders = [], {}
+        for path in sources:  # read before touching --out
+            participants = study_participants(path)
+            if participants is None:
+                tables.append(_source(path))
+                continue
+            if not participants:
+                raise ValueError(f"{path}: no participant of this study has finished a trial yet")
+            for folder, order in participants.items():
+                tables.append(folder)
+                orders[folder.name] = order
         check_out_dir(out)
-        result = run(tables, out)
+        result = run(tables, out, orders)
         print((out / "summary.md").read_text())
         print(f"panels: {'; '.join(result['panels'])}")
-        print(f"wrote {out}/fig8.png, questionnaire_scores.csv, summary.md, summary.csv, stats.json, analysis.json")
+        print(
+            f"wrote {out}/report.md, fig8.png, order_effects.png (study folders), questionnaire_scores.csv, "
+            "summary.md, summary.csv, stats.json, analysis.json"
+        )
 
 
 def _source(path: Path):

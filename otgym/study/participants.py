@@ -263,3 +263,20 @@ def start_participant(
     folder = ParticipantFolder(out_dir, row["pseudonym"], int(row["number"]), protocol)
     folder.begin(scripted)
     return folder
+
+
+def study_participants(path: Path) -> dict[Path, list[str]] | None:
+    """A study folder of ``otgym study run`` (participant sub-folders with
+    ``session.json``, no ``trials.csv`` of its own): each participant folder that has
+    finished trials, with its recorded order of modes; None for any other folder."""
+    path = Path(path)
+    if not path.is_dir() or (path / "trials.csv").is_file():
+        return None
+    folders = sorted(p for p in path.iterdir() if (p / "session.json").is_file())
+    if not folders:
+        return None
+    return {
+        folder: json.loads((folder / "session.json").read_text(encoding="utf-8"))["mode_order"]
+        for folder in folders
+        if (folder / "trials.csv").is_file()
+    }
