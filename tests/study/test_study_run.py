@@ -1,0 +1,151 @@
+"""``otgym study run`` end to end, headless (SDL's dummy drivers): a 2-participant
+protocol of three modes with 2 s trials and scripted questionnaire answers, pressed
+into the window's form. The first participant's session process is killed (SIGKILL, by
+the pid this test started) while a trial runs, then resumed by the same command; the
+study folder is then analysed. Checked: the two orders are the Williams square's first
+two rows, every planned trial is in the data exactly once, the killed trial is marked
+in cut_trials.csv and ran again under its own number and scenario, the questionnaire
+scores are the scripted answers' published scores."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+PROTOCOL = """
+[study]
+name = "end-to-end"
+instructions = "scripted"
+device = "keyboard"
+seed_base = 3
+trial_time_limit_s = 2.0
+[practice]
+trials = 1
+mode = "autonomous"
+[modes]
+names = ["manual", "shared", "autonomous"]
+trials_per_mode = 2
+"""
+ANSWERS = """
+nasa_tlx = [20, 35, 50, 65, 80, 100]
+ueq_s = [1, 2, 3, 4, 5, 6, 7, 6]
+"""
+
+
+def command(tmp_path: Path, participant: str) -> list[str]:
+    return [
+        sys.executable,
+        "-m",
+        "otgym",
+        "study",
+        "run",
+        str(tmp_path / "protocol.toml"),
+        "--participant",
+        participant,
+        "--out",
+        str(tmp_path / "study"),
+        "--script",
+        str(tmp_path / "answers.toml"),
+        "--headless",
+    ]
+
+
+def run(tmp_path: Path, participant: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        command(tmp_path, participant),
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        cwd=ROOT,
+    )
+
+
+def rows(path: Path) -> list[dict]:
+    with path.open(newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+@pytest.mark.slow
+def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path):
+    (tmp_path / "protocol.toml").write_text(PROTOCOL)
+    (tmp_path / "answers.toml").write_text(ANSWERS)
+    study = tmp_path / "study"
+    # participant 1: killed once a trial of the modes' blocks is under way (the practice and
+    # block 1's first trial finished: trial 3 has started)
+    process = subprocess.Popen(
+        command(tmp_path, "lab-a"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        cwd=ROOT,
+    )
+    started = study / "S001" / "started.csv"
+    deadline = time.monotonic() + 540
+    while time.monotonic() < deadline and process.poll() is None:
+        if started.is_file() and any(row["trial"] == "3" for row in rows(started)):
+            break
+        time.sleep(0.02)
+    assert process.poll() is None, process.communicate()[0][-3000:]
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait(timeout=30)
+    finished = {int(row["trial"]) for row in rows(study / "S001" / "trials.csv")}
+    assert 3 not in finished and finished == {2}  # trial 3 was cut: no row of it
+    resumed = run(tmp_path, "lab-a")
+    assert resumed.returncode == 0, resumed.stdout[-2000:] + resumed.stderr[-3000:]
+    assert "cut and to run again: [3]" in resumed.stdout and "the session is complete" in resumed.stdout
+    second = run(tmp_path, "lab-b")
+    assert second.returncode == 0, second.stdout[-2000:] + second.stderr[-3000:]
+
+    # the key is kept apart; the folders carry pseudonyms only
+    key = rows(tmp_path / "study.key.csv")
+    assert [(r["participant_id"], r["pseudonym"]) for r in key] == [("lab-a", "S001"), ("lab-b", "S002")]
+    assert "lab-a" not in "".join(p.read_text() for p in study.rglob("*.csv"))
+    orders = {p: json.loads((study / p / "session.json").read_text())["mode_order"] for p in ("S001", "S002")}
+    assert orders == {"S001": ["manual", "shared", "autonomous"], "S002": ["shared", "autonomous", "manual"]}
+    for pseudonym, order in orders.items():
+        trials = rows(study / pseudonym / "trials.csv")
+        numbers = [int(r["trial"]) for r in trials]
+        assert sorted(numbers) == [2, 3, 4, 5, 6, 7]  # none lost, none twice
+        for r in trials:
+            position = (int(r["trial"]) - 2) // 2 + 1
+            assert r["mode"] == order[position - 1] and int(r["position"]) == position
+            assert int(r["scenario"]) == 3 * 10_000 + int(r["trial"]) and r["ended_by"] == "time_limit"
+        assert [int(r["trial"]) for r in rows(study / pseudonym / "practice.csv")] == [1]
+    cut = rows(study / "S001" / "cut_trials.csv")
+    assert [(r["trial"], r["mode"], r["ended_by"]) for r in cut] == [("3", "manual", "crashed")]
+    assert not (study / "S002" / "cut_trials.csv").exists()
+    meta = json.loads((study / "S001" / "session.json").read_text())
+    assert len(meta["runs"]) == 2 and meta["runs"][0]["software"]["otgym"]
+
+    analysis = tmp_path / "analysis"
+    result = subprocess.run(
+        [sys.executable, "-m", "otgym", "study", "analyze", str(study), "--out", str(analysis)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        cwd=ROOT,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    scores = rows(analysis / "questionnaire_scores.csv")
+    assert len(scores) == 6  # 2 participants x 3 modes, one questionnaire per mode
+    for r in scores:  # raw TLX: mean of the six; UEQ-S: raw - 4, items 1-4 and 5-8
+        assert float(r["raw_tlx"]) == pytest.approx(350 / 6)
+        assert float(r["ueq_pragmatic"]) == -1.5 and float(r["ueq_hedonic"]) == 2.0
+    report = (analysis / "report.md").read_text()
+    assert "| S001 | manual, shared, autonomous |" in report and "| S002 | shared, autonomous, manual |" in report
+    assert (analysis / "fig8.png").is_file() and (analysis / "order_effects.png").is_file()
+    summary = json.loads((analysis / "analysis.json").read_text())
+    assert summary["trials"] == 12 and summary["participants"] == 2
