@@ -132,3 +132,12 @@ def test_order_effects_find_a_strong_position_effect():
     assert tests["position"]["dof"] == 2 and tests["position"]["p"] < 1e-6  # 1 sd of noise per position step
     assert tests["mode_x_position"]["dof"] == 4
     assert "note" in order_effects(frame.drop(columns="position"))
+
+
+def test_the_shipped_template_is_a_valid_protocol():
+    from pathlib import Path
+
+    template = Path(__file__).resolve().parents[2] / "docs" / "study-protocol.toml"
+    protocol = load_protocol(template, MODES)
+    assert protocol.modes == ("manual", "shared", "autonomous") and protocol.practice_trials == 2
+    assert len(trial_plan(protocol, mode_order(protocol, 1))) == 2 + 3 * 8
