@@ -206,8 +206,9 @@ class ParticipantFolder:
         ]
 
     def mark_cut_trials(self) -> list[int]:
-        """Trials started and never finished nor marked: each appended to ``cut_trials.csv``
-        with ``ended_by`` ``crashed``; returns their numbers."""
+        """Starts of unfinished trials that ``cut_trials.csv`` does not account for (more
+        starts in ``started.csv`` than marks): each appended there with ``ended_by``
+        ``crashed``; returns their trial numbers."""
         done = self.finished_trials()
         starts = collections.Counter(int(row["trial"]) for row in _read_rows(self.path / STARTED_FILE))
         marked = collections.Counter(int(row["trial"]) for row in _read_rows(self.path / "cut_trials.csv"))

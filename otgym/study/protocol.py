@@ -42,6 +42,9 @@ MAX_TRIALS = 1000
 WINDOW_NAVIGATORS_TAG = "shared"
 """Navigators the study may name: those shared control can blend with (tag ``shared``)."""
 
+HOLD_KEYS = ("up", "down", "left", "right")
+"""Keys a script may hold down: the keyboard device's arrows (``otgym.teleop.pygame_devices``)."""
+
 _SCHEMA = {
     "study": {
         "name": str,
@@ -242,9 +245,11 @@ def load_answer_script(path) -> dict:
     """Scripted questionnaire answers for a dry run or a test (``otgym study run
     --script``): a TOML file with ``nasa_tlx`` (six ratings, 0-100 in steps of 5, in the
     form's order), ``ueq_s`` (eight raw values 1-7) and optionally ``tlx_pairs`` (15
-    choices, 1 or 2, for a weighted TLX; default all 1). The window's form is answered
-    by these key presses, so the answers take the same path as a person's. One-line
-    FileNotFoundError or ValueError."""
+    choices, 1 or 2, for a weighted TLX; default all 1), and optionally ``hold_keys``
+    (arrow keys, of ``HOLD_KEYS``, held down for the whole session: the keyboard
+    device's scripted driving). The window's form is answered by these key presses, so
+    the answers take the same path as a person's. One-line FileNotFoundError or
+    ValueError."""
     from otgym.study.questionnaires import TLX_PAIR_COUNT, TLX_STEP, TLX_SUBSCALES, UEQ_ITEM_NAMES
 
     path = Path(path)
@@ -259,7 +264,7 @@ def load_answer_script(path) -> dict:
         "ueq_s": (len(UEQ_ITEM_NAMES), 1, 7, 1),
         "tlx_pairs": (TLX_PAIR_COUNT, 1, 2, 1),
     }
-    unknown = sorted(set(data) - set(expected))
+    unknown = sorted(set(data) - set(expected) - {"hold_keys"})
     if unknown:
         raise ValueError(f"{path}: unknown key(s) {unknown}; known: {', '.join(expected)}")
     data.setdefault("tlx_pairs", [1] * TLX_PAIR_COUNT)
@@ -271,4 +276,7 @@ def load_answer_script(path) -> dict:
             or not all(type(v) is int and low <= v <= high and v % step == 0 for v in values)
         ):
             raise ValueError(f"{path}: {key} must be {count} whole numbers in [{low}, {high}] (steps of {step})")
+    held = data.setdefault("hold_keys", [])
+    if not isinstance(held, list) or not all(key in HOLD_KEYS for key in held):
+        raise ValueError(f"{path}: hold_keys must be a list of {', '.join(HOLD_KEYS)}, got {held!r}")
     return data

@@ -91,6 +91,8 @@ class StudyApp(PlayApp):
         self.slots = list(slots)
         self.answers = answers
         self.cut: list[int] = []
+        for name in (answers or {}).get("hold_keys", ()):  # scripted driving: held from the first frame on
+            press([getattr(pygame, f"K_{name.upper()}")])
 
     def handle_event(self, event) -> None:
         if event.type == pygame.KEYDOWN and (event.key in MODE_KEYS or event.key == pygame.K_r):
@@ -193,9 +195,12 @@ def run_study(folder: ParticipantFolder, answers: dict | None = None) -> dict:
             count = sum(1 for s in remaining if s.block == first.block)
             if not wait_for_enter(screen, clock, *block_page(first, count), scripted):
                 return result
-        windowed = window_devices(protocol.device)
-        robot_primaries(protocol.device, windowed)
-        start_devices(windowed)
+        try:
+            windowed = window_devices(protocol.device)
+            robot_primaries(protocol.device, windowed)  # the Touch fails here at once without its runtime
+            start_devices(windowed)  # e.g. no gamepad plugged in
+        except DeviceError as error:
+            raise ValueError(str(error)) from None
         spec = WorkerSpec(
             functools.partial(
                 play_setup,
@@ -214,12 +219,15 @@ def run_study(folder: ParticipantFolder, answers: dict | None = None) -> dict:
         )
         status = StartupStatus("starting the simulation process")
         session = SessionProcess(spec, on_status=status.set)
-        folder.started(first.trial)
         try:
             wait_in_window(screen, session.start, f"otgym study: participant {folder.pseudonym}", status)
-        except (DeviceError, StartupAborted):
+        except DeviceError as error:  # a Touch that would not open
             session.finish()
-            raise
+            raise ValueError(str(error)) from None
+        except StartupAborted:  # closed while the simulation started: no trial ran
+            session.finish()
+            return result
+        folder.started(first.trial)  # ready: the first trial runs from now on
         app = StudyApp(session, folder, remaining, answers, window_devices=windowed, screen=screen)
         try:
             app.run()

@@ -5,7 +5,8 @@ the pid this test started) while a trial runs, then resumed by the same command;
 study folder is then analysed. Checked: the two orders are the Williams square's first
 two rows, every planned trial is in the data exactly once, the killed trial is marked
 in cut_trials.csv and ran again under its own number and scenario, the questionnaire
-scores are the scripted answers' published scores."""
+scores are the scripted answers' published scores, the held arrow key moved the robots
+in manual trials, and the killed process left no process of its own behind."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import signal
 import subprocess
 import sys
 import time
+import uuid
 from pathlib import Path
 
 import pytest
@@ -39,6 +41,7 @@ trials_per_mode = 2
 ANSWERS = """
 nasa_tlx = [20, 35, 50, 65, 80, 100]
 ueq_s = [1, 2, 3, 4, 5, 6, 7, 6]
+hold_keys = ["right"]
 """
 
 
@@ -71,6 +74,17 @@ def run(tmp_path: Path, participant: str) -> subprocess.CompletedProcess:
     )
 
 
+def wait_gone(marker: str, timeout_s: float = 60.0) -> list[int]:
+    """Live processes started with ``OTGYM_TEST_MARKER=marker`` still there after
+    ``timeout_s`` (``tests.ui.test_play_distributed.marked``)."""
+    from tests.ui.test_play_distributed import marked
+
+    deadline = time.monotonic() + timeout_s
+    while marked(marker) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return marked(marker)
+
+
 def rows(path: Path) -> list[dict]:
     with path.open(newline="") as handle:
         return list(csv.DictReader(handle))
@@ -81,6 +95,7 @@ def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path):
     (tmp_path / "protocol.toml").write_text(PROTOCOL)
     (tmp_path / "answers.toml").write_text(ANSWERS)
     study = tmp_path / "study"
+    marker = uuid.uuid4().hex
     # participant 1: killed once a trial of the modes' blocks is under way (the practice and
     # block 1's first trial finished: trial 3 has started)
     process = subprocess.Popen(
@@ -88,7 +103,7 @@ def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        env={**os.environ, "PYTHONPATH": str(ROOT), "OTGYM_TEST_MARKER": marker},
         cwd=ROOT,
     )
     started = study / "S001" / "started.csv"
@@ -100,6 +115,7 @@ def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path):
     assert process.poll() is None, process.communicate()[0][-3000:]
     os.kill(process.pid, signal.SIGKILL)
     process.wait(timeout=30)
+    assert wait_gone(marker) == []  # its session process saw it die and ended too
     finished = {int(row["trial"]) for row in rows(study / "S001" / "trials.csv")}
     assert 3 not in finished and finished == {2}  # trial 3 was cut: no row of it
     resumed = run(tmp_path, "lab-a")
@@ -128,6 +144,21 @@ def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path):
     assert not (study / "S002" / "cut_trials.csv").exists()
     meta = json.loads((study / "S001" / "session.json").read_text())
     assert len(meta["runs"]) == 2 and meta["runs"][0]["software"]["otgym"]
+    assert sorted(p.name for p in (study / "S001").glob("session*.mcap")) == ["session-2.mcap", "session.mcap"]
+    # the scripted input drove the robots: with the right arrow held, manual trials move the traps
+    # along +x (with no input they stay exactly where they are)
+    from otgym.record.mcap_file import read_recording
+    from otgym.record.replay import ticks
+
+    first, last = {}, {}
+    for tick in ticks(read_recording(study / "S002" / "session.mcap"), 0.02):
+        first.setdefault(tick.trial, (tick.mode, tick.trap_xy_um.copy()))
+        last[tick.trial] = tick.trap_xy_um.copy()
+    manual = [trial for trial, (mode, _) in first.items() if mode == "manual"]
+    assert manual == [6, 7]
+    for trial in manual:
+        moved_um = (last[trial] - first[trial][1]).mean(axis=0)
+        assert moved_um[0] > 0.1 and abs(moved_um[1]) < 1e-6, moved_um
 
     analysis = tmp_path / "analysis"
     result = subprocess.run(
