@@ -59,13 +59,30 @@ def _design(frame: pd.DataFrame) -> pd.DataFrame:
     return frame
 
 
+FIT_METHODS = ("lbfgs", "powell", "nm")
+"""Optimisers tried in turn. When the participant variance lies on its boundary (0),
+L-BFGS can stop at a degenerate point (an infinite log-likelihood with the intercept at
+0) or fail inverting a singular Hessian (seen with statsmodels 0.15); a fit counts only
+converged with a finite log-likelihood, and the first such one is kept."""
+
+
 def _fit(frame: pd.DataFrame, formula: str, reml: bool):
     import statsmodels.formula.api as smf
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # convergence and boundary warnings: reported from the result
-        model = smf.mixedlm(formula, frame, groups=frame["participant"])
-        return model.fit(reml=reml, method=["lbfgs", "powell"])
+    model = smf.mixedlm(formula, frame, groups=frame["participant"])
+    failures = []
+    for method in FIT_METHODS:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # convergence and boundary warnings: judged from the result
+            try:
+                fitted = model.fit(reml=reml, method=method)
+            except (ValueError, np.linalg.LinAlgError) as error:  # e.g. a singular Hessian at the boundary
+                failures.append(f"{method}: {str(error).splitlines()[0]}")
+                continue
+        if fitted.converged and math.isfinite(fitted.llf):
+            return fitted
+        failures.append(f"{method}: {'infinite log-likelihood' if fitted.converged else 'not converged'}")
+    raise ValueError(f"no finite, converged fit ({'; '.join(failures)})")
 
 
 def _float(value) -> float:

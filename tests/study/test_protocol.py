@@ -141,3 +141,18 @@ def test_the_shipped_template_is_a_valid_protocol():
     protocol = load_protocol(template, MODES)
     assert protocol.modes == ("manual", "shared", "autonomous") and protocol.practice_trials == 2
     assert len(trial_plan(protocol, mode_order(protocol, 1))) == 2 + 3 * 8
+
+
+def test_a_participant_variance_on_its_boundary_still_gives_the_intercept():
+    """No participant effect at all (the variance's estimate is 0, on its boundary): the
+    intercept is still the reference mode's mean (L-BFGS alone returned 0 with an
+    infinite log-likelihood on such data)."""
+    rng = np.random.default_rng(1)  # L-BFGS alone ended so on 29 of the seeds 0-39 of this design
+    frame = _simulated(rng, 6, {"manual": 160.0, "autonomous": 54.0, "shared": 55.0}, 0.0, sd_participant=0.0, sd=8.0)
+    model = mode_model(frame[["participant", "mode", "value"]])
+    intercept = {c["term"]: c for c in model["coefficients"]}["Intercept"]
+    # the reference mean of 24 trials with SD 8: SE about 1.6; within 4 SE
+    assert intercept["se"] < 10.0 and abs(intercept["estimate"] - 160.0) < 4 * intercept["se"]
+    assert model["participant_variance"] < 8.0**2 / 4
+    tests = order_effects(frame)  # L-BFGS's Hessian is singular here: another optimiser fits it
+    assert "note" not in tests["position"] and tests["position"]["dof"] == 2, tests
