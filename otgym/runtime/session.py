@@ -69,7 +69,9 @@ class Session:
     """One participant's trials on ``task`` with ``bindings`` (devices started and
     stopped here); ``duration_s`` None: until quit. ``autonomy``: dP_r for every
     trial's loop (``InteractiveLoop``'s; None: its own navigator). ``forwarded``:
-    devices among the bindings' that ``feed`` and ``lose`` reach by index."""
+    devices among the bindings' that ``feed`` and ``lose`` reach by index.
+    ``first_trial``: the number (and so the scenario) of the first trial, 1 unless a
+    study resumes a participant's session (``otgym study run``)."""
 
     def __init__(
         self,
@@ -85,9 +87,12 @@ class Session:
         autonomy: Autonomy | None = None,
         hold_between_trials: bool = True,
         forwarded: tuple[ForwardedDevice, ...] = (),
+        first_trial: int = 1,
     ):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+        if first_trial < 1:
+            raise ValueError(f"trial numbers start at 1, got first_trial {first_trial}")
         self.task = task
         self.bindings = bindings
         self.participant = participant
@@ -99,7 +104,7 @@ class Session:
         self.autonomy = autonomy
         self.hold_between_trials = hold_between_trials
         self.forwarded = tuple(forwarded)
-        self.trial = 0
+        self.trial = first_trial - 1
         self.paused = False
         self.over = False
         self.late_ticks = 0
@@ -143,7 +148,9 @@ class Session:
     def _warm_up(self) -> None:
         """Two ticks of a throwaway loop on trial 1's scenario: the jitted step and the
         loop's helpers compile here, not in the first seconds of the trial."""
-        loop = InteractiveLoop(self.task, self.bindings, self.task.scenario(self._scenario_seed(1)), self.mode, seed=0)
+        loop = InteractiveLoop(
+            self.task, self.bindings, self.task.scenario(self._scenario_seed(self.trial + 1)), self.mode, seed=0
+        )
         loop.tick()
         loop.tick()
         for binding in self.bindings:

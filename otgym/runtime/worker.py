@@ -99,6 +99,7 @@ class WorkerSpec:
     hold_between_trials: bool = True
     snapshots: bool = True
     threads: int = 1
+    first_trial: int = 1
 
 
 def thread_limits(threads: int) -> dict[str, str]:
@@ -196,6 +197,7 @@ def _worker_main(
             autonomy=parts.autonomy,
             hold_between_trials=spec.hold_between_trials,
             forwarded=tuple(forwarded),
+            first_trial=spec.first_trial,
         )
         send(("status", STATUS_COMPILING))
         session.start()

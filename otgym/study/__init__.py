@@ -6,7 +6,10 @@ Modules: ``stats`` (participant means, ANOVA + Holm post-hoc, stars, Wilson inte
 ``summary`` (per-mode table and the summary files), ``figures`` (Fig. 8 (a, b), and (c,
 d) from answers), ``paper_fig8`` (the paper's values), ``questionnaires`` (NASA-TLX and
 UEQ-S: items, answer file, scoring), ``questionnaire_stats`` (paired tests per panel),
-``analyze`` (``otgym study analyze``: recorded sessions to Fig. 8 and summaries)."""
+``analyze`` (``otgym study analyze``: recorded sessions to Fig. 8 and summaries),
+``protocol`` (study protocols for ``otgym study run``, the Williams square),
+``participants`` (pseudonyms, a participant's folder, resuming), ``mixed``
+(mixed-effects models, order effects), ``report`` (``report.md``)."""
 
 from otgym.study.figures import plot_fig8
 from otgym.study.paper_fig8 import PAPER_FIG8

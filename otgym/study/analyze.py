@@ -21,8 +21,10 @@ import numpy as np
 import pandas as pd
 
 from otgym.study.figures import plot_fig8
+from otgym.study.mixed import study_models
 from otgym.study.questionnaire_stats import TLX_MEASURES, UEQ_MEASURES, compare_measures
 from otgym.study.questionnaires import SCORE_COLUMNS, participant_measures, read_answers, score, validate_answers
+from otgym.study.report import plot_order_effects, write_report
 from otgym.study.stats import ordered_modes
 from otgym.study.summary import json_safe, write_summary
 
@@ -212,26 +214,34 @@ def questionnaire_markdown(means: pd.DataFrame | None, tests: dict) -> str:
     return "\n".join(lines + [""])
 
 
-def analyze(dirs, out_dir) -> dict:
+def analyze(dirs, out_dir, orders: dict | None = None) -> dict:
     """Read ``dirs`` (folders or ``StudyTable`` s, ``load_study``) and write into
     ``out_dir``: ``fig8.png``,
     ``questionnaire_scores.csv`` (``SCORE_COLUMNS``; header only without answers),
-    ``summary.md``, ``summary.csv``, ``stats.json`` and ``analysis.json``; return what
-    ``analysis.json`` holds."""
+    ``summary.md``, ``summary.csv``, ``stats.json``, ``report.md`` (with the
+    mixed-effects models and order effects of ``otgym.study.mixed``, and
+    ``order_effects.png`` where the trials carry their block ``position``) and
+    ``analysis.json``; return what ``analysis.json`` holds. ``orders``: each
+    participant's order of modes, as recorded by ``otgym study run``."""
     trials, answers = load_study(dirs)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    means, tests = None, {}
+    means, tests, scores = None, {}, None
     if answers is not None:
         means = participant_measures(answers)
         for key, measures in (("tlx", TLX_MEASURES), ("ueq", UEQ_MEASURES)):
             if means["measure"].isin(measures).any():
                 tests[key] = compare_measures(means, measures)
-        score(answers).to_csv(out / "questionnaire_scores.csv", index=False)
+        scores = score(answers)
+        scores.to_csv(out / "questionnaire_scores.csv", index=False)
     else:
         pd.DataFrame(columns=SCORE_COLUMNS).to_csv(out / "questionnaire_scores.csv", index=False)
-    stats = write_summary(trials, out, "\n" + questionnaire_markdown(means, tests))
+    questionnaire_md = "\n" + questionnaire_markdown(means, tests)
+    stats = write_summary(trials, out, questionnaire_md)
     panels = plot_fig8(trials, out / "fig8.png", stats, {"means": means, **tests} if means is not None else None)
+    models = study_models(trials, scores)
+    order_figure = plot_order_effects(trials, out / "order_effects.png")
+    write_report(out, (out / "summary.md").read_text(encoding="utf-8"), models, orders or {}, order_figure)
     result = {
         "dirs": [_name(d) for d in dirs],
         "trials": len(trials),
@@ -239,6 +249,8 @@ def analyze(dirs, out_dir) -> dict:
         "questionnaire_rows": 0 if answers is None else len(answers),
         "panels": panels,
         "questionnaire_tests": tests,
+        "orders": orders or {},
+        "models": models,
     }
     (out / "analysis.json").write_text(json.dumps(json_safe(result), indent=2) + "\n", encoding="utf-8")
     return result

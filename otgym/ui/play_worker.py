@@ -5,21 +5,33 @@ scale where the hand-trap loop is stable, and the session's MCAP recording."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from otgym.runtime.worker import WorkerParts
 
 
 def play_setup(
-    chip: str, device: str, recording_path: Path, forwarded, outbox, navigator: str = "route"
+    chip: str,
+    device: str,
+    recording_path: Path,
+    forwarded,
+    outbox,
+    navigator: str = "route",
+    time_limit_s: float | None = None,
 ) -> WorkerParts:
+    """``time_limit_s``: each trial's limit of simulated time (None: the task's own,
+    ``InteractiveConfig.time_limit_s``); a study protocol may shorten it."""
     from otgym.runtime.trials import stylus_feedback
     from otgym.sim.chip import load_chip
     from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
     from otgym.ui.bindings import play_bindings, robot_primaries
     from otgym.ui.recording import SessionRecording
 
-    task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=load_chip(chip))))
+    config = InteractiveConfig(scene=interactive_scene(chip=load_chip(chip)))
+    if time_limit_s is not None:
+        config = dataclasses.replace(config, time_limit_s=time_limit_s)
+    task = InteractiveTask(config)
     feedback = stylus_feedback(task)
     primaries = robot_primaries(device, list(forwarded))
     recording = SessionRecording(recording_path)

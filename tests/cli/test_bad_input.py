@@ -143,6 +143,7 @@ STRING_CASES = {
         Case("refused value", "timing_jitter_s=-1"),
     ],
     "P:T": [Case("not P:T", "3"), Case("negative", "-1:0"), Case("beyond the run", "99:0")],
+    "ID": [Case("empty", ""), Case("a comma", "lab,7"), Case("a path", "../lab7"), Case("a space", "lab 7")],
     "TEXT": [],
 }
 
@@ -360,6 +361,59 @@ def test_every_command_has_a_valid_example_and_bad_cases():
     for path, command in commands:
         command.make_context(" ".join(path), example_argv(path, command), resilient_parsing=True)
     assert len(covered) >= len(commands) - 1
+
+
+BAD_PROTOCOLS = {
+    "not TOML": ("[study\nseed_base = 1\n", "is not a TOML protocol"),
+    "unknown mode": (
+        '[study]\nseed_base = 1\n[modes]\nnames = ["manual", "telepathic"]\ntrials_per_mode = 2\n',
+        "unknown mode 'telepathic'",
+    ),
+    "unknown practice mode": (
+        '[study]\nseed_base = 1\n[practice]\ntrials = 1\nmode = "x"\n[modes]\nnames = ["manual"]\ntrials_per_mode = 2\n',
+        "unknown mode 'x'",
+    ),
+    "a mode twice": (
+        '[study]\nseed_base = 1\n[modes]\nnames = ["manual", "manual"]\ntrials_per_mode = 2\n',
+        "names a mode twice",
+    ),
+    "unknown key": (
+        '[study]\nseed_base = 1\nseeds = 2\n[modes]\nnames = ["manual"]\ntrials_per_mode = 2\n',
+        "unknown key 'seeds'",
+    ),
+    "missing trials": ('[study]\nseed_base = 1\n[modes]\nnames = ["manual"]\n', "trials_per_mode is missing"),
+    "zero trials": (
+        '[study]\nseed_base = 1\n[modes]\nnames = ["manual"]\ntrials_per_mode = 0\n',
+        "trials_per_mode must lie in",
+    ),
+    "unknown device": (
+        '[study]\nseed_base = 1\ndevice = "joystick"\n[modes]\nnames = ["manual"]\ntrials_per_mode = 2\n',
+        "unknown device 'joystick'",
+    ),
+    "wrong type": (
+        '[study]\nseed_base = "one"\n[modes]\nnames = ["manual"]\ntrials_per_mode = 2\n',
+        "seed_base must be int",
+    ),
+}
+"""Protocols ``otgym study run`` must refuse (the file exists; its content is wrong)."""
+
+
+@pytest.mark.parametrize("label", list(BAD_PROTOCOLS))
+def test_study_run_refuses_a_bad_protocol(tmp_path, monkeypatch, capsys, no_expensive_work, label):
+    text, word = BAD_PROTOCOLS[label]
+    folder = tmp_path / "case"
+    folder.mkdir()
+    monkeypatch.chdir(folder)
+    (folder / "protocol.toml").write_text(text)
+    before = sorted(p.relative_to(folder) for p in folder.rglob("*"))
+    with pytest.raises(SystemExit) as exit_info:
+        cli_app.main(["study", "run", "protocol.toml", "--participant", "lab-1", "--out", "study", "--headless"])
+    captured = capsys.readouterr()
+    lines = [line for line in captured.err.splitlines() if line.strip()]
+    assert exit_info.value.code == 2, (exit_info.value.code, captured.err[-2000:])
+    assert len(lines) == 1 and lines[0].startswith("error: ") and word in lines[0], captured.err
+    assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == before, "it wrote files"
+    assert not no_expensive_work
 
 
 NOT_MCAP = {
