@@ -91,7 +91,7 @@ def _starts(key, config: AssembleConfig, dtype):
     """N bead centres in distinct jittered cells, at least ``min_separation_um`` apart."""
     cells = config.cells_per_side
     cell_key, jitter_key = jax.random.split(key)
-    chosen = jax.random.choice(cell_key, cells * cells, (config.n_beads,), replace=False)
+    chosen = jax.lax.top_k(jax.random.uniform(cell_key, (cells * cells,)), config.n_beads)[1]  # distinct cells
     corner = (config.arena_um - cells * config.start_cell_um) / 2
     centre = corner + (jnp.stack([chosen % cells, chosen // cells], axis=-1).astype(dtype) + 0.5) * config.start_cell_um
     half = 0.5 * (config.start_cell_um - config.min_separation_um) * 0.999
