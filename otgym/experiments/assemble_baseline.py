@@ -154,7 +154,9 @@ def main(argv: list[str] | None = None) -> int:
                 flush=True,
             )
         equal, worst = assignment_gap(params, args.episodes, args.seed)
-        print(f"<!-- {name}: plan's assignment = Hungarian optimum in {equal:.3f} of resets, worst excess {worst:.2e} -->")
+        print(
+            f"<!-- {name}: plan's assignment = Hungarian optimum in {equal:.3f} of resets, worst excess {worst:.2e} -->"
+        )
     return 0
 
 
