@@ -44,7 +44,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.tasks.assemble:Assemble",
         "holographic micro-assembly: beads in N traps placed into a ring, lattice or letter, SLM-paced",
         (),
-        {},
+        {"gym_id": "otgym/assemble-v0"},
     ),
     # robots
     (
