@@ -38,6 +38,14 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
             "gym_id": "otgym/CellTransport-v0",
         },
     ),
+    (
+        "tasks",
+        "assemble",
+        "otgym.tasks.assemble:Assemble",
+        "holographic micro-assembly: beads in N traps placed into a ring, lattice or letter, SLM-paced",
+        (),
+        {"gym_id": "otgym/assemble-v0"},
+    ),
     # robots
     (
         "robots",

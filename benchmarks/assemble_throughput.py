@@ -1,0 +1,119 @@
+"""Throughput of the ``assemble`` task: environment steps (SLM frames of 50 ms, 500
+physics substeps each) per second at 1 and 1024 environments, and the compile time of
+the batched reset and step.
+
+References, measured in the same run:
+* the bare physics (``otgym.physics.control_step_batch`` of the task's model, traps
+  held): the task's own work (plan, events, observation) is the difference;
+* a NumPy loop of the same physics (``numpy_substep`` of benchmarks/physics_throughput.py:
+  Euler-Maruyama over the same model arrays, vectorised over beads and environments),
+  timed over a few substeps and scaled to a frame's 500.
+
+Run: python benchmarks/assemble_throughput.py [--preset ring] [--quick] [--envs 1,1024]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from otgym import physics as ph
+from otgym import tasks
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from physics_throughput import NumpyModel, numpy_substep  # noqa: E402
+
+
+def _rate(call, min_seconds: float) -> float:
+    calls, start = 0, time.perf_counter()
+    while time.perf_counter() - start < min_seconds:
+        call()
+        calls += 1
+    return calls / (time.perf_counter() - start)
+
+
+def time_task(task, params, n_env: int, min_seconds: float) -> tuple[float, float]:
+    """(compile seconds of reset + step, environment steps per second)."""
+    reset = jax.jit(task.reset_batch, static_argnums=2)
+    step = jax.jit(task.step_batch)
+    key = jax.random.PRNGKey(0)
+    actions = jnp.full(n_env, 1, jnp.int32)
+    start = time.perf_counter()
+    _, state = reset(key, params, n_env)
+    jax.block_until_ready(step(key, state, actions, params))
+    compile_s = time.perf_counter() - start
+    keys = iter(np.asarray(jax.random.split(jax.random.PRNGKey(1), 100_000)))  # host rows: no slicing op
+
+    def one():
+        jax.block_until_ready(step(next(keys), state, actions, params)[1])
+
+    return compile_s, _rate(one, min_seconds) * n_env
+
+
+def time_physics(params, n_env: int, min_seconds: float) -> float:
+    model = params.model
+    task = tasks.load("assemble")
+    _, state = jax.jit(task.reset_batch, static_argnums=2)(jax.random.PRNGKey(0), params, n_env)
+    step = jax.jit(ph.control_step_batch)
+    controls = ph.Controls.zeros(model, n_env)
+    physics = state.physics
+    jax.block_until_ready(step(model, physics, controls, jax.random.PRNGKey(0)))
+    keys = iter(np.asarray(jax.random.split(jax.random.PRNGKey(1), 100_000)))  # host rows: no slicing op
+
+    def one():
+        jax.block_until_ready(step(model, physics, controls, next(keys))[0])
+
+    return _rate(one, min_seconds) * n_env
+
+
+def time_numpy(params, n_env: int, min_seconds: float) -> float:
+    """Environment steps per second of the NumPy loop (substeps timed, scaled)."""
+    model = params.model
+    task = tasks.load("assemble")
+    _, state = jax.jit(task.reset_batch, static_argnums=2)(jax.random.PRNGKey(0), params, n_env)
+    reference = NumpyModel(model)
+    pose = np.asarray(state.physics.pose, np.float64)
+    traps = np.asarray(state.physics.trap_xy_um, np.float64)
+    rng = np.random.default_rng(0)
+    substeps, start = 0, time.perf_counter()
+    while time.perf_counter() - start < min_seconds:
+        pose = numpy_substep(reference, pose, traps, rng.standard_normal(pose.shape))
+        substeps += 1
+    return substeps * n_env / (time.perf_counter() - start) / model.substeps
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--preset", default="ring")
+    parser.add_argument("--quick", action="store_true", help="shorter timing windows")
+    parser.add_argument("--envs", default="1,1024", help="comma-separated environment counts")
+    args = parser.parse_args()
+    window = 1.0 if args.quick else 3.0
+    task = tasks.load("assemble")
+    params = task.make_params(task.config(args.preset))
+    config = params.config
+    print(
+        f"assemble ({args.preset}: {config.n_beads} beads, {config.substeps} substeps per "
+        f"{config.frame_period_s * 1e3:g} ms frame), {jax.devices()[0].device_kind}"
+    )
+    print("| envs | compile s | task steps/s | bare physics steps/s | NumPy loop steps/s | task / NumPy |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for n_env in [int(n) for n in args.envs.split(",")]:
+        compile_s, task_rate = time_task(task, params, n_env, window)
+        physics_rate = time_physics(params, n_env, window)
+        numpy_rate = time_numpy(params, n_env, window)
+        print(
+            f"| {n_env} | {compile_s:.1f} | {task_rate:.3g} | {physics_rate:.3g} | {numpy_rate:.3g} | "
+            f"{task_rate / numpy_rate:.1f} |",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main()
