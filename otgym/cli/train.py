@@ -12,13 +12,26 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from otgym.cli import options
 
 
+def _check_preset(ctx: typer.Context, value: str | None) -> str | None:
+    """A preset of the task given by ``--task`` (parsed before it)."""
+    if value is not None:
+        from otgym import tasks
+
+        presets = tasks.load(ctx.params.get("task_name") or "speed-control").presets()
+        if value not in presets:
+            raise typer.BadParameter(f"{value!r} is not one of {', '.join(presets)}")
+    return value
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     def train(
         task_name: str = options.registered(
             "speed-control", "--task", "tasks", None, "Task to train (discrete actions)."
         ),
-        preset: str = typer.Option(None, "--preset", metavar="NAME", help="The task's preset (default: its first)."),
+        preset: str = typer.Option(
+            None, "--preset", metavar="NAME", callback=_check_preset, help="The task's preset (default: its first)."
+        ),
         out: Path = options.out_dir(Path("results/train"), "Folder for the results."),
         steps: int = typer.Option(200_000, "--steps", min=1, max=10**9, help="Environment steps in all."),
         envs: int = typer.Option(64, "--envs", min=1, max=2**20, help="Environments simulated at once."),
@@ -36,10 +49,7 @@ def register(app: typer.Typer) -> None:
         from otgym.rl.dqn import DQNConfig
 
         task = tasks.load(task_name)
-        try:
-            task_config = task.config(preset)
-        except ValueError as error:
-            raise typer.BadParameter(str(error), param_hint="--preset") from None
+        task_config = task.config(preset)
         config = DQNConfig(n_envs=envs, total_env_steps=steps)
         check_out_dir(out)
         console = Console()

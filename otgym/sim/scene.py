@@ -201,6 +201,7 @@ def _assembly_radius_um(model: ph.Model, config: SceneConfig, n_payload: int) ->
 def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     """Load the chip, derive (or read from the cache) its walls and flow, and compile the
     physics model of the scene. Raises ValueError if the chip has no room for it."""
+    robot_spec(config)  # a robot that cannot serve the scene is refused before the fields are solved
     chip = config.chip if isinstance(config.chip, Chip) else load_chip(config.chip)
     flow, walls = chip_fields(chip)
     flow = flow.scaled(config.flow_scale)

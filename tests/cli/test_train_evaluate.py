@@ -75,7 +75,7 @@ def test_evaluate_writes_table_ii_and_safety(tmp_path, fixed_action_q_params, ca
         (["evaluate", "--policy", "."], ". is a folder; give a policy file"),
         (["evaluate", "--policy", "pretrained", "--episodes", "0"], "--episodes"),
         (["evaluate", "--policy", "pretrained", "--repeats", "0"], "--repeats"),
-        (["train", "--preset", "fast"], "--preset: task 'speed-control' has no preset 'fast'; choose one of"),
+        (["train", "--preset", "fast"], "--preset must be one of paper, realistic, not 'fast'"),
         (["train", "--task", "juggle"], "--task"),
         (["train", "--task", "cell-transport", "--steps", "64"], "DQN needs a discrete action space"),
         (["train", "--steps", "0"], "--steps must lie in [1, "),

@@ -71,6 +71,7 @@ def test_sb3_env_checker_passes_without_warnings(env_id):
     env.close()
 
 
+@pytest.mark.slow
 def test_dqn_trains_on_speed_control_and_predicts_in_space():
     env = gym.make("otgym/SpeedControl-v0")
     model = DQN("MlpPolicy", env, learning_starts=500, buffer_size=5_000, seed=0, verbose=0)
@@ -98,6 +99,7 @@ def test_dqn_trains_on_speed_control_and_predicts_in_space():
     eval_env.close()
 
 
+@pytest.mark.slow
 def test_ppo_trains_on_cell_transport_and_predicts_in_space():
     env = gym.make("otgym/CellTransport-v0")
     model = PPO("MlpPolicy", env, n_steps=256, batch_size=64, n_epochs=4, seed=0, verbose=0)

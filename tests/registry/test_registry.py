@@ -20,10 +20,21 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.mark.parametrize("kind", [k for k in registry.KINDS if k != "chips"])
 def test_every_built_in_target_imports_and_is_callable(kind):
+    """Every target loads: a robot is a ``RobotSpec``, a task a ``Task`` class, any other
+    part something callable."""
+    from otgym.physics.robots import RobotSpec
+    from otgym.tasks.base import Task
+
     found = registry.entries(kind)
     assert found, kind
     for entry in found:
-        assert callable(entry.load()), f"{kind} {entry.name}: {entry.target}"
+        target = entry.load()
+        if kind == "robots":
+            assert isinstance(target, RobotSpec), f"{kind} {entry.name}: {entry.target}"
+        elif kind == "tasks":
+            assert isinstance(target, type) and issubclass(target, Task), f"{kind} {entry.name}: {entry.target}"
+        else:
+            assert callable(target), f"{kind} {entry.name}: {entry.target}"
         assert registry.describe(entry), f"{kind} {entry.name} has no description"
 
 

@@ -42,6 +42,7 @@ def _tripod(name):
 TRIPOD = RobotSpec(_tripod)
 
 
+@pytest.mark.slow
 def test_a_design_registered_at_run_time_is_used_by_name():
     registry.register("robots", "tripod", f"{__name__}:TRIPOD", "three handles on a hub")
     try:
