@@ -1,0 +1,230 @@
+"""The plants of the interactive task: what turns the controller's trap commands into
+the bodies' motion. The controller (``otgym.runtime.loop``'s tick: devices and the
+autonomy blended into dP_s, the trap-speed cap, the task's phases and metrics) is the
+same for every plant; a plant is what ``InteractiveLoop`` calls ``reset``, ``dispatch``
+and ``complete`` on:
+
+- ``simulator``: the ``InteractiveTask`` itself (the JAX physics);
+- ``RigPlant``: a rig outside otgym, an optical-tweezers set-up or anything that stands
+  in for one. Each tick's commanded traps go out (the sim node publishes them on
+  ``/otgym/traps``, as every tick); the rig answers with the measured centre of every
+  sphere (``MeasuredPoses``, fed from ``/otgym/rig/poses``), and the tick's observation
+  is built from the latest measurement instead of a physics step.
+
+The rig's contract (``otgym.bus.topics``; docs/ros2.md, "A rig in place of the
+simulator"): at each trial's start it is told where the trial starts every sphere
+(``send_start``: ``/otgym/rig/start``, latched); it publishes every sphere's centre, um
+in the chip frame, in the order of ``/otgym/bodies`` (the session description's
+``sphere_body``), stamped with the UNIX time it measured them.
+
+Safety limits on top of the controller's: while no measurement newer than
+``timeout_s`` has arrived (a rig that is silent, or has not yet answered a trial's
+start) the traps hold (dP_s = 0; counted in ``stale_ticks``); measurements stamped
+less than ``settle_s`` after a trial's start are ignored (they may predate the rig's
+own reset). Each trap's distance to its handle, which decides a lost trap, is taken
+against the trap commands in effect when the rig measured (its stamp) or up to
+``COMMAND_DELAY_S`` before, the nearest of them, so the transport's delay does not
+count as lag.
+
+What a rig does not measure: the robot-cell contact force (NaN in the observation, so
+the feedback's contact cue stays off and a trial's ``peak_contact_force_pn`` is empty);
+an obstacle touching the assembly counts when the measured gap reaches zero.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import threading
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from otgym.task.task import DONE, InteractiveTask, Observation, TaskState
+
+RIG_TIMEOUT_S = 0.25
+"""A measurement older than this (12 ticks; the autonomy's bound too) counts as none: the traps hold."""
+RIG_SETTLE_S = 0.1
+"""Measurements stamped within this of a trial's start are ignored."""
+COMMAND_DELAY_S = 0.05
+"""How late a trap command may reach the rig (the bus, a bridge, the rig's own loop):
+a measurement is compared with each command in effect within this before its stamp."""
+COMMAND_HISTORY = 1000
+"""Trap commands kept to match a measurement's stamp (20 s of ticks)."""
+
+
+def simulator(task: InteractiveTask, measured=None, send_start=None) -> InteractiveTask:
+    """The simulator as the plant: the task's own physics (``measured`` and ``send_start`` unused)."""
+    return task
+
+
+class MeasuredPoses:
+    """The latest measurement of a rig, handed over between threads or processes:
+    ``update(arrival_s, stamp_s, sphere_xy_um)`` with the arrival by ``time.monotonic``
+    (one clock for every process), the stamp in UNIX seconds, the centres (S, 2) um."""
+
+    def __init__(self):
+        self._latest: tuple[float, float, np.ndarray] | None = None
+        self._lock = threading.Lock()
+        self.received = 0
+
+    def update(self, arrival_s: float, stamp_s: float, sphere_xy_um) -> None:
+        with self._lock:
+            self._latest = (float(arrival_s), float(stamp_s), np.asarray(sphere_xy_um, float))
+            self.received += 1
+
+    def latest(self) -> tuple[float, float, np.ndarray] | None:
+        with self._lock:
+            return self._latest
+
+
+@dataclasses.dataclass(frozen=True)
+class RigStep:
+    """A tick's command to the rig (``RigPlant.dispatch``)."""
+
+    trap_xy_um: np.ndarray  # (1, T, 2) the commanded traps
+    before_done: np.ndarray  # (1,)
+
+
+class RigPlant:
+    """A rig as the plant of ``task`` (one environment; see the module's docstring):
+    ``measured`` holds its latest measurement, ``send_start(sphere_xy_um, stamp_s)``
+    tells it where a trial starts every sphere. Everything but ``reset``, ``dispatch``
+    and ``complete`` is the task's (chip, route, bodies, configuration)."""
+
+    def __init__(
+        self,
+        task: InteractiveTask,
+        measured: MeasuredPoses,
+        send_start: Callable[[np.ndarray, float], None],
+        *,
+        timeout_s: float = RIG_TIMEOUT_S,
+        settle_s: float = RIG_SETTLE_S,
+        clock: Callable[[], float] = time.monotonic,
+        wall_clock: Callable[[], float] = time.time,
+    ):
+        self.task, self.measured, self.send_start = task, measured, send_start
+        self.timeout_s, self.settle_s, self.clock, self.wall_clock = timeout_s, settle_s, clock, wall_clock
+        model = task.scene.model
+        self._sphere_body = np.asarray(model.sphere_body, int)
+        self._radius = np.asarray(model.sphere_radius_um, float)
+        self._payload = int(task.scene.payload)
+        self._robots = [int(r) for r in task.scene.robots]
+        self._obstacle_spheres = [np.flatnonzero(self._sphere_body == o) for o in task.scene.obstacles]
+        self._grippers = np.asarray(task.scene.gripper_spheres, int)  # (R, 2)
+        self._gripper_radius = float(self._radius[self._grippers[0, 0]])
+        self._cell_radius = float(task.config.scene.cell_radius_um)
+        self._commands: collections.deque = collections.deque(maxlen=COMMAND_HISTORY)
+        self._start_stamp_s = -np.inf
+        self.stale_ticks = 0
+        """Ticks on which the traps held for want of a fresh measurement."""
+
+    def __getattr__(self, name):
+        return getattr(self.task, name)
+
+    def reset(self, scenarios, key) -> TaskState:
+        """The trial's start as the task sets it up (``InteractiveTask.reset``), sent to the rig."""
+        if len(scenarios) != 1:
+            raise ValueError(f"a rig runs one environment, got {len(scenarios)} scenarios")
+        state = self.task.reset(scenarios, key)
+        self._start_stamp_s = self.wall_clock()
+        self._commands.clear()
+        self._commands.append((self._start_stamp_s, state.observation.trap_xy_um[0].copy()))
+        self.send_start(state.sphere_xy_um[0].copy(), self._start_stamp_s)
+        return state
+
+    def _fresh(self) -> tuple[float, np.ndarray] | None:
+        """(stamp, centres) of the latest measurement if it counts (see the module's docstring)."""
+        latest = self.measured.latest()
+        if latest is None:
+            return None
+        arrival_s, stamp_s, spheres = latest
+        if stamp_s < self._start_stamp_s + self.settle_s or self.clock() - arrival_s > self.timeout_s:
+            return None
+        if spheres.shape != (len(self._sphere_body), 2):
+            return None
+        return stamp_s, spheres
+
+    def dispatch(self, state: TaskState, trap_increment_um, key=None) -> RigStep:
+        """The tick's trap command: the traps moved by ``trap_increment_um`` (1, T, 2), or
+        held where the trial is DONE or no fresh measurement is in."""
+        increment = np.where((state.phase == DONE)[:, None, None], 0.0, np.asarray(trap_increment_um, float))
+        if not np.all(np.isfinite(increment)):
+            raise ValueError("trap increments must be finite")
+        if self._fresh() is None:
+            increment = np.zeros_like(increment)
+            self.stale_ticks += 1
+        traps = state.observation.trap_xy_um + increment
+        self._commands.append((self.wall_clock(), traps[0].copy()))
+        return RigStep(traps, state.phase == DONE)
+
+    def complete(self, state: TaskState, pending: RigStep, alpha=None) -> Observation:
+        """The tick's observation from the latest measurement (the previous one's spheres
+        while none is fresh); the task's phases and metrics updated as after a physics step."""
+        fresh = self._fresh()
+        if fresh is None:
+            spheres, traps_then = state.sphere_xy_um[0], pending.trap_xy_um[0]
+        else:
+            spheres, traps_then = fresh[1], self._commands_at(fresh[0])
+        time_s = float(state.observation.time_s[0]) + self.task.config.tick_s
+        observation, state.route_index = self.observe(
+            spheres, pending.trap_xy_um[0], traps_then, time_s, state.route_index
+        )
+        state.sphere_xy_um = np.asarray(spheres, float)[None]
+        self.task._account(state, observation, pending.before_done, alpha)
+        state.observation = observation
+        return observation
+
+    def step(self, state: TaskState, trap_increment_um, key=None, alpha=None) -> Observation:
+        return self.complete(state, self.dispatch(state, trap_increment_um, key), alpha)
+
+    def _commands_at(self, stamp_s: float) -> np.ndarray:
+        """The trap commands (C, T, 2) in effect between ``stamp_s - COMMAND_DELAY_S``
+        and ``stamp_s`` (the earliest kept if all are later)."""
+        chosen = [self._commands[0][1]]
+        for sent_s, traps in self._commands:
+            if sent_s > stamp_s:
+                break
+            if sent_s <= stamp_s - COMMAND_DELAY_S:
+                chosen = []
+            chosen.append(traps)
+        return np.stack(chosen)
+
+    def observe(
+        self, sphere_xy_um, trap_xy_um, traps_then_um, time_s: float, route_index
+    ) -> tuple[Observation, np.ndarray]:
+        """One environment's observation from measured centres (S, 2), the commanded traps
+        (T, 2) and the traps in effect at the measurement ((T, 2), or (C, T, 2): each
+        handle's distance to the nearest): bodies at their spheres' mean, gaps as ``otgym.task.task``'s measurement takes them; and the new route
+        index (1,) (``InteractiveTask.route_index`` from ``route_index``)."""
+        spheres = np.asarray(sphere_xy_um, float)
+        bodies, radius = self._sphere_body, self._radius
+        cell = spheres[bodies == self._payload].mean(axis=0)
+        obstacles = np.array([spheres[s].mean(axis=0) for s in self._obstacle_spheres]).reshape(-1, 2)
+        obstacle_radius = np.array([radius[s].max() for s in self._obstacle_spheres])
+        assembly = bodies <= self._payload
+        between = np.linalg.norm(spheres[assembly][:, None] - obstacles[None], axis=-1)
+        gaps = (between - radius[assembly][:, None] - obstacle_radius[None]).min(axis=0, initial=np.inf)
+        grippers = spheres[self._grippers]  # (R, 2, 2)
+        cell_gap = (np.linalg.norm(grippers - cell, axis=-1) - self._cell_radius - self._gripper_radius).min(axis=-1)
+        handles = spheres[self.task.trap_sphere]
+        index = self.task.route_index(cell[None], np.asarray(route_index))
+        observation = Observation(
+            time_s=np.array([time_s]),
+            phase=np.zeros(1, int),  # set by the task's accounting
+            cell_xy_um=cell[None],
+            cell_arc_um=self.task.route_arc_um[index],
+            trap_xy_um=np.asarray(trap_xy_um, float)[None],
+            handle_xy_um=handles[None],
+            robot_xy_um=np.array([spheres[bodies == robot].mean(axis=0) for robot in self._robots])[None],
+            obstacle_xy_um=obstacles[None],
+            obstacle_gap_um=gaps[None],
+            contact_force_pn=np.full((1, len(self._robots)), np.nan),
+            cell_gap_um=cell_gap[None],
+            trap_distance_um=np.linalg.norm(handles - np.asarray(traps_then_um, float), axis=-1)
+            .reshape(-1, len(handles))
+            .min(axis=0)[None],
+            obstacle_touched=np.zeros((1, len(obstacles)), bool),
+        )
+        return observation, index

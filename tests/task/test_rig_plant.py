@@ -1,0 +1,137 @@
+"""A rig as the interactive task's plant (``otgym.task.rig.RigPlant``), in one process:
+the example rig's first-order law (``examples/rig/first_order_rig.py``, no ROS here)
+answers each tick's trap commands with its measured spheres, and the controller (the
+real-time loop's tick, unchanged) drives it. The same law behind real rclpy, each side
+its own process: ``tests/bus/test_rig_ros2.py``."""
+
+import importlib.util
+
+import jax
+import numpy as np
+import pytest
+
+from otgym.bus.task_messages import session_description
+from otgym.runtime.loop import InteractiveLoop
+from otgym.task.rig import RIG_SETTLE_S, MeasuredPoses, RigPlant
+from tests.bus.test_nodes import ROOT
+from tests.task import fast_scenario, shared_task
+
+
+def _example():
+    spec = importlib.util.spec_from_file_location("first_order_rig", ROOT / "examples" / "rig" / "first_order_rig.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class _Clocks:
+    """Wall and monotonic time both following the ticks (simulated), so the run does not
+    depend on how fast this machine is."""
+
+    def __init__(self):
+        self.now_s = 1000.0
+
+    def __call__(self) -> float:
+        return self.now_s
+
+
+def _rig_loop(time_constant_s=0.02, mode="autonomous", seed=3):
+    task = shared_task()
+    description = session_description(task, [])
+    rig = _example().FirstOrderRig(
+        description["sphere_body"],
+        description["sphere_kind"],
+        description["sphere_radius_um"],
+        description["handle_spheres"],
+        time_constant_s,
+    )
+    clocks, measured = _Clocks(), MeasuredPoses()
+    plant = RigPlant(task, measured, lambda xy, stamp_s: rig.start(xy), clock=clocks, wall_clock=clocks)
+    loop = InteractiveLoop(plant, [], fast_scenario(seed), mode, seed=seed)
+    return loop, plant, rig, clocks, measured
+
+
+def _answer(loop, rig, clocks, measured, steps=2):
+    """The rig's side between two ticks: the tick's traps commanded, ``steps`` of its law
+    over the tick, its spheres measured and received."""
+    rig.command(loop.observation.trap_xy_um[0])
+    for _ in range(steps):
+        clocks.now_s += loop.tick_s / steps
+        xy = rig.advance(loop.tick_s / steps)
+    measured.update(clocks(), clocks(), xy)
+
+
+def test_the_first_order_rig_reaches_the_goal_under_the_route_autonomy():
+    """Autonomous mode on scenario 3: the robots grip the cell and carry it to the goal
+    (307 um of route) with no trap lost, every tick's observation built from the rig's
+    measured spheres. Fails if the plant took the task's physics instead (the rig's
+    spheres would not be the observation's)."""
+    loop, plant, rig, clocks, measured = _rig_loop()
+    settling = int(np.ceil(RIG_SETTLE_S / loop.tick_s))
+    for _ in range(int(150.0 / loop.tick_s)):
+        _answer(loop, rig, clocks, measured)
+        stale = plant.stale_ticks
+        loop.tick()
+        if plant.stale_ticks == stale:
+            np.testing.assert_array_equal(loop.sphere_xy_um(), measured.latest()[2])
+        if loop.done:
+            break
+    row = loop.state.metrics.rows()[0]
+    assert row["reached_goal"] and row["trap_losses"] == 0, row
+    assert np.isfinite(row["grip_time_s"]) and np.isnan(row["peak_contact_force_pn"]), row
+    assert np.linalg.norm(loop.observation.cell_xy_um[0] - shared_task().route_um[-1]) <= 3.0
+    assert plant.stale_ticks == settling, plant.stale_ticks  # answers stamped before the start settled
+
+
+def test_a_silent_rig_holds_the_traps_and_a_stale_answer_counts_as_none():
+    """No answer from the rig: every tick holds the traps, though the autonomy asks to
+    move them. An answer older than the timeout, or stamped before the trial's start
+    settled, is none either. Fails without the plant's safety limit."""
+    loop, plant, rig, clocks, measured = _rig_loop()
+    start = loop.observation.trap_xy_um.copy()
+    for _ in range(10):
+        clocks.now_s += loop.tick_s
+        record = loop.tick()
+        assert np.abs(record.robot_um).max() > 0  # the autonomy asked
+    np.testing.assert_array_equal(loop.observation.trap_xy_um, start)
+    assert plant.stale_ticks == 10
+    measured.update(clocks(), clocks() - 10.0, rig.xy)  # stamped before the start
+    loop.tick()
+    measured.update(clocks() - 1.0, clocks(), rig.xy)  # arrived a second ago
+    loop.tick()
+    np.testing.assert_array_equal(loop.observation.trap_xy_um, start)
+    assert plant.stale_ticks == 12
+    clocks.now_s += RIG_SETTLE_S
+    measured.update(clocks(), clocks(), rig.xy)
+    loop.tick()
+    assert np.abs(loop.observation.trap_xy_um - start).max() > 0
+
+
+def test_a_rig_runs_one_environment():
+    task = shared_task()
+    plant = RigPlant(task, MeasuredPoses(), lambda xy, stamp_s: None)
+    with pytest.raises(ValueError, match="one environment"):
+        plant.reset([fast_scenario(1), fast_scenario(2)], jax.random.PRNGKey(0))
+
+
+def test_the_rig_law_turns_and_moves_a_robot_onto_its_traps():
+    """The example's law alone: a robot whose traps are turned by 30 degrees and moved
+    3 um converges onto them, 1 - exp(-t / tau) of the way after t; a body without
+    traps stays where it is."""
+    module = _example()
+    rig = module.FirstOrderRig([0, 0, 0, 1], ["robot"] * 3 + ["obstacle"], [1.0] * 4, [0, 2], 0.1)
+    rig.start([[0, 0], [1, 0], [2, 0], [20, 20]])
+    turn = np.deg2rad(30)
+    traps = np.array([[0, 0], [2 * np.cos(turn), 2 * np.sin(turn)]]) + [3.0, 1.0]
+    rig.command(traps)
+    for _ in range(100):
+        xy = rig.advance(0.001)  # 0.1 s: one time constant
+    handles = xy[[0, 2]]
+    pivot = handles.mean(axis=0)
+    np.testing.assert_allclose(pivot, (1 - np.exp(-1)) * (traps.mean(axis=0) - [1, 0]) + [1, 0], atol=1e-9)
+    angle = np.arctan2(*(handles[1] - handles[0])[::-1])
+    np.testing.assert_allclose(angle, (1 - np.exp(-1)) * turn, atol=1e-9)
+    for _ in range(2000):
+        xy = rig.advance(0.001)
+    np.testing.assert_allclose(xy[[0, 2]], traps, atol=1e-6)
+    np.testing.assert_array_equal(xy[3], [20, 20])
