@@ -47,9 +47,12 @@ RIG_TIMEOUT_S = 0.25
 """A measurement older than this (12 ticks; the autonomy's bound too) counts as none: the traps hold."""
 RIG_SETTLE_S = 0.1
 """Measurements stamped within this of a trial's start are ignored."""
-COMMAND_DELAY_S = 0.05
-"""How late a trap command may reach the rig (the bus, a bridge, the rig's own loop):
-a measurement is compared with each command in effect within this before its stamp."""
+COMMAND_DELAY_S = 0.2
+"""How late a trap command may reach the rig (the bus, a bridge, the rig's own loop, on
+a loaded machine): a measurement is compared with each command in effect within this
+before its stamp. A handle is taken as lost only when it is farther than the trap
+law's escape distance from all of them (at the autonomy's 20 um/s, 4 um of trap
+motion): a lost robot falls behind its traps for good, so it is still found, later."""
 COMMAND_HISTORY = 1000
 """Trap commands kept to match a measurement's stamp (20 s of ticks)."""
 
@@ -117,6 +120,7 @@ class RigPlant:
         self._cell_radius = float(task.config.scene.cell_radius_um)
         self._commands: collections.deque = collections.deque(maxlen=COMMAND_HISTORY)
         self._start_stamp_s = -np.inf
+        self._measured_stamp_s: float | None = None
         self.stale_ticks = 0
         """Ticks on which the traps held for want of a fresh measurement."""
 
@@ -130,6 +134,7 @@ class RigPlant:
         state = self.task.reset(scenarios, key)
         self._start_stamp_s = self.wall_clock()
         self._commands.clear()
+        self._measured_stamp_s = None
         self._commands.append((self._start_stamp_s, state.observation.trap_xy_um[0].copy()))
         self.send_start(state.sphere_xy_um[0].copy(), self._start_stamp_s)
         return state
@@ -161,12 +166,19 @@ class RigPlant:
 
     def complete(self, state: TaskState, pending: RigStep, alpha=None) -> Observation:
         """The tick's observation from the latest measurement (the previous one's spheres
-        while none is fresh); the task's phases and metrics updated as after a physics step."""
+        while none is fresh, each handle's distance still taken against the commands that
+        measurement answered); the task's phases and metrics updated as after a physics
+        step."""
         fresh = self._fresh()
-        if fresh is None:
-            spheres, traps_then = state.sphere_xy_um[0], pending.trap_xy_um[0]
+        if fresh is not None:
+            self._measured_stamp_s = fresh[0]
+            spheres = fresh[1]
         else:
-            spheres, traps_then = fresh[1], self._commands_at(fresh[0])
+            spheres = state.sphere_xy_um[0]  # nothing new: the last measurement, or the trial's start
+        if self._measured_stamp_s is None:
+            traps_then = pending.trap_xy_um[0]  # the traps have held since the start
+        else:
+            traps_then = self._commands_at(self._measured_stamp_s)
         time_s = float(state.observation.time_s[0]) + self.task.config.tick_s
         observation, state.route_index = self.observe(
             spheres, pending.trap_xy_um[0], traps_then, time_s, state.route_index

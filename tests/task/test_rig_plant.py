@@ -12,7 +12,8 @@ import pytest
 
 from otgym.bus.task_messages import session_description
 from otgym.runtime.loop import InteractiveLoop
-from otgym.task.rig import RIG_SETTLE_S, MeasuredPoses, RigPlant
+from otgym.task.rig import RIG_SETTLE_S, RIG_TIMEOUT_S, MeasuredPoses, RigPlant
+from otgym.task.task import CARRY
 from tests.bus.test_nodes import ROOT
 from tests.task import fast_scenario, shared_task
 
@@ -135,3 +136,22 @@ def test_the_rig_law_turns_and_moves_a_robot_onto_its_traps():
         xy = rig.advance(0.001)
     np.testing.assert_allclose(xy[[0, 2]], traps, atol=1e-6)
     np.testing.assert_array_equal(xy[3], [20, 20])
+
+
+def test_a_rig_that_stalls_holds_the_traps_and_loses_none():
+    """The rig falls silent for half a second in the approach (the traps moving at the
+    autonomy's 20 um/s): the traps hold from the timeout on, the handles' distance is
+    still taken against the commands the last measurement answered, so no trap is lost,
+    and the trial goes on when the rig is back. Fails if a stale measurement were
+    compared with the latest command (4 um ahead of it by then)."""
+    loop, plant, rig, clocks, measured = _rig_loop()
+    for tick in range(150):
+        if 20 <= tick < 45:
+            clocks.now_s += loop.tick_s  # silent: nothing measured, nothing received
+        else:
+            _answer(loop, rig, clocks, measured)
+        loop.tick()
+    row = loop.state.metrics.rows()[0]
+    assert row["trap_losses"] == 0 and not loop.done, row
+    assert plant.stale_ticks >= 25 - int(RIG_TIMEOUT_S / loop.tick_s), plant.stale_ticks
+    assert int(loop.observation.phase[0]) == CARRY
