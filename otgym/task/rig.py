@@ -17,12 +17,22 @@ simulator"): at each trial's start it is told where the trial starts every spher
 in the chip frame, in the order of ``/otgym/bodies`` (the session description's
 ``sphere_body``), stamped with the UNIX time it measured them.
 
-Safety limits on top of the controller's: while no measurement newer than
-``timeout_s`` has arrived (a rig that is silent, or has not yet answered a trial's
-start) the traps hold (dP_s = 0; counted in ``stale_ticks``); measurements stamped
-less than ``settle_s`` after a trial's start are ignored (they may predate the rig's
-own reset). Each trap's distance to its handle, which decides a lost trap, is taken
-against the trap commands in effect when the rig measured (its stamp) or up to
+Safety limits on top of the controller's (each tick that applies one counts in
+``held_ticks``):
+
+- the trial begins on the rig: after a trial's start the traps hold until a measurement
+  has every trapped sphere within the trap law's escape distance of its trap (a rig
+  that put its bodies at ``/otgym/rig/start``, or one whose robots are in the traps);
+  measurements before that, and those stamped before the start, do not count;
+- the traps hold while no measurement newer than ``timeout_s`` has arrived (a rig that
+  is silent or stalls);
+- the traps wait for the robots: they hold while the latest measurement has a trapped
+  sphere farther than ``wait_fraction`` of the escape distance from its latest trap
+  command, so commands never run away from a rig that lags (its own dynamics, or the
+  delay of the bus, a bridge and its loop on a loaded machine).
+
+Each trap's distance to its handle, which decides a lost trap, is taken against the
+trap commands in effect when the rig measured (its stamp) or up to
 ``COMMAND_DELAY_S`` before, the nearest of them, so the transport's delay does not
 count as lag.
 
@@ -45,8 +55,8 @@ from otgym.task.task import DONE, InteractiveTask, Observation, TaskState
 
 RIG_TIMEOUT_S = 0.25
 """A measurement older than this (12 ticks; the autonomy's bound too) counts as none: the traps hold."""
-RIG_SETTLE_S = 0.1
-"""Measurements stamped within this of a trial's start are ignored."""
+WAIT_FRACTION = 0.5
+"""The traps wait for a trapped sphere farther than this fraction of the escape distance from its trap."""
 COMMAND_DELAY_S = 0.2
 """How late a trap command may reach the rig (the bus, a bridge, the rig's own loop, on
 a loaded machine): a measurement is compared with each command in effect within this
@@ -103,12 +113,14 @@ class RigPlant:
         send_start: Callable[[np.ndarray, float], None],
         *,
         timeout_s: float = RIG_TIMEOUT_S,
-        settle_s: float = RIG_SETTLE_S,
+        wait_fraction: float = WAIT_FRACTION,
         clock: Callable[[], float] = time.monotonic,
         wall_clock: Callable[[], float] = time.time,
     ):
         self.task, self.measured, self.send_start = task, measured, send_start
-        self.timeout_s, self.settle_s, self.clock, self.wall_clock = timeout_s, settle_s, clock, wall_clock
+        self.timeout_s, self.clock, self.wall_clock = timeout_s, clock, wall_clock
+        self.escape_distance_um = float(task.config.scene.trap_law.escape_distance)
+        self.wait_um = wait_fraction * self.escape_distance_um
         model = task.scene.model
         self._sphere_body = np.asarray(model.sphere_body, int)
         self._radius = np.asarray(model.sphere_radius_um, float)
@@ -121,8 +133,9 @@ class RigPlant:
         self._commands: collections.deque = collections.deque(maxlen=COMMAND_HISTORY)
         self._start_stamp_s = -np.inf
         self._measured_stamp_s: float | None = None
-        self.stale_ticks = 0
-        """Ticks on which the traps held for want of a fresh measurement."""
+        self._engaged = False
+        self.held_ticks = 0
+        """Ticks on which a safety limit held the traps (see the module's docstring)."""
 
     def __getattr__(self, name):
         return getattr(self.task, name)
@@ -135,31 +148,42 @@ class RigPlant:
         self._start_stamp_s = self.wall_clock()
         self._commands.clear()
         self._measured_stamp_s = None
+        self._engaged = False
         self._commands.append((self._start_stamp_s, state.observation.trap_xy_um[0].copy()))
         self.send_start(state.sphere_xy_um[0].copy(), self._start_stamp_s)
         return state
 
     def _fresh(self) -> tuple[float, np.ndarray] | None:
-        """(stamp, centres) of the latest measurement if it counts (see the module's docstring)."""
+        """(stamp, centres) of the latest measurement if it counts (see the module's
+        docstring); the first to count engages the trial."""
         latest = self.measured.latest()
         if latest is None:
             return None
         arrival_s, stamp_s, spheres = latest
-        if stamp_s < self._start_stamp_s + self.settle_s or self.clock() - arrival_s > self.timeout_s:
+        if stamp_s < self._start_stamp_s or self.clock() - arrival_s > self.timeout_s:
             return None
         if spheres.shape != (len(self._sphere_body), 2):
             return None
+        if not self._engaged:
+            if self._handle_lag_um(spheres) > self.escape_distance_um:
+                return None
+            self._engaged = True
         return stamp_s, spheres
+
+    def _handle_lag_um(self, spheres) -> float:
+        """The largest distance of a trapped sphere from its latest trap command."""
+        return float(np.linalg.norm(spheres[self.task.trap_sphere] - self._commands[-1][1], axis=-1).max())
 
     def dispatch(self, state: TaskState, trap_increment_um, key=None) -> RigStep:
         """The tick's trap command: the traps moved by ``trap_increment_um`` (1, T, 2), or
-        held where the trial is DONE or no fresh measurement is in."""
+        held where the trial is DONE or a safety limit holds them."""
         increment = np.where((state.phase == DONE)[:, None, None], 0.0, np.asarray(trap_increment_um, float))
         if not np.all(np.isfinite(increment)):
             raise ValueError("trap increments must be finite")
-        if self._fresh() is None:
+        fresh = self._fresh()
+        if fresh is None or self._handle_lag_um(fresh[1]) > self.wait_um:
             increment = np.zeros_like(increment)
-            self.stale_ticks += 1
+            self.held_ticks += 1
         traps = state.observation.trap_xy_um + increment
         self._commands.append((self.wall_clock(), traps[0].copy()))
         return RigStep(traps, state.phase == DONE)
