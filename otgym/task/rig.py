@@ -27,14 +27,15 @@ Safety limits on top of the controller's (each tick that applies one counts in
 - the traps hold while no measurement newer than ``timeout_s`` has arrived (a rig that
   is silent or stalls);
 - the traps wait for the robots: they hold while the latest measurement has a trapped
-  sphere farther than ``wait_fraction`` of the escape distance from its latest trap
-  command, so commands never run away from a rig that lags (its own dynamics, or the
-  delay of the bus, a bridge and its loop on a loaded machine).
+  sphere farther than ``wait_fraction`` of the escape distance from its trap (the
+  distance below), halfway to losing it: commands never run away from a rig that lags
+  (its own dynamics, or commands delayed on a loaded machine).
 
 Each trap's distance to its handle, which decides a lost trap, is taken against the
 trap commands in effect when the rig measured (its stamp) or up to
-``COMMAND_DELAY_S`` before, the nearest of them, so the transport's delay does not
-count as lag.
+``COMMAND_DELAY_S`` before, the nearest of them, so the delay of the commands on their
+way to the rig (the bus, a bridge, its loop) does not count as lag, and the delay of its
+answers on their way back does not slow the traps.
 
 What a rig does not measure: the robot-cell contact force (NaN in the observation, so
 the feedback's contact cue stays off and a trial's ``peak_contact_force_pn`` is empty);
@@ -171,7 +172,8 @@ class RigPlant:
         return stamp_s, spheres
 
     def _handle_lag_um(self, spheres) -> float:
-        """The largest distance of a trapped sphere from its latest trap command."""
+        """The largest distance of a trapped sphere from its latest trap command (before
+        a trial begins: the start's, held)."""
         return float(np.linalg.norm(spheres[self.task.trap_sphere] - self._commands[-1][1], axis=-1).max())
 
     def dispatch(self, state: TaskState, trap_increment_um, key=None) -> RigStep:
@@ -181,7 +183,7 @@ class RigPlant:
         if not np.all(np.isfinite(increment)):
             raise ValueError("trap increments must be finite")
         fresh = self._fresh()
-        if fresh is None or self._handle_lag_um(fresh[1]) > self.wait_um:
+        if fresh is None or self._trap_distance_um(*fresh).max() > self.wait_um:
             increment = np.zeros_like(increment)
             self.held_ticks += 1
         traps = state.observation.trap_xy_um + increment
@@ -199,13 +201,13 @@ class RigPlant:
             spheres = fresh[1]
         else:
             spheres = state.sphere_xy_um[0]  # nothing new: the last measurement, or the trial's start
-        if self._measured_stamp_s is None:
-            traps_then = pending.trap_xy_um[0]  # the traps have held since the start
+        if self._measured_stamp_s is None:  # the traps have held since the start
+            distance = np.linalg.norm(spheres[self.task.trap_sphere] - pending.trap_xy_um[0], axis=-1)
         else:
-            traps_then = self._commands_at(self._measured_stamp_s)
+            distance = self._trap_distance_um(self._measured_stamp_s, spheres)
         time_s = float(state.observation.time_s[0]) + self.task.config.tick_s
         observation, state.route_index = self.observe(
-            spheres, pending.trap_xy_um[0], traps_then, time_s, state.route_index
+            spheres, pending.trap_xy_um[0], distance, time_s, state.route_index
         )
         state.sphere_xy_um = np.asarray(spheres, float)[None]
         self.task._account(state, observation, pending.before_done, alpha)
@@ -215,9 +217,10 @@ class RigPlant:
     def step(self, state: TaskState, trap_increment_um, key=None, alpha=None) -> Observation:
         return self.complete(state, self.dispatch(state, trap_increment_um, key), alpha)
 
-    def _commands_at(self, stamp_s: float) -> np.ndarray:
-        """The trap commands (C, T, 2) in effect between ``stamp_s - COMMAND_DELAY_S``
-        and ``stamp_s`` (the earliest kept if all are later)."""
+    def _trap_distance_um(self, stamp_s: float, spheres) -> np.ndarray:
+        """Each trapped sphere's distance (T,) to the nearest of the trap commands in
+        effect between ``stamp_s - COMMAND_DELAY_S`` and ``stamp_s`` (the earliest kept
+        if all are later)."""
         chosen = [self._commands[0][1]]
         for sent_s, traps in self._commands:
             if sent_s > stamp_s:
@@ -225,15 +228,16 @@ class RigPlant:
             if sent_s <= stamp_s - COMMAND_DELAY_S:
                 chosen = []
             chosen.append(traps)
-        return np.stack(chosen)
+        handles = np.asarray(spheres, float)[self.task.trap_sphere]
+        return np.linalg.norm(np.stack(chosen) - handles[None], axis=-1).min(axis=0)
 
     def observe(
-        self, sphere_xy_um, trap_xy_um, traps_then_um, time_s: float, route_index
+        self, sphere_xy_um, trap_xy_um, trap_distance_um, time_s: float, route_index
     ) -> tuple[Observation, np.ndarray]:
         """One environment's observation from measured centres (S, 2), the commanded traps
-        (T, 2) and the traps in effect at the measurement ((T, 2), or (C, T, 2): each
-        handle's distance to the nearest): bodies at their spheres' mean, gaps as ``otgym.task.task``'s measurement takes them; and the new route
-        index (1,) (``InteractiveTask.route_index`` from ``route_index``)."""
+        (T, 2) and each trapped sphere's distance to its trap (T,): bodies at their
+        spheres' mean, gaps as ``otgym.task.task``'s measurement takes them; and the new
+        route index (1,) (``InteractiveTask.route_index`` from ``route_index``)."""
         spheres = np.asarray(sphere_xy_um, float)
         bodies, radius = self._sphere_body, self._radius
         cell = spheres[bodies == self._payload].mean(axis=0)
@@ -258,9 +262,7 @@ class RigPlant:
             obstacle_gap_um=gaps[None],
             contact_force_pn=np.full((1, len(self._robots)), np.nan),
             cell_gap_um=cell_gap[None],
-            trap_distance_um=np.linalg.norm(handles - np.asarray(traps_then_um, float), axis=-1)
-            .reshape(-1, len(handles))
-            .min(axis=0)[None],
+            trap_distance_um=np.asarray(trap_distance_um, float)[None],
             obstacle_touched=np.zeros((1, len(obstacles)), bool),
         )
         return observation, index

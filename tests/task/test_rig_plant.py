@@ -109,16 +109,20 @@ def test_a_silent_rig_holds_the_traps_and_a_stale_answer_counts_as_none():
 
 
 def test_the_traps_wait_for_robots_that_lag():
-    """A rig whose handles are 0.4 um behind the latest command (more than half the
-    0.6 um escape distance): the traps hold until it has caught up, and no trap is lost.
-    Fails without the wait."""
+    """A rig whose handles are 0.4 um off every trap command of the last 0.2 s (more
+    than half the 0.6 um escape distance; sideways to the motion): the traps hold until
+    it has caught up, and no trap is lost. Fails without the wait."""
     loop, plant, rig, clocks, measured = _rig_loop()
+    traps_seen = []
     for _ in range(20):
         _answer(loop, rig, clocks, measured)
         loop.tick()
+        traps_seen.append(loop.observation.trap_xy_um[0, 0].copy())
     held, traps = plant.held_ticks, loop.observation.trap_xy_um.copy()
+    heading = traps_seen[-1] - traps_seen[-11]
+    sideways = np.array([-heading[1], heading[0]]) / np.linalg.norm(heading)
     lagging = rig.xy.copy()
-    lagging[loop.task.trap_sphere] -= [0.4, 0.0]
+    lagging[loop.task.trap_sphere] += 0.4 * sideways
     clocks.now_s += loop.tick_s
     measured.update(clocks(), clocks(), lagging)
     loop.tick()
