@@ -21,9 +21,10 @@ Safety limits on top of the controller's (each tick that applies one counts in
 ``held_ticks``):
 
 - the trial begins on the rig: after a trial's start the traps hold until a measurement
-  has every trapped sphere within the trap law's escape distance of its trap (a rig
-  that put its bodies at ``/otgym/rig/start``, or one whose robots are in the traps);
-  measurements before that, and those stamped before the start, do not count;
+  has every sphere within the trap law's escape distance of where the start put it (a
+  rig that has placed its bodies at ``/otgym/rig/start``); measurements before that,
+  and those stamped before the start, do not count (a rig's answers from the trial
+  before may arrive after the start);
 - the traps hold while no measurement newer than ``timeout_s`` has arrived (a rig that
   is silent or stalls);
 - the traps wait for the robots: they hold while the latest measurement has a trapped
@@ -58,12 +59,12 @@ RIG_TIMEOUT_S = 0.25
 """A measurement older than this (12 ticks; the autonomy's bound too) counts as none: the traps hold."""
 WAIT_FRACTION = 0.5
 """The traps wait for a trapped sphere farther than this fraction of the escape distance from its trap."""
-COMMAND_DELAY_S = 0.2
+COMMAND_DELAY_S = 1.0
 """How late a trap command may reach the rig (the bus, a bridge, the rig's own loop, on
 a loaded machine): a measurement is compared with each command in effect within this
 before its stamp. A handle is taken as lost only when it is farther than the trap
-law's escape distance from all of them (at the autonomy's 20 um/s, 4 um of trap
-motion): a lost robot falls behind its traps for good, so it is still found, later."""
+law's escape distance from all of them: a robot that escaped stays off its traps'
+path, which the wait holds still, so it is found within this time."""
 COMMAND_HISTORY = 1000
 """Trap commands kept to match a measurement's stamp (20 s of ticks)."""
 
@@ -150,6 +151,7 @@ class RigPlant:
         self._commands.clear()
         self._measured_stamp_s = None
         self._engaged = False
+        self._start_xy_um = np.asarray(state.sphere_xy_um[0], float).copy()
         self._commands.append((self._start_stamp_s, state.observation.trap_xy_um[0].copy()))
         self.send_start(state.sphere_xy_um[0].copy(), self._start_stamp_s)
         return state
@@ -166,15 +168,10 @@ class RigPlant:
         if spheres.shape != (len(self._sphere_body), 2):
             return None
         if not self._engaged:
-            if self._handle_lag_um(spheres) > self.escape_distance_um:
+            if np.linalg.norm(spheres - self._start_xy_um, axis=-1).max() > self.escape_distance_um:
                 return None
             self._engaged = True
         return stamp_s, spheres
-
-    def _handle_lag_um(self, spheres) -> float:
-        """The largest distance of a trapped sphere from its latest trap command (before
-        a trial begins: the start's, held)."""
-        return float(np.linalg.norm(spheres[self.task.trap_sphere] - self._commands[-1][1], axis=-1).max())
 
     def dispatch(self, state: TaskState, trap_increment_um, key=None) -> RigStep:
         """The tick's trap command: the traps moved by ``trap_increment_um`` (1, T, 2), or

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from otgym.bus.task_messages import session_description
-from otgym.runtime.loop import InteractiveLoop
+from otgym.runtime.loop import DeviceBinding, InteractiveLoop
 from otgym.task.rig import RIG_TIMEOUT_S, MeasuredPoses, RigPlant
 from otgym.task.task import CARRY
+from otgym.teleop.device import Device, DeviceCaps, Sample
 from tests.bus.test_nodes import ROOT
 from tests.task import fast_scenario, shared_task
 
@@ -36,7 +37,7 @@ class _Clocks:
         return self.now_s
 
 
-def _rig_loop(time_constant_s=0.02, mode="autonomous", seed=3):
+def _rig_loop(time_constant_s=0.02, mode="autonomous", seed=3, bindings=(), clock=None):
     task = shared_task()
     description = session_description(task, [])
     rig = _example().FirstOrderRig(
@@ -48,7 +49,7 @@ def _rig_loop(time_constant_s=0.02, mode="autonomous", seed=3):
     )
     clocks, measured = _Clocks(), MeasuredPoses()
     plant = RigPlant(task, measured, lambda xy, stamp_s: rig.start(xy), clock=clocks, wall_clock=clocks)
-    loop = InteractiveLoop(plant, [], fast_scenario(seed), mode, seed=seed)
+    loop = InteractiveLoop(plant, list(bindings), fast_scenario(seed), mode, seed=seed, clock=clocks)
     return loop, plant, rig, clocks, measured
 
 
@@ -84,7 +85,7 @@ def test_the_first_order_rig_reaches_the_goal_under_the_route_autonomy():
 def test_a_silent_rig_holds_the_traps_and_a_stale_answer_counts_as_none():
     """No answer from the rig: every tick holds the traps, though the autonomy asks to
     move them. An answer older than the timeout, or stamped before the trial's start,
-    or with the robots out of their traps (the rig not yet at the trial's start), is
+    or with the bodies away from the trial's start (the rig not yet reset), is
     none either. Fails without the plant's safety limits."""
     loop, plant, rig, clocks, measured = _rig_loop()
     start = loop.observation.trap_xy_um.copy()
@@ -98,7 +99,7 @@ def test_a_silent_rig_holds_the_traps_and_a_stale_answer_counts_as_none():
     loop.tick()
     measured.update(clocks() - 1.0, clocks(), rig.xy)  # arrived a second ago
     loop.tick()
-    measured.update(clocks(), clocks(), rig.xy + [5.0, 0.0])  # the robots 5 um from their traps
+    measured.update(clocks(), clocks(), rig.xy + [5.0, 0.0])  # the bodies 5 um from the start (not reset)
     loop.tick()
     np.testing.assert_array_equal(loop.observation.trap_xy_um, start)
     np.testing.assert_array_equal(loop.sphere_xy_um(), rig.xy)
@@ -180,3 +181,45 @@ def test_a_rig_that_stalls_holds_the_traps_and_loses_none():
     assert row["trap_losses"] == 0 and not loop.done, row
     assert plant.held_ticks >= 25 - int(RIG_TIMEOUT_S / loop.tick_s), plant.held_ticks
     assert int(loop.observation.phase[0]) == CARRY
+
+
+class _Stylus(Device):
+    """A stylus moved at a constant 2 mm/s along x with its clutch held, on the test's clock."""
+
+    caps = DeviceCaps("test stylus", 3, 3.3, (160.0, 120.0, 70.0), 1000.0)
+
+    def __init__(self, clocks):
+        self.clocks, self.sequence, self.forces = clocks, 0, []
+
+    def start(self):
+        pass
+
+    def stop(self):
+        pass
+
+    def read(self):
+        self.sequence += 1
+        return Sample(self.clocks(), self.sequence, np.zeros(3), np.array([2.0, 0.0, 0.0]), 1)
+
+    def set_force(self, force_n):
+        self.forces.append(np.asarray(force_n, float))
+
+
+def test_teleoperation_moves_the_rigs_robot_and_feeds_back_a_force():
+    """Manual mode, a stylus on robot 0: its traps and the rig's robot move along x, robot
+    1 stays, no trap is lost, and the stylus gets finite forces from the vision sensor
+    reading the rig's spheres. Fails if the device's dP_h did not reach the rig."""
+    clocks = _Clocks()
+    stylus = _Stylus(clocks)
+    loop, plant, rig, clocks, measured = _rig_loop(mode="manual", bindings=[DeviceBinding(stylus, robots=(0,))])
+    stylus.clocks = clocks
+    start = rig.xy.copy()
+    for _ in range(100):
+        _answer(loop, rig, clocks, measured)
+        loop.tick()
+    moved = rig.xy - start
+    body = np.asarray(loop.task.scene.model.sphere_body)
+    robot0, robot1 = body == 0, body == 1
+    assert moved[robot0, 0].min() > 1.0 and np.abs(moved[robot1]).max() < 0.1, moved[:, 0]
+    assert loop.state.metrics.rows()[0]["trap_losses"] == 0
+    assert stylus.forces and np.all(np.isfinite(stylus.forces))
