@@ -73,6 +73,8 @@ from otgym.bus.topics import (  # noqa: F401 (re-exported: messages.TRAPS, messa
     PHASE,
     PHASES,
     PNG_SIGNATURE,
+    RIG_POSES,
+    RIG_START,
     ROUTE,
     SESSION,
     SPHERE_KINDS,

@@ -18,7 +18,9 @@ and commands reliable, keep all; streams reliable, volatile, depth 1.
 - To otgym: for each device in ``devices``, ``/otgym/device/<device>/twist``
   (``geometry_msgs/msg/TwistStamped``) and ``/otgym/device/<device>/buttons``
   (``sensor_msgs/msg/Joy``); ``/otgym/command`` (``std_msgs/msg/String``); with
-  ``autonomy``, ``/otgym/autonomy/increments`` (``geometry_msgs/msg/PoseArray``); and
+  ``autonomy``, ``/otgym/autonomy/increments`` (``geometry_msgs/msg/PoseArray``); with
+  ``rig``, ``/otgym/rig/poses`` (``PoseArray``: a rig's measured spheres, for
+  ``otgym node sim --plant rig``); and
   ``twist_topics`` (``geometry_msgs/msg/Twist``) and ``twist_stamped_topics``
   (``TwistStamped``), such as teleop_twist_keyboard's ``/cmd_vel``, for
   ``otgym node device --device twist``. A topic goes one way only, so nothing the
@@ -50,6 +52,7 @@ NODE_NAME = "otgym_ros2"
 PARAMETERS = {
     "devices": (["device0"], "devices the ROS 2 graph drives: their twist and buttons go from ROS 2 to otgym"),
     "autonomy": (False, "carry /otgym/autonomy/increments from ROS 2 (for otgym node sim --autonomy remote)"),
+    "rig": (False, "carry /otgym/rig/poses from ROS 2: a rig's measured spheres (for otgym node sim --plant rig)"),
     "twist_topics": (["/cmd_vel"], "geometry_msgs/msg/Twist topics carried to otgym (for --device twist)"),
     "twist_stamped_topics": ([], "geometry_msgs/msg/TwistStamped topics carried to otgym (for --device twist)"),
     "markers_period_s": (0.1, "least time between two MarkerArrays on /otgym/markers (0: every tick)"),
@@ -106,6 +109,7 @@ class Settings:
                 raise ValueError(f"parameter {name} must be a list of names, e.g. [device0], not {values[name]!r}")
         self.devices = [msg.check_name(d) for d in values["devices"]]
         self.autonomy = bool(values["autonomy"])
+        self.rig = bool(values["rig"])
         self.twist_topics = [ros_graph.check_topic_name(t) for t in values["twist_topics"]]
         self.twist_stamped_topics = [ros_graph.check_topic_name(t) for t in values["twist_stamped_topics"]]
         self.markers_period_s = float(values["markers_period_s"])
@@ -172,6 +176,8 @@ class Bridge:
             self.inputs[msg.buttons_topic(device)] = msg.JOY
         if settings.autonomy:
             self.inputs[msg.AUTONOMY] = msg.POSE_ARRAY
+        if settings.rig:
+            self.inputs[msg.RIG_POSES] = msg.POSE_ARRAY
 
     def ros_topics(self) -> list[str]:
         """The ROS 2 topics of other names it carries to otgym, each with its type."""

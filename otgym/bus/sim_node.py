@@ -12,6 +12,12 @@ Two ways to run it:
   answers every twist at once with the latest feedback force from zenoh's own thread,
   which never waits for a tick (benchmarks/bus.py: the round trip).
 
+The plant (``--plant``, the registry's ``plants``): the simulator's physics, or a rig
+outside otgym (``otgym.task.rig``) that takes the trap commands from ``/otgym/traps``
+and answers with its measured spheres on ``/otgym/rig/poses``; the controller (devices,
+autonomy, arbitration, the trap-speed cap, phases and metrics) is the same for both,
+and so is everything the node publishes.
+
 Devices and robots: device ``devices[i]`` drives robot i; ``takeover[i]`` (a ui
 node's mouse, ``ui<i>``) takes robot i over while its clutch bit is held
 (``otgym.teleop.takeover``); a robot with only a takeover device moves only by it.
@@ -31,6 +37,7 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from otgym import registry
 from otgym.bus import messages as msg
 from otgym.bus import task_messages
 from otgym.bus.nodes import AUTONOMY_TIMEOUT_S, RemoteAutonomy, RemoteDevice
@@ -186,16 +193,32 @@ def run_sim_node(
     return session.ticks
 
 
-def sim_worker_setup(chip: str, plan, remote_autonomy: bool, forwarded, outbox) -> WorkerParts:
-    """What the sim node's worker builds (``WorkerSpec.setup``): the task, one binding
-    per robot over the forwarded devices, a ``BusSink`` that sends each tick's
-    messages to the bus side, and the forwarded autonomy."""
+def sim_worker_setup(
+    chip: str, plan, remote_autonomy: bool, forwarded, outbox, plant: str = "simulator"
+) -> WorkerParts:
+    """What the sim node's worker builds (``WorkerSpec.setup``): the task on the plant
+    ``plant`` (a name of the registry's ``plants``; one tagged ``measured`` gets the
+    measurements the bus side forwards, and its trials' starts go out on
+    ``/otgym/rig/start``), one binding per robot over the forwarded devices, a
+    ``BusSink`` that sends each tick's messages to the bus side, and the forwarded
+    autonomy."""
     from otgym.runtime.trials import stylus_feedback
+    from otgym.task.rig import MeasuredPoses
 
     autonomy = ForwardedAutonomy(AUTONOMY_TIMEOUT_S) if remote_autonomy else None
     task = build_task(chip)
+    measured = MeasuredPoses() if plant in registry.names("plants", "measured") else None
+
+    def send_start(sphere_xy_um, stamp_s: float) -> None:
+        outbox([(msg.RIG_START, msg.pose_array(sphere_xy_um, stamp_s))])
+
+    stepped = registry.load("plants", plant)(task, measured, send_start)
     return WorkerParts(
-        task, plan_bindings(plan, list(forwarded), stylus_feedback(task)), sink=BusSink(outbox), autonomy=autonomy
+        stepped,
+        plan_bindings(plan, list(forwarded), stylus_feedback(task)),
+        sink=BusSink(outbox),
+        autonomy=autonomy,
+        measurements=measured,
     )
 
 
@@ -212,19 +235,22 @@ def serve_sim_node(
     takeover: list[str] = (),
     participant: str = "P1",
     hold_between_trials: bool = False,
+    plant: str = "simulator",
     on_ready: Callable[[], None] | None = None,
     on_status: Callable[[str], None] | None = None,
 ) -> dict:
     """The sim node with its session in a worker process (see the module's docstring),
     until ``stop`` is set, a ``quit`` command, the duration spent, or the worker fails
     (``WorkerError``); returns the worker's counts (ticks, late_ticks, trials).
+    ``plant``: what moves the bodies (``sim_worker_setup``); for a measured plant the
+    node forwards each ``/otgym/rig/poses`` to the worker.
     ``on_status(text)`` hears what the worker is doing while it starts (building the
     task, compiling); ``on_ready`` is called once the session runs its ticks and the node
     listens to its devices."""
     names, plan = device_plan(devices, takeover)
     remotes = [RemoteDevice(node, name, answer_twists=True) for name in names]
     spec = WorkerSpec(
-        functools.partial(sim_worker_setup, chip, plan, remote_autonomy),
+        functools.partial(sim_worker_setup, chip, plan, remote_autonomy, plant=plant),
         participant,
         mode,
         seed,
@@ -259,6 +285,13 @@ def serve_sim_node(
             remote.start()
         if remote_autonomy:
             RemoteAutonomy(node, session.n_traps, on_update=session.autonomy, on_alive=session.autonomy_alive)
+        if plant in registry.names("plants", "measured"):
+            node.subscribe(
+                msg.RIG_POSES,
+                lambda topic, message, data: session.measured(
+                    time.monotonic(), msg.stamp_s(message), msg.xy_um(message)
+                ),
+            )
         follow_commands(node, session, stop.set)
         events.start()
         if on_ready is not None:

@@ -69,6 +69,7 @@ def session_description(task: InteractiveTask, devices: list[str]) -> dict:
     """The JSON object of ``/otgym/session`` for ``task``: ``chip`` (the sidecar's
     fields, ``Chip.metadata``, and ``content_hash``), ``goal_tolerance_um``, ``tick_s``,
     ``sphere_kind`` (one of ``SPHERE_KINDS`` per sphere, the order of ``/otgym/bodies``),
+    ``sphere_body`` (the index of each sphere's body: spheres of one body move as one),
     ``sphere_radius_um`` (each sphere's radius), ``handle_spheres`` (the spheres the
     traps hold, in trap order) and ``devices``."""
     model = task.scene.model
@@ -77,6 +78,7 @@ def session_description(task: InteractiveTask, devices: list[str]) -> dict:
         "goal_tolerance_um": float(task.config.goal_tolerance_um),
         "tick_s": float(task.config.tick_s),
         "sphere_kind": [SPHERE_KINDS[int(model.body_kinds[b])] for b in model.sphere_body],
+        "sphere_body": [int(b) for b in model.sphere_body],
         "sphere_radius_um": [float(r) for r in model.sphere_radius_um],
         "handle_spheres": [int(i) for i in task.trap_sphere],
         "devices": list(devices),

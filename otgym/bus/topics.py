@@ -20,6 +20,12 @@ Types (ROS 2 common_interfaces, Humble; the ``.msg`` definitions are copied into
     /otgym/chip                     sensor_msgs/msg/CompressedImage the chip's image (PNG), latched
     /otgym/route                    nav_msgs/msg/Path             the planned route, um, chip frame, latched
     /otgym/contact_force            geometry_msgs/msg/WrenchStamped the vision sensor's contact force on the handles, summed, N
+    /otgym/rig/poses                geometry_msgs/msg/PoseArray   a rig's measured sphere centres, um, chip frame (in)
+    /otgym/rig/start                geometry_msgs/msg/PoseArray   where a trial starts every sphere, um, chip frame, latched
+
+The two rig topics are the plant's side of ``otgym node sim --plant rig``
+(``otgym.task.rig``): ``/otgym/traps`` carries the trap commands out, a rig answers
+with its measured poses.
 
 A device node driven from ROS 2 (``otgym.bus.twist_source``) also reads a
 ``geometry_msgs/msg/Twist`` (``TWIST``) or ``TwistStamped`` from a topic of ROS 2's own
@@ -54,6 +60,8 @@ SESSION = "/otgym/session"
 CHIP = "/otgym/chip"
 ROUTE = "/otgym/route"
 CONTACT_FORCE = "/otgym/contact_force"
+RIG_POSES = "/otgym/rig/poses"
+RIG_START = "/otgym/rig/start"
 _FIXED_TOPICS = {
     TRAPS: POSE_ARRAY,
     BODIES: POSE_ARRAY,
@@ -68,12 +76,14 @@ _FIXED_TOPICS = {
     CHIP: COMPRESSED_IMAGE,
     ROUTE: PATH,
     CONTACT_FORCE: WRENCH_STAMPED,
+    RIG_POSES: POSE_ARRAY,
+    RIG_START: POSE_ARRAY,
 }
 COMMANDS = ("mode", "pause", "resume", "reset", "next_trial", "quit")
 """What a ui node asks of the sim: switch the mode, pause or resume simulated time,
 abandon the trial for the next (R), start the next trial after the questionnaires,
 end the session (the trial under way saved as aborted)."""
-LATCHED = (SESSION, CHIP, ROUTE, MODE, TRIAL)
+LATCHED = (SESSION, CHIP, ROUTE, MODE, TRIAL, RIG_START)
 """Topics whose latest message a late subscriber still receives (see the module's docstring)."""
 SPHERE_KINDS = ("robot", "cell", "obstacle", "bead")
 """Names of ``otgym.physics.bodies.BodyKind`` by value, as the session description gives them."""

@@ -1,5 +1,5 @@
 """``otgym list KIND``: the registered parts of one kind (tasks, robots, devices,
-navigators, laws, chips), each with a one-line description, from ``otgym.registry``."""
+navigators, laws, chips, plants), each with a one-line description, from ``otgym.registry``."""
 
 from __future__ import annotations
 

@@ -138,12 +138,21 @@ def sim(
     ),
     seed: int = options.trial_seed(0),
     duration: float = options.duration(),
+    plant: str = options.registered(
+        "simulator",
+        "--plant",
+        "plants",
+        None,
+        "What moves the bodies under the trap commands: otgym's physics, or a rig that answers "
+        "/otgym/traps with its measured spheres on /otgym/rig/poses.",
+    ),
     listen: Listen = None,
     connect: Connect = None,
     zenoh_config: ZenohConfig = None,
     namespace: Namespace = "/",
 ) -> None:
     """The simulator (its session ticks in a worker process): devices, commands, dP_r in; bodies, events out.
+    With --plant rig it is the controller of a rig outside otgym.
 
     Example: otgym node sim --name device0 --mode shared --seed 0
     """
@@ -169,7 +178,8 @@ def sim(
             _ready,
             f"sim for devices {', '.join(names)}"
             + (f", taken over by {', '.join(takeovers)}" if takeovers else "")
-            + (" with a remote autonomy" if remote_autonomy else ""),
+            + (" with a remote autonomy" if remote_autonomy else "")
+            + (f", plant {plant}" if plant != "simulator" else ""),
         )
         try:
             stats = serve_sim_node(
@@ -184,6 +194,7 @@ def sim(
                 takeover=takeovers,
                 participant=participant,
                 hold_between_trials=hold,
+                plant=plant,
                 on_ready=ready,
                 on_status=lambda text: print(f"sim: {text} ...", flush=True),
             )

@@ -1,5 +1,5 @@
 """The one registry of otgym's named parts: tasks, robots, devices, navigators,
-shared-control laws and chips. Every command-line choice, the window's device list, the
+shared-control laws, chips and plants. Every command-line choice, the window's device list, the
 runtime's checks and the docs' lists read their names here; nothing else keeps a list.
 
 An entry maps a name to a target, ``"module:attribute"``, imported only when the part is
@@ -13,7 +13,7 @@ replace=True)`` may):
    ``otgym/data/chips/``;
 2. installed packages' entry points, group ``otgym.<kind>`` (``otgym.tasks``,
    ``otgym.robots``, ``otgym.devices``, ``otgym.navigators``, ``otgym.laws``,
-   ``otgym.chips``), e.g. in a user's ``pyproject.toml``::
+   ``otgym.chips``, ``otgym.plants``), e.g. in a user's ``pyproject.toml``::
 
        [project.entry-points."otgym.tasks"]
        push-bead = "my_lab.push_bead:PushBead"
@@ -43,6 +43,7 @@ KINDS = MappingProxyType(
         "navigators": "navigator",
         "laws": "shared-control law",
         "chips": "chip",
+        "plants": "plant",
     }
 )
 """Each kind of registered part (plural, as in ``otgym list KIND``) and its singular

@@ -9,6 +9,10 @@ Navigators: ``trial-mode`` (also a mode of the batched trials, beside manual, sh
 and autonomous), ``shared`` (the autonomy that shared control blends with); extras
 ``label`` (its short name in reports), ``about`` (what it does, in a report's words) and
 ``measured`` (its measured full-size result on the shared-control study, with where).
+Plants (what moves the interactive task's bodies under the controller's trap
+commands: ``otgym node sim --plant``): a callable ``(task, measured, send_start)`` that
+returns what ``InteractiveLoop`` steps (``otgym.task.rig``); tag ``measured``: its
+bodies come from outside, as measured poses on ``/otgym/rig/poses``.
 Tasks' extras: ``gym_id`` and ``vector`` (the Gymnasium id and vector entry point),
 ``functional`` (the module of its pure ``make_params``, ``reset`` and ``step``, which
 ``otgym.envs.gymnax_env`` wraps as a gymnax environment).
@@ -179,6 +183,23 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.shared.arbitration:smooth_alpha",
         "the paper's ramp through a smoothstep (same ends, zero slope there)",
         (),
+        {},
+    ),
+    # plants
+    (
+        "plants",
+        "simulator",
+        "otgym.task.rig:simulator",
+        "otgym's physics: the interactive task's simulated robots, cell and obstacles",
+        (),
+        {},
+    ),
+    (
+        "plants",
+        "rig",
+        "otgym.task.rig:RigPlant",
+        "a rig outside otgym: trap commands out on /otgym/traps, measured spheres in on /otgym/rig/poses",
+        ("measured",),
         {},
     ),
 )

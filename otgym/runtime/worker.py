@@ -16,7 +16,8 @@ session and paces it by the wall clock until it is asked to quit, its parent die
 Channels:
 - parent -> worker, a pipe of commands (``("set_mode", "manual")``, ``("drag",
   robot, pointer_um, traps_um)``, ``("autonomy", arrival_s, increments)``,
-  ``("quit",)``...), applied between ticks; the worker waits for its next tick on
+  ``("measured", arrival_s, stamp_s, sphere_xy_um)``, ``("quit",)``...), applied
+  between ticks; the worker waits for its next tick on
   this pipe, so a command is applied at once;
 - parent -> worker, each forwarded device's latest sample in a ``LatestBytes`` block
   of its own (``feed``): a device that sends 1000 samples a second costs the worker
@@ -76,6 +77,9 @@ class WorkerParts:
     bindings: list
     sink: Sink | None = None
     autonomy: ForwardedAutonomy | None = None
+    measurements: Any = None
+    """The plant's measured poses (``otgym.task.rig.MeasuredPoses``), fed by the parent's
+    ``measured``; None for a plant that measures nothing from outside."""
     on_failure: Callable[[], None] | None = None
     """Called when the session cannot start (e.g. remove a recording just created)."""
 
@@ -237,6 +241,8 @@ def _worker_main(
                     parts.autonomy.update(*arguments)
                 elif name == "autonomy_alive":
                     parts.autonomy.set_alive(*arguments)
+                elif name == "measured" and parts.measurements is not None:
+                    parts.measurements.update(*arguments)
             if quit_asked:
                 break
             session.advance()
@@ -267,7 +273,8 @@ class SessionProcess(SessionCommands):
     """The parent's side of a worker running ``spec`` (a ``SessionControl``): start it,
     read its latest ``snapshot``, send it commands (``SessionCommands``' methods,
     forwarded as they are: generated below from the protocol; ``feed`` through a
-    shared-memory block; and ``autonomy``, ``autonomy_alive``), take the rows of
+    shared-memory block; and ``autonomy``, ``autonomy_alive``, ``measured``), take the
+    rows of
     finished trials, ``finish`` it. ``on_publish(payload)`` and ``on_force(index,
     force_n)`` get the worker's ``publish`` and ``force`` events (from ``poll``, or from
     the thread of ``serve_events``); ``on_status(text)`` what the worker is doing while
@@ -393,6 +400,11 @@ class SessionProcess(SessionCommands):
 
     def autonomy_alive(self, alive: bool) -> None:
         self.send("autonomy_alive", alive)
+
+    def measured(self, arrival_s: float, stamp_s: float, sphere_xy_um) -> None:
+        """A rig's measured spheres (``WorkerParts.measurements``): arrival by
+        ``time.monotonic``, stamp in UNIX seconds, centres (S, 2) um."""
+        self.send("measured", arrival_s, stamp_s, sphere_xy_um)
 
     # --- what comes back --------------------------------------------------------
     @property

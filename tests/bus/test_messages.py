@@ -128,8 +128,10 @@ def test_the_session_description_chip_and_route_decode_with_rosbags():
         m.ROUTE,
         m.MODE,
         m.TRIAL,
+        m.RIG_START,
     }
     description = json.loads(rosbags(messages[m.SESSION], m.STRING).data)
+    assert description["sphere_body"] == [0, 0, 1]
     assert description["chip"]["content_hash"] == load_chip("default").content_hash
     assert description["sphere_kind"] == ["robot", "robot", "cell"] and description["handle_spheres"] == [0]
     assert (description["tick_s"], description["goal_tolerance_um"], description["devices"]) == (0.02, 3.0, ["device0"])

@@ -17,7 +17,7 @@ from otgym.bus.transport import Node
 from tests.bus.test_nodes import free_endpoint, poll_until, wait_until
 
 SETTINGS = ros2_bridge.Settings(
-    {"devices": ["device0"], "autonomy": False, "twist_topics": ["/cmd_vel"], "twist_stamped_topics": [],
+    {"devices": ["device0"], "autonomy": False, "rig": False, "twist_topics": ["/cmd_vel"], "twist_stamped_topics": [],
      "markers_period_s": 0.0}
 )  # fmt: skip
 
