@@ -177,10 +177,11 @@ class TaskWindow:
             self.mouse.drag_to(np.asarray(event.pos, float) * scale, self._press_px * scale)
 
     def frame(self, now_s: float) -> None:
-        """One frame at wall time ``now_s``: events, the device, a step when due, drawing."""
+        """One frame at time ``now_s`` (the pace's clock: ``time.monotonic()`` in ``run``,
+        a test's own in tests): events, the device, a step when due, drawing."""
         for event in pygame.event.get():
             self.handle_event(event)
-        self._increment_um += self.retargeter(self.mouse.read(), now_s)
+        self._increment_um += self.retargeter(self.mouse.read(), time.monotonic())  # samples: the real clock
         self._ticks += 1
         period = self.compiled.period_s
         if self._next_step_s is None:
