@@ -44,6 +44,7 @@ class PushBeadConfig:
     target_distance_um: tuple[float, float] = (5.0, 15.0)
     target_radius_um: float = 1.0
     max_steps: int = 60
+    device_dead_band_um_s: float = 1.0  # a slower pointing device holds the trap
     n_spots: int = 2048  # start and target spots drawn once from the chip's free places
 
 
@@ -137,8 +138,8 @@ class PushBead(Task):
         return scene_frame(params.scene, state.scene.physics, np.stack([bead, target, *cross]), size_px)
 
     def device_action(self, velocity_um_s, params: PushBeadParams) -> np.ndarray:
-        """Hold below half the trap speed; else the move closest to the device's direction."""
+        """Hold below the dead band; else the move closest to the device's direction."""
         velocity = np.asarray(velocity_um_s, np.float32)
-        if np.hypot(*velocity) < 0.5 * params.config.trap_speed_um_s:
+        if np.hypot(*velocity) < params.config.device_dead_band_um_s:
             return np.asarray(0, np.int32)
         return np.asarray(int(np.argmax(MOVES @ velocity)), np.int32)
