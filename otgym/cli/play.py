@@ -41,6 +41,15 @@ def register(app: typer.Typer) -> None:
             "--ros2",
             help="With --distributed: also run otgym node ros2, the session on a ROS 2 graph (extra ros2).",
         ),
+        task_name: str = options.registered(
+            None,
+            "--task",
+            "tasks",
+            None,
+            "Play this task in a generic window (its frame, the device's velocity as its action) "
+            "instead of the interactive task; writes episodes.csv.",
+        ),
+        preset: str = typer.Option(None, "--preset", metavar="NAME", help="With --task: the task's preset."),
         out: Path = options.out_dir(..., "Folder for trials.csv, session.mcap (and questionnaires.csv)."),
     ) -> None:
         """The interactive task in a window: global and microscope views, cues, keys 1/2/3
@@ -48,12 +57,23 @@ def register(app: typer.Typer) -> None:
         the session's MCAP recording (session.mcap). The simulation runs in a process of
         its own (with --distributed: as nodes on the bus).
 
+        With --task NAME any registered task (otgym list tasks) is played in a generic
+        window instead: its frame each step, the device's velocity turned into its action;
+        --device, --seed, --duration, --screenshot, --headless and --out apply.
+
         Example: otgym play --device keyboard --mode shared --out results/play
         """
         from otgym.ui.device_names import check_device_name
 
         checks.check_mode(mode)
         check_device_name(device)
+        if task_name is None and preset is not None:
+            raise ValueError("--preset needs --task (the interactive task has no presets)")
+        if task_name is not None:
+            checks.check_duration(duration)
+            checks.check_seed(seed)
+            _play_task(task_name, preset, device, seed, duration, screenshot, headless, distributed, out)
+            return
         checks.check_duration(duration)
         checks.check_seed(seed)
         if screenshot is not None and screenshot.suffix.lower() != ".png":
@@ -80,6 +100,49 @@ def register(app: typer.Typer) -> None:
             run_distributed(*arguments, navigator=navigator, ros2=ros2)
         else:
             run_play(*arguments, navigator=navigator)
+
+
+def _play_task(
+    task_name: str,
+    preset: str | None,
+    device: str,
+    seed: int,
+    duration_s: float | None,
+    screenshot: Path | None,
+    headless: bool,
+    distributed: bool,
+    out: Path,
+) -> None:
+    """``otgym play --task``: its checks, then ``otgym.ui.task_window.play_task``."""
+    from otgym import tasks
+    from otgym.experiments.output_folder import check_out_dir
+    from otgym.ui.task_window import check_playable
+
+    if distributed:
+        raise ValueError("--task runs in one process: it cannot be combined with --distributed")
+    task = check_playable(tasks.load(task_name))
+    try:
+        task.config(preset)
+    except ValueError as error:
+        raise ValueError(f"--preset: {error}") from None
+    if screenshot is not None and screenshot.suffix.lower() != ".png":
+        raise ValueError(f"--screenshot must name a .png file, got {screenshot}")
+    _check_screenshot_folder(screenshot, out)
+    check_out_dir(out)
+    if headless:
+        os.environ["SDL_VIDEODRIVER"] = "dummy"
+        os.environ["SDL_AUDIODRIVER"] = "dummy"
+    from otgym.ui.task_window import play_task
+
+    window = play_task(task_name, preset, device, seed, duration_s, screenshot, out)
+    if window is None:
+        print("closed before the task was ready; nothing written", flush=True)
+        return
+    episodes = len(window.rows)
+    print(
+        f"{window.steps} steps of {task_name}, {episodes} episode(s), {window.successes} reached success; "
+        f"wrote {out / 'episodes.csv'}" + (f"; screenshot {screenshot}" if screenshot is not None else "")
+    )
 
 
 def _check_screenshot_folder(screenshot: Path | None, out: Path) -> None:

@@ -21,6 +21,8 @@ mujoco_playground:
 - ``device_action(velocity_um_s, params)``: the action a 2-D pointing device (keyboard,
   mouse, gamepad, haptic stylus) asks for with velocity (vx, vy) um/s; what ``otgym
   play --task`` sends.
+- ``control_period_s(params)``: the simulated seconds one ``step`` spans, so ``otgym
+  play --task`` steps in real time (default None: the window's own rate).
 
 A task is registered by name (``otgym.registry``, kind ``tasks``, target the ``Task``
 subclass); ``otgym.tasks.load(name)`` returns an instance.
@@ -62,6 +64,10 @@ class Task:
     def max_steps(self, params) -> int:
         """Control steps after which an episode is truncated."""
         raise NotImplementedError
+
+    def control_period_s(self, params) -> float | None:
+        """Simulated seconds per ``step`` (None: not a physical time)."""
+        return None
 
     # -- functional core -----------------------------------------------------------
     def reset_batch(self, key, params, n_envs: int):

@@ -33,6 +33,7 @@ import pytest
 import typer
 
 from otgym.cli import app as cli_app
+from otgym.tasks.base import Task
 
 
 def _root():
@@ -155,6 +156,8 @@ COMBINATIONS = [
     (("node", "device"), ["--device-name", "Right Device"], "--device touch"),
     (("play",), ["--navigator", "mpc"], "--distributed"),
     (("play",), ["--ros2"], "--distributed"),
+    (("play",), ["--preset", "paper"], "--task"),
+    (("play",), ["--task", "speed-control", "--distributed"], "--task"),
 ]
 
 
@@ -413,6 +416,35 @@ def test_study_run_refuses_a_bad_protocol(tmp_path, monkeypatch, capsys, no_expe
     assert exit_info.value.code == 2, (exit_info.value.code, captured.err[-2000:])
     assert len(lines) == 1 and lines[0].startswith("error: ") and word in lines[0], captured.err
     assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == before, "it wrote files"
+    assert not no_expensive_work
+
+
+class Frameless(Task):
+    """A task with no frame: nothing for a window to draw."""
+
+
+class Deaf(Task):
+    """A task that draws but takes no pointing-device input."""
+
+    def frame(self, state, params, size_px=(600, 400)):
+        raise AssertionError("never drawn: refused before any work")
+
+
+@pytest.mark.parametrize("target, word", [("Frameless", "frame"), ("Deaf", "device")])
+def test_play_refuses_a_task_it_cannot_show_or_drive(tmp_path, monkeypatch, capsys, no_expensive_work, target, word):
+    from otgym import registry
+
+    monkeypatch.chdir(tmp_path)
+    registry.register("tasks", "unplayable", f"{__name__}:{target}")
+    try:
+        with pytest.raises(SystemExit) as exit_info:
+            cli_app.main(["play", "--task", "unplayable", "--headless", "--out", "played"])
+    finally:
+        registry.unregister("tasks", "unplayable")
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert exit_info.value.code == 2 and len(lines) == 1 and lines[0].startswith("error: --task"), lines
+    assert word in lines[0], lines[0]
+    assert not any(tmp_path.iterdir()), "it wrote files"
     assert not no_expensive_work
 
 

@@ -46,6 +46,9 @@ class _Transport(Task):
     def max_steps(self, params) -> int:
         return params.config.max_steps
 
+    def control_period_s(self, params) -> float:
+        return params.config.scene.control_period_s
+
     def reset_batch(self, key, params, n_envs: int):
         return core.reset_batch(key, params, n_envs)
 
