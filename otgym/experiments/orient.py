@@ -21,7 +21,7 @@ from otgym import tasks
 from otgym.rl.network import QNetwork
 from otgym.study import wilson_interval
 from otgym.tasks.orient import baseline
-from otgym.tasks.orient.core import OrientParams
+from otgym.tasks.orient.core import OrientParams, wrap
 
 POLICIES = ("baseline", "hold", "fastest")
 """Scripted policies by name; a learned one is given as Q-network parameters."""
@@ -48,7 +48,7 @@ def _rollout(key, params: OrientParams, n_episodes: int, modes, greedy=None):
     zeros = jnp.zeros(modes.shape[0], bool)
 
     def body(carry, step_key):
-        obs, state, done, success, failed, time_s, error = carry
+        obs, state, done, success, failed, time_s, error, turn = carry
         action = _scripted_actions(obs, direction, modes, config) if greedy is None else greedy(obs)
         obs, state, _, terminated, truncated, info = task.step_batch(step_key, state, action, params)
         alive = ~done
@@ -56,13 +56,14 @@ def _rollout(key, params: OrientParams, n_episodes: int, modes, greedy=None):
         failed = failed | (alive & info["failed"])
         time_s = jnp.where(alive, info["time_s"], time_s)
         error = jnp.where(alive, info["angle_error_rad"], error)
-        return (obs, state, done | terminated | truncated, success, failed, time_s, error), None
+        turn = jnp.where(alive, turn + wrap(info["turn_rad"] - turn), turn)  # unwrapped
+        return (obs, state, done | terminated | truncated, success, failed, time_s, error, turn), None
 
-    start = (obs, state, zeros, zeros, zeros, jnp.zeros(modes.shape[0]), state.target_rad)
+    start = (obs, state, zeros, zeros, zeros, jnp.zeros(modes.shape[0]), state.target_rad, jnp.zeros(modes.shape[0]))
     final, _ = jax.lax.scan(body, start, jax.random.split(run_key, config.max_steps))
-    _, _, _, success, failed, time_s, error = final
+    _, _, _, success, failed, time_s, error, turn = final
     outcome = {"target_rad": state.target_rad, "success": success, "failed": failed, "time_s": time_s}
-    outcome["error_rad"] = error
+    outcome.update(error_rad=error, turn_rad=turn)
     return jax.tree.map(lambda a: a.reshape(copies, n_episodes), outcome)
 
 
@@ -75,7 +76,8 @@ def rollout(policy, n_episodes: int, seed: int, params: OrientParams | None = No
     """Per-episode outcomes (numpy, (n,)) of ``n_episodes`` episodes from
     ``PRNGKey(seed)`` under ``policy`` (a name of ``POLICIES`` or Q-network parameters):
     ``target_rad``, ``success``, ``failed``, ``time_s`` (at the episode's end) and
-    ``error_rad`` (the angle error at the episode's end)."""
+    ``error_rad`` (the angle error at the episode's end, wrapped) and ``turn_rad`` (the
+    measured turn at the episode's end, unwrapped: beyond the target is an overshoot)."""
     params = _params(params)
     key = jax.random.PRNGKey(seed)
     if isinstance(policy, str):
@@ -113,10 +115,13 @@ def _hidden(q_params) -> tuple[int, ...]:
     return tuple(int(layers[f"Dense_{i}"]["kernel"].shape[1]) for i in range(len(layers) - 1))
 
 
-def summarise(outcome: dict) -> dict:
-    """Success rate, its Wilson 95 % interval, mean time of the successes (s), failures
+def summarise(outcome: dict, tolerance_deg: float = 2.0) -> dict:
+    """Success rate, its Wilson 95 % interval, mean time of the successes (s), failures,
+    overshoots (episodes that end turned beyond the target by more than the tolerance)
     and the median absolute final error (deg)."""
     success = np.asarray(outcome["success"], bool)
+    target = np.asarray(outcome["target_rad"])
+    tolerance = np.deg2rad(tolerance_deg)
     n, k = len(success), int(success.sum())
     low, high = wilson_interval(k, n)
     return {
@@ -126,6 +131,7 @@ def summarise(outcome: dict) -> dict:
         "wilson95": (round(low, 3), round(high, 3)),
         "mean_time_s": round(float(np.mean(outcome["time_s"][success])), 2) if k else None,
         "failures": int(np.sum(outcome["failed"])),
+        "overshoots": int(np.sum(np.sign(target) * outcome["turn_rad"] > np.abs(target) + tolerance)),
         "median_final_error_deg": round(float(np.rad2deg(np.median(np.abs(outcome["error_rad"])))), 2),
     }
 

@@ -6,8 +6,8 @@ Preset ``default``: the ``paper`` trap law (equation 3, at most 0.30 pN per hand
 and medium of the transport task's ``paper`` preset (water at 20 C, 4 ms physics step),
 in still liquid (no flow: a cell is turned for imaging in a resting chamber) and
 without obstacles; turning speeds 1.5 and 5 deg/s (about 0.2 and 0.7 um/s at the
-handles), targets of 10 to 90 degrees either way, a 2 degree tolerance held for 5
-steps (1 s), 200 steps (40 s) per episode."""
+handles), targets of 10 to 90 degrees either way, a 2 degree tolerance held for 10
+steps (2 s), 200 steps (40 s) per episode."""
 
 from __future__ import annotations
 

@@ -75,7 +75,7 @@ class OrientConfig:
     target_min_deg: float = 10.0
     target_max_deg: float = 90.0
     tolerance_deg: float = 2.0
-    hold_steps: int = 5
+    hold_steps: int = 10
     max_steps: int = 200
     reward: OrientReward = OrientReward()
 
