@@ -50,6 +50,16 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         (),
         {"gym_id": "otgym/assemble-v0"},
     ),
+    (
+        "tasks",
+        "orient",
+        "otgym.tasks.orient:Orient",
+        "two robots turn a gripped cell in place to a target angle without losing the grip",
+        (),
+        {
+            "gym_id": "otgym/orient-v0",
+        },
+    ),
     # robots
     (
         "robots",
