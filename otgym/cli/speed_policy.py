@@ -11,6 +11,7 @@ from otgym.cli import options
 
 
 def _seeds(text: str) -> list[int]:
+    """``"0,1,2"`` -> [0, 1, 2]: distinct seeds in [0, 2**32 - 1] (typer.BadParameter)."""
     try:
         seeds = [int(v) for v in text.split(",") if v.strip()]
     except ValueError:
@@ -27,7 +28,13 @@ def register(experiment: typer.Typer) -> None:
 
     @experiment.command("pretrain")
     def pretrain(
-        seeds: str = typer.Option("0,1,2", "--seeds", metavar="SEEDS", help="Comma-separated training seeds."),
+        seeds: str = typer.Option(
+            "0,1,2",
+            "--seeds",
+            metavar="NUMBERS",
+            callback=lambda value: value if _seeds(value) else value,
+            help="Comma-separated training seeds.",
+        ),
         steps: int = typer.Option(204_800, "--steps", min=1, max=10**9, help="Environment steps per seed."),
         out: Path = typer.Option(PRETRAINED_POLICY, "--out", dir_okay=False, help="The policy file to write."),
     ) -> None:
