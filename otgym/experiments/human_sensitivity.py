@@ -17,9 +17,9 @@ scenarios (trial t: ``seed * 10000 + p * trials + t``); the hands' motor noise a
 physics' noise are drawn per batch (random seed ``seed``) and are not common. All
 samples run as one batch (``run_trials(participant_tasks=..., display_latency_s=...)``).
 
-Outputs per sample (``sample_outputs``): (b) = manual mean completion time / shared
-mean completion time (a trial that did not reach the goal counted at the time limit: a
-bound from below on its time), and (d) = shared success mean - manual success mean
+Outputs per sample (``sample_outputs``): (b) = manual mean time to the goal / shared
+mean time to the goal (a trial that did not reach it extrapolated at the pace it kept:
+``time_to_goal_s``; so a development run may cut its trials short), and (d) = shared success mean - manual success mean
 (success: obstacles avoided / met, pooled per participant), as ``otgym experiment
 shared-control`` judges them. A ``dummy`` parameter that the model never reads is
 sampled with the others: its index is what noise alone gives (Khorashadi Zadeh et al.,
@@ -136,7 +136,8 @@ def run_design(
     config: InteractiveConfig | None = None,
 ) -> pd.DataFrame:
     """Every sample's trials, one batch: one row per trial (``run_trials``' columns,
-    ``participant`` numbered within its sample) with ``sample``. ``config``: the task
+    ``participant`` numbered within its sample) with ``sample``, ``arc_reached_um`` (the
+    farthest the cell came along the route) and ``route_um`` (its length). ``config``: the task
     (default: the study's, with ``time_limit_s``)."""
     people, specs, tasks, latencies = {}, [], [], []
     for s, row in enumerate(samples):
@@ -154,6 +155,11 @@ def run_design(
         f"{len(specs)} trials in one batch"
     )
     task = InteractiveTask(config or InteractiveConfig(time_limit_s=time_limit_s))
+    reached = np.zeros(len(specs))
+
+    def farthest(view) -> None:  # how far along the route each trial's cell has come
+        np.maximum(reached, np.asarray(view.obs.cell_arc_um, float), out=reached)
+
     rows = pd.DataFrame(
         run_trials(
             task,
@@ -163,23 +169,34 @@ def run_design(
             progress=tenths(report),
             participant_tasks=tasks,
             display_latency_s=np.array(latencies),
+            recorder=farthest,
         )
     )
+    rows["arc_reached_um"] = reached
+    rows["route_um"] = float(task.route_arc_um[-1])
     rows.insert(0, "sample", rows.participant // participants)
     rows["participant"] = rows.participant % participants
     return rows
+
+
+def time_to_goal_s(trials: pd.DataFrame, time_limit_s: float) -> pd.Series:
+    """Each trial's time to the goal: its completion time where it reached the goal,
+    else the time it ran (to its end or ``time_limit_s``) extrapolated at the pace it
+    kept along the route, time x route / farthest arc reached (at least 1 um), so that
+    a trial cut short or stalled weighs by how far it got."""
+    ran = trials.completion_time_s.where(np.isfinite(trials.completion_time_s), time_limit_s)
+    extrapolated = ran * trials.route_um / trials.arc_reached_um.clip(lower=1.0)
+    return ran.where(trials.reached_goal.astype(bool), extrapolated)
 
 
 def sample_outputs(trials: pd.DataFrame, n_samples: int, time_limit_s: float) -> pd.DataFrame:
     """Per sample, each mode's time and success, (b) and (d), as ``otgym experiment
     shared-control`` forms them (means over participants of each participant's value,
     ``otgym.study.stats.participant_means``: success pooled over their trials) except
-    that a trial that did not reach the goal counts at ``time_limit_s`` instead of
-    being left out, so that a stall weighs. NaN where a mode met no obstacle."""
-    frame = trials.assign(
-        completion_time_s=trials.completion_time_s.where(trials.reached_goal.astype(bool), time_limit_s),
-        reached_goal=True,
-    )
+    that every trial's time is its time to the goal (``time_to_goal_s``): a trial that
+    did not reach it is not left out, so that a stall or a cut weighs. NaN where a mode
+    met no obstacle."""
+    frame = trials.assign(completion_time_s=time_to_goal_s(trials, time_limit_s), reached_goal=True)
     out = pd.DataFrame(index=pd.RangeIndex(n_samples, name="sample"))
     for metric, column in (("time", "time_s"), ("success", "success")):
         values = []

@@ -44,7 +44,9 @@ Places, per phase:
   obstacle threatens.
 * Shared mode: the hand rests until the fine-tune prompt is seen (the window shows it
   from alpha ``otgym.task.task.FINE_TUNE_ALPHA``, 0.4), watching the pace at which the
-  robots carry the cell (the pace intended once acting). Then the hand corrects by
+  robots carry the cell (the pace intended once acting), judged over a glimpse that
+  lies wholly in the rest (the first glimpse after the hand stops still shows its own
+  motion; until a whole one has passed the pace watched before stands). Then the hand corrects by
   feedback: each sub-movement reaches, at the manual mapping, for the difference
   between where the person wants the robots when it ends (a place moving on at the
   intended velocity, at most ``shared_lead_um`` from the robots as perceived) and where
@@ -142,6 +144,7 @@ class SimulatedParticipants:
         self._pending_um = np.zeros((self.n_env, N_HANDS, 2))
         self._pending_keep = np.exp(-tick_s / task.pending_memory_s)[:, None, None]
         self._seen_pace_um_s = task.carry_speed_um_s.copy()  # the robots' pace, watched
+        self._resting_ticks = np.zeros(self.n_env, np.int64)  # shared mode: ticks the hand has rested, watching
         self._intended_um: np.ndarray | None = None  # shared mode: where the person wants the formation's centre
         self.feedback_n = np.zeros((self.n_env, N_HANDS, 2))
         self.closing = np.zeros(self.n_env, bool)
@@ -313,7 +316,9 @@ class SimulatedParticipants:
         obstacles_now = obstacles + velocity * delay[:, :, None]
         route_direction = unit(self.route.point_at(seen["arc"] + task.lookahead_um) - cell_now)
         watching = shared & carrying[:, 0] & ~seen["prompt"]  # the hand rests: the pace the robots keep
-        self._seen_pace_um_s = np.where(watching, np.linalg.norm(cell_velocity, axis=-1), self._seen_pace_um_s)
+        self._resting_ticks = np.where(watching, self._resting_ticks + 1, 0)
+        settled = watching & (self._resting_ticks > self._glimpses)  # the whole glimpse is the robots' own motion
+        self._seen_pace_um_s = np.where(settled, np.linalg.norm(cell_velocity, axis=-1), self._seen_pace_um_s)
         pace = np.where(shared, self._seen_pace_um_s, task.carry_speed_um_s)
         want = np.where(
             carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH, cell_velocity, 0.0)

@@ -467,6 +467,34 @@ def test_shared_mode_intends_the_pace_it_watched_the_robots_keep(monkeypatch):
     np.testing.assert_allclose(seen[-1], [3.0, 8.0], rtol=1e-6)
 
 
+def test_a_brief_lapse_of_the_cue_does_not_reset_the_watched_pace(monkeypatch):
+    """The stall of development seed 90 (scenario 900006, participant 2): the person had
+    watched the robots carry at 5 um/s, then held them at an obstacle (cue on, robots
+    still); the cue went off for a moment and came back. The glimpse over which the pace
+    is watched then still spans the time the person held the robots, so it reads about
+    0, and the person went on intending 0 for the rest of the trial. The pace is watched
+    only once the hand has rested for a whole glimpse: here it stays 5 um/s. Fails for a
+    participant that takes the pace from any resting tick."""
+    import otgym.human.participants as participants_module
+
+    seen = []
+
+    def spy(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, *rest):
+        seen.append(np.linalg.norm(want_um_s, axis=-1))
+        return want_um_s, np.zeros(len(want_um_s), bool)
+
+    monkeypatch.setattr(participants_module, "choose_velocity", spy)
+    cell = np.array([[10.0, 0.0]])
+    obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
+    participants = people([STEADY])
+    drive(participants, obs, ["shared"], 100, alpha=np.zeros(1), autonomy=np.full((1, 4, 2), [5.0 * TICK_S, 0.0]))
+    assert seen[-1] == pytest.approx([5.0], rel=1e-6)
+    for alpha, ticks in ((0.5, 40), (0.0, 15), (0.5, 15)):  # held still with the cue on, off a moment, on again
+        for _ in range(ticks):
+            look(participants, obs, ["shared"], np.array([alpha]))
+    assert seen[-1] == pytest.approx([5.0], rel=1e-6)
+
+
 def test_the_person_squeezes_past_a_standing_obstacle_rather_than_wait_beside_it():
     """Carrying along +x at 2 um/s with walls that leave no room to either side, past an
     obstacle standing 6 um ahead: 11.6 um to the side (0.6 um inside the 12.2 um still
