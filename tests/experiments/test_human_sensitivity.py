@@ -53,23 +53,26 @@ def test_the_design_spans_each_range_and_sets_the_model_from_a_sample():
     assert mean == HumanParams(correction_jitter_fraction=0.3) and latency == 0.05
 
 
-def test_outputs_pool_success_per_participant_and_count_an_unfinished_trial_at_the_limit():
-    """Sample 0: manual 100 s and a stall (counted at the 300 s limit: mean 200 s),
-    shared 80 s twice: (b) = 2.5. Success pooled per participant: manual 3 of 4 and 1 of
-    2 obstacles (0.75 and 0.5, mean 0.625), shared all: (d) = 0.375. Sample 1 met no
-    obstacle in shared mode: (d) NaN."""
-    columns = ["sample", "participant", "mode", "completion_time_s", "reached_goal"]
+def test_outputs_pool_success_per_participant_and_extrapolate_a_cut_trial_to_the_goal():
+    """Sample 0: manual 100 s, and a trial cut by the 60 s limit half way along the
+    300 um route (time to goal 120 s at its pace): mean 110 s; shared 80 s twice: (b) =
+    1.375. Success pooled per participant: manual 3 of 4 and 1 of 2 obstacles (0.75 and
+    0.5, mean 0.625), shared all: (d) = 0.375. Sample 1 met no obstacle in shared mode:
+    (d) NaN."""
+    columns = ["sample", "participant", "mode", "completion_time_s", "reached_goal", "arc_reached_um"]
     columns += ["obstacles_avoided", "obstacles_encountered", "success"]
     rows = [
-        (0, 0, "manual", 100.0, True, 3, 4, 0.75),
-        (0, 1, "manual", math.nan, False, 1, 2, 0.5),
-        (0, 0, "shared", 80.0, True, 4, 4, 1.0),
-        (0, 1, "shared", 80.0, True, 2, 2, 1.0),
-        (1, 0, "manual", 100.0, True, 1, 1, 1.0),
-        (1, 0, "shared", 50.0, True, 0, 0, math.nan),
+        (0, 0, "manual", 100.0, True, 300.0, 3, 4, 0.75),
+        (0, 1, "manual", math.nan, False, 150.0, 1, 2, 0.5),
+        (0, 0, "shared", 80.0, True, 300.0, 4, 4, 1.0),
+        (0, 1, "shared", 80.0, True, 300.0, 2, 2, 1.0),
+        (1, 0, "manual", 100.0, True, 300.0, 1, 1, 1.0),
+        (1, 0, "shared", 50.0, True, 300.0, 0, 0, math.nan),
     ]
-    out = sample_outputs(pd.DataFrame(rows, columns=columns), 2, 300.0).set_index("sample")
-    assert out.loc[0, "b"] == pytest.approx(2.5) and out.loc[0, "d"] == pytest.approx(0.375)
+    trials = pd.DataFrame(rows, columns=columns).assign(route_um=300.0)
+    out = sample_outputs(trials, 2, 60.0).set_index("sample")
+    assert out.loc[0, "manual_time_s"] == pytest.approx(110.0)
+    assert out.loc[0, "b"] == pytest.approx(1.375) and out.loc[0, "d"] == pytest.approx(0.375)
     assert out.loc[1, "b"] == pytest.approx(2.0) and math.isnan(out.loc[1, "d"])
 
 
