@@ -18,8 +18,9 @@ physics' noise are drawn per batch (random seed ``seed``) and are not common. Al
 samples run as one batch (``run_trials(participant_tasks=..., display_latency_s=...)``).
 
 Outputs per sample (``sample_outputs``): (b) = manual mean time to the goal / shared
-mean time to the goal (a trial that did not reach it extrapolated at the pace it kept:
-``time_to_goal_s``; so a development run may cut its trials short), and (d) = shared success mean - manual success mean
+mean time to the goal (a trial still running at the limit extrapolated at the pace it
+kept, one that ended by a trap loss left out: ``time_to_goal_s``; so a development run
+may cut its trials short), and (d) = shared success mean - manual success mean
 (success: obstacles avoided / met, pooled per participant), as ``otgym experiment
 shared-control`` judges them. A ``dummy`` parameter that the model never reads is
 sampled with the others: its index is what noise alone gives (Khorashadi Zadeh et al.,
@@ -137,7 +138,7 @@ def run_design(
 ) -> pd.DataFrame:
     """Every sample's trials, one batch: one row per trial (``run_trials``' columns,
     ``participant`` numbered within its sample) with ``sample``, ``arc_reached_um`` (the
-    farthest the cell came along the route) and ``route_um`` (its length). ``config``: the task
+    farthest the cell came along the route until the trial ended) and ``route_um`` (its length). ``config``: the task
     (default: the study's, with ``time_limit_s``)."""
     people, specs, tasks, latencies = {}, [], [], []
     for s, row in enumerate(samples):
@@ -155,10 +156,12 @@ def run_design(
         f"{len(specs)} trials in one batch"
     )
     task = InteractiveTask(config or InteractiveConfig(time_limit_s=time_limit_s))
-    reached = np.zeros(len(specs))
+    reached, ended = np.zeros(len(specs)), np.zeros(len(specs), bool)
 
-    def farthest(view) -> None:  # how far along the route each trial's cell has come
-        np.maximum(reached, np.asarray(view.obs.cell_arc_um, float), out=reached)
+    def farthest(view) -> None:  # how far along the route each trial's cell came until its trial ended
+        arc = np.asarray(view.obs.cell_arc_um, float)
+        reached[~ended] = np.maximum(reached[~ended], arc[~ended])
+        ended[:] |= np.asarray(view.state.metrics.done, bool)
 
     rows = pd.DataFrame(
         run_trials(
@@ -180,23 +183,27 @@ def run_design(
 
 
 def time_to_goal_s(trials: pd.DataFrame, time_limit_s: float) -> pd.Series:
-    """Each trial's time to the goal: its completion time where it reached the goal,
-    else the time it ran (to its end or ``time_limit_s``) extrapolated at the pace it
-    kept along the route, time x route / farthest arc reached (at least 1 um), so that
-    a trial cut short or stalled weighs by how far it got."""
-    ran = trials.completion_time_s.where(np.isfinite(trials.completion_time_s), time_limit_s)
-    extrapolated = ran * trials.route_um / trials.arc_reached_um.clip(lower=1.0)
-    return ran.where(trials.reached_goal.astype(bool), extrapolated)
+    """Each trial's time to the goal: its completion time where it reached the goal;
+    for a trial still running at ``time_limit_s`` (cut short, or stalled) that time
+    extrapolated at the pace it kept along the route, time x route / farthest arc
+    reached (at least 1 um), so that it weighs by how far it got; NaN for a trial that
+    ended without reaching the goal (a trap loss: left out, as ``otgym experiment
+    shared-control`` leaves it out)."""
+    running = ~np.isfinite(trials.completion_time_s)
+    extrapolated = time_limit_s * trials.route_um / trials.arc_reached_um.clip(lower=1.0)
+    time = trials.completion_time_s.where(trials.reached_goal.astype(bool), np.nan)
+    return time.where(~running, extrapolated)
 
 
 def sample_outputs(trials: pd.DataFrame, n_samples: int, time_limit_s: float) -> pd.DataFrame:
     """Per sample, each mode's time and success, (b) and (d), as ``otgym experiment
     shared-control`` forms them (means over participants of each participant's value,
     ``otgym.study.stats.participant_means``: success pooled over their trials) except
-    that every trial's time is its time to the goal (``time_to_goal_s``): a trial that
-    did not reach it is not left out, so that a stall or a cut weighs. NaN where a mode
-    met no obstacle."""
-    frame = trials.assign(completion_time_s=time_to_goal_s(trials, time_limit_s), reached_goal=True)
+    that a trial still running at the limit counts at its extrapolated time to the goal
+    (``time_to_goal_s``), so that a stall or a cut weighs. NaN where a mode met no
+    obstacle, or had no trial with a time."""
+    time = time_to_goal_s(trials, time_limit_s)
+    frame = trials.assign(completion_time_s=time, reached_goal=np.isfinite(time))
     out = pd.DataFrame(index=pd.RangeIndex(n_samples, name="sample"))
     for metric, column in (("time", "time_s"), ("success", "success")):
         values = []

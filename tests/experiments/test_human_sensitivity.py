@@ -57,7 +57,7 @@ def test_outputs_pool_success_per_participant_and_extrapolate_a_cut_trial_to_the
     300 um route (time to goal 120 s at its pace): mean 110 s; shared 80 s twice: (b) =
     1.375. Success pooled per participant: manual 3 of 4 and 1 of 2 obstacles (0.75 and
     0.5, mean 0.625), shared all: (d) = 0.375. Sample 1 met no obstacle in shared mode:
-    (d) NaN."""
+    (d) NaN; its trial that ended by a trap loss after 8 s is left out of the time."""
     columns = ["sample", "participant", "mode", "completion_time_s", "reached_goal", "arc_reached_um"]
     columns += ["obstacles_avoided", "obstacles_encountered", "success"]
     rows = [
@@ -67,6 +67,7 @@ def test_outputs_pool_success_per_participant_and_extrapolate_a_cut_trial_to_the
         (0, 1, "shared", 80.0, True, 300.0, 2, 2, 1.0),
         (1, 0, "manual", 100.0, True, 300.0, 1, 1, 1.0),
         (1, 0, "shared", 50.0, True, 300.0, 0, 0, math.nan),
+        (1, 0, "manual", 8.0, False, 2.0, 0, 0, math.nan),  # a trap loss at 8 s: no time
     ]
     trials = pd.DataFrame(rows, columns=columns).assign(route_um=300.0)
     out = sample_outputs(trials, 2, 60.0).set_index("sample")
