@@ -189,7 +189,8 @@ def time_to_goal_s(trials: pd.DataFrame, time_limit_s: float) -> pd.Series:
     reached (at least 1 um), so that it weighs by how far it got; NaN for a trial that
     ended without reaching the goal (a trap loss: left out, as ``otgym experiment
     shared-control`` leaves it out)."""
-    running = ~np.isfinite(trials.completion_time_s)
+    done_s = trials.completion_time_s
+    running = ~trials.reached_goal.astype(bool) & ~(done_s < time_limit_s - 0.5)  # ran to the limit (or NaN)
     extrapolated = time_limit_s * trials.route_um / trials.arc_reached_um.clip(lower=1.0)
     time = trials.completion_time_s.where(trials.reached_goal.astype(bool), np.nan)
     return time.where(~running, extrapolated)

@@ -62,7 +62,7 @@ def test_outputs_pool_success_per_participant_and_extrapolate_a_cut_trial_to_the
     columns += ["obstacles_avoided", "obstacles_encountered", "success"]
     rows = [
         (0, 0, "manual", 100.0, True, 300.0, 3, 4, 0.75),
-        (0, 1, "manual", math.nan, False, 150.0, 1, 2, 0.5),
+        (0, 1, "manual", 60.0, False, 150.0, 1, 2, 0.5),
         (0, 0, "shared", 80.0, True, 300.0, 4, 4, 1.0),
         (0, 1, "shared", 80.0, True, 300.0, 2, 2, 1.0),
         (1, 0, "manual", 100.0, True, 300.0, 1, 1, 1.0),
