@@ -1,5 +1,5 @@
-"""``otgym experiment human-sensitivity``: how much Fig. 8's item (d) moves when each
-assumed parameter of the simulated participants moves by -50 % and +50 %
+"""``otgym experiment human-sensitivity``: which assumed parameters of the simulated
+participants decide Fig. 8's (b) and (d), by Morris screening or Sobol indices
 (``otgym.experiments.human_sensitivity``)."""
 
 from __future__ import annotations
@@ -27,74 +27,113 @@ def _check_parameters(value: str) -> str:
     return value
 
 
+def _check_method(value: str) -> str:
+    from otgym.experiments.human_sensitivity import METHODS
+
+    if value not in METHODS:
+        raise typer.BadParameter(f"must be one of {', '.join(METHODS)}, got {value!r}", param_hint="--method")
+    return value
+
+
+def _check_samples(value: int) -> int:
+    if value & (value - 1):
+        raise typer.BadParameter(f"must be a power of 2 (Sobol's sequence), got {value}", param_hint="--samples")
+    return value
+
+
 def register(experiment: typer.Typer) -> None:
     @experiment.command("human-sensitivity")
     def human_sensitivity(
-        out: Path = options.out_dir(..., "Folder for sensitivity.csv, sensitivity.md, sensitivity.png, trials.csv."),
-        participants: int = typer.Option(
-            3, "--participants", min=2, max=100, help="Simulated participants per variant (the interval is over them)."
+        out: Path = options.out_dir(
+            ..., "Folder for sensitivity.md, sensitivity.png, indices.csv, samples.csv, trials.csv."
         ),
-        trials: int = typer.Option(1, "--trials", min=1, max=100, help="Trials per participant, mode and variant."),
+        method: str = typer.Option(
+            "morris",
+            "--method",
+            metavar="NAME",
+            callback=_check_method,
+            help="morris (screening every assumption) or sobol (first and total indices of a few).",
+        ),
         parameters: str = typer.Option(
-            "motor",
+            "all",
             "--parameters",
             metavar="NAMES",
             callback=_check_parameters,
-            help="motor (the assumed HumanParams and population_cv, the population's spread), task (the "
-            "ParticipantTask fields, each scale a group of its own: far slower), all, or comma-separated "
-            "names.",
+            help="all (every assumed parameter of otgym.human.assumptions) or comma-separated labels "
+            "(cv_NAME for a population spread); the others stay at the model's values.",
         ),
+        trajectories: int = typer.Option(
+            2, "--trajectories", min=2, max=1000, help="Morris: trajectories (samples = TRAJECTORIES x (k + 1))."
+        ),
+        samples: int = typer.Option(
+            8,
+            "--samples",
+            min=2,
+            max=65536,
+            callback=_check_samples,
+            help="Sobol: base sample, a power of 2 (samples = SAMPLES x (k + 2)).",
+        ),
+        participants: int = typer.Option(
+            2, "--participants", min=1, max=100, help="Simulated participants per sample (the same in every sample)."
+        ),
+        trials: int = typer.Option(1, "--trials", min=1, max=100, help="Trials per participant, mode and sample."),
         seed: int = options.seed(
             DEVELOPMENT_SEED,
-            "Study seed (population SEED; participant p's trial t meets scenario SEED * 10000 + p * TRIALS + t); "
-            "the default is a development seed,",
+            "Study seed (population SEED; participant p's trial t meets scenario SEED * 10000 + p * TRIALS + t; "
+            "the design's sampling and bootstrap); the default is a development seed,",
         ),
         time_limit_s: float = options.time_limit_s(),
     ) -> None:
-        """How much (d), shared control's success mean minus manual control's, moves when
-        each assumed participant parameter is scaled by 0.5 and 1.5 (baseline once), on
-        the same participants and scenarios, with 95 % t intervals over participants.
+        """Which assumed parameters of the simulated participants decide Fig. 8's (b),
+        manual / shared time, and (d), shared - manual success: Morris' mu* and sigma
+        over every assumed parameter, or Sobol's S1 and ST over a few, with 95 %
+        bootstrap intervals, on common participants and scenarios (SALib).
 
-        Example: otgym experiment human-sensitivity --participants 3 --trials 1 --out results/human-sensitivity
+        Example: otgym experiment human-sensitivity --method morris --parameters carry_speed_um_s,horizon_s --trajectories 2 --participants 1 --time-limit-s 5 --out results/human-sensitivity
         """
         from otgym.experiments.human_sensitivity import (
+            analyse,
             check_arguments,
+            design,
             parse_parameters,
-            run_sensitivity,
-            write_sensitivity,
+            run_design,
+            sample_outputs,
+            size_of,
         )
         from otgym.experiments.output_folder import check_out_dir
         from otgym.experiments.seeds import development_note
+        from otgym.experiments.sensitivity_report import write_report
 
-        names = parse_parameters(parameters)
-        check_arguments(participants, trials, seed)
+        labels = parse_parameters(parameters)
+        size = trajectories if method == "morris" else samples
+        check_arguments(method, size, participants, trials, seed)
         check_out_dir(out)
         note = development_note("shared-control", seed, trials=participants * trials)
         if note:
             print(note, flush=True)
+        size_option = ["--trajectories", str(trajectories)] if method == "morris" else ["--samples", str(samples)]
         command = "otgym experiment human-sensitivity " + shlex.join(
-            [
-                "--participants",
-                str(participants),
-                "--trials",
-                str(trials),
-                "--parameters",
-                parameters,
-                "--seed",
-                str(seed),
-                "--time-limit-s",
-                f"{time_limit_s:g}",
-                "--out",
-                str(out),
-            ]
+            ["--method", method, "--parameters", parameters, *size_option]
+            + ["--participants", str(participants), "--trials", str(trials), "--seed", str(seed)]
+            + ["--time-limit-s", f"{time_limit_s:g}", "--out", str(out)]
         )
         start = time.monotonic()
-        frame = run_sensitivity(
-            names, participants, trials, seed, report=lambda line: print(line, flush=True), time_limit_s=time_limit_s
+        print(f"{method}: {len(labels)} parameters and a dummy, {size_of(method, size, len(labels) + 1)} samples")
+        points = design(method, labels, size, seed)
+        frame = run_design(
+            points,
+            labels,
+            participants,
+            trials,
+            seed,
+            report=lambda line: print(line, flush=True),
+            time_limit_s=time_limit_s,
         )
-        write_sensitivity(frame, out, command, note)
+        outputs = sample_outputs(frame, len(points), time_limit_s)
+        indices = analyse(method, points, outputs, labels, seed)
+        write_report(method, labels, points, frame, outputs, indices, out, command, note)
         print((out / "sensitivity.md").read_text())
         print(
-            f"wrote {out}/sensitivity.csv, sensitivity.md, sensitivity.png, trials.csv "
+            f"wrote {out}/sensitivity.md, sensitivity.png, indices.csv, samples.csv, trials.csv "
             f"({len(frame)} trials, {(time.monotonic() - start) / 60:.1f} min)"
         )

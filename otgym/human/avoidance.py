@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from otgym.human.participant_task import ParticipantTask
+from otgym.human.participant_task import ParticipantTask, ParticipantTasks
 
 
 def unit(vectors):
@@ -31,22 +31,24 @@ def unit(vectors):
 
 
 def _closest_um(
-    cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float, until_s=None, then_um_s=None
+    cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s, until_s=None, then_um_s=None
 ):
-    """(E, K) the closest each obstacle comes to the cell within ``horizon_s`` if the
-    assembly moves at ``assembly_velocity_um_s`` (E, 2), or at it until ``until_s`` (E,)
-    and at ``then_um_s`` (E, 2) after (a step aside that a wall ends)."""
+    """(E, K) the closest each obstacle comes to the cell within ``horizon_s`` (one for
+    all, or (E,)) if the assembly moves at ``assembly_velocity_um_s`` (E, 2), or at it
+    until ``until_s`` (E,) and at ``then_um_s`` (E, 2) after (a step aside that a wall
+    ends)."""
 
     def closest(relative, closing, duration_s):
         speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
         t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, duration_s)
         return np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
 
+    horizon_s = np.broadcast_to(np.asarray(horizon_s, dtype=float), (len(cell_um),))[:, None]  # (E, 1)
     relative = obstacle_um - cell_um[:, None]
     closing = obstacle_velocity_um_s - assembly_velocity_um_s[:, None]
     if until_s is None:
         return closest(relative, closing, horizon_s)
-    until = np.clip(until_s, 0.0, horizon_s)[:, None]
+    until = np.clip(until_s[:, None], 0.0, horizon_s)
     later = relative + closing * until[..., None]
     return np.minimum(
         closest(relative, closing, until),
@@ -54,9 +56,9 @@ def _closest_um(
     )
 
 
-def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s: float):
+def miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s):
     """(E,) the closest any obstacle (E, K, 2) moving at its velocity comes to the cell
-    (E, 2) within ``horizon_s`` if the assembly moves at ``assembly_velocity_um_s`` (E, 2),
+    (E, 2) within ``horizon_s`` (one for all, or (E,)) if the assembly moves at ``assembly_velocity_um_s`` (E, 2),
     and (E, 2) the unit vector from that obstacle to the cell now."""
     miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, assembly_velocity_um_s, horizon_s)
     worst = np.argmin(miss, axis=1)
@@ -85,10 +87,17 @@ def _option_ranks():
 
 
 def choose_velocity(
-    cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, route_direction, task: ParticipantTask, room_um=None
+    cell_um,
+    obstacle_um,
+    obstacle_velocity_um_s,
+    want_um_s,
+    route_direction,
+    task: ParticipantTask | ParticipantTasks,
+    room_um=None,
 ):
     """The person's choice of assembly velocity (E, 2) and whether it differs from
-    ``want_um_s``. Options: intended, hurried, slowed, still, backing along the route,
+    ``want_um_s``. ``task``: one ``ParticipantTask`` for all, or ``ParticipantTasks``
+    (one per environment). Options: intended, hurried, slowed, still, backing along the route,
     stepping away, and side-steps to either side of the route (``SIDE_STEP_DEG``). Safe:
     no obstacle comes within ``task.clearance_um`` of the cell in ``task.horizon_s``, or
     within ``task.still_clearance_um`` for an obstacle seen moving slower than
@@ -102,10 +111,11 @@ def choose_velocity(
     of 90 degrees) with room down to ``-task.squeeze_um`` ranks just before holding
     still: waiting does not clear the way."""
     rows = np.arange(len(cell_um))
+    task = ParticipantTasks(task, len(cell_um)) if isinstance(task, ParticipantTask) else task
     _, away = miss_um(cell_um, obstacle_um, obstacle_velocity_um_s, np.zeros_like(want_um_s), task.horizon_s)
     speed_k = np.linalg.norm(obstacle_velocity_um_s, axis=-1)  # (E, K)
-    still_k = speed_k < task.still_speed_um_s
-    clearance = np.where(still_k, task.still_clearance_um, task.clearance_um)
+    still_k = speed_k < task.still_speed_um_s[:, None]
+    clearance = np.where(still_k, task.still_clearance_um[:, None], task.clearance_um[:, None])
     worst = np.argmin(
         _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, task.horizon_s) - clearance, axis=1
     )
@@ -118,7 +128,7 @@ def choose_velocity(
     ]
     options = [
         want_um_s,
-        task.hurry_factor * want_um_s,
+        task.hurry_factor[:, None] * want_um_s,
         0.5 * want_um_s,
         np.zeros_like(want_um_s),
         -route_direction * pace,
@@ -156,7 +166,7 @@ def choose_velocity(
         [name in ("intended", "hurried", "slowed") for name in SPEED_OPTIONS]
         + [a < 90.0 for a in SIDE_STEP_DEG for _ in range(2)]
     )
-    squeeze = still_k[rows, worst][:, None] & onward & ~safe & (room >= -task.squeeze_um)
+    squeeze = still_k[rows, worst][:, None] & onward & ~safe & (room >= -task.squeeze_um[:, None])
     rank = np.where(squeeze, _option_ranks()[1, SPEED_OPTIONS.index("still")] - 0.5, rank)  # just before waiting
     chosen = safe | squeeze
     first = np.min(np.where(chosen, rank, np.inf), axis=1, keepdims=True)

@@ -67,3 +67,24 @@ class ParticipantTask:
             value = getattr(self, field.name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{field.name} must be positive, got {value!r}")
+
+
+class ParticipantTasks:
+    """The task parameters of E participants side by side: each ``ParticipantTask``
+    field as an (E,) float array (``bimanual`` one bool for all: it is the set-up, not a
+    person's parameter). ``SimulatedParticipants`` reads its task through this, so one
+    batch can give every environment its own task parameters at the cost of one."""
+
+    def __init__(self, tasks, n_env: int):
+        tasks = [tasks] * n_env if isinstance(tasks, ParticipantTask) else list(tasks)
+        if len(tasks) != n_env:
+            raise ValueError(f"{len(tasks)} participant tasks for {n_env} participants")
+        if not all(isinstance(task, ParticipantTask) for task in tasks):
+            raise TypeError("participant tasks must be ParticipantTask instances")
+        if len({task.bimanual for task in tasks}) > 1:
+            raise ValueError("every participant of a batch must use the same set-up (bimanual)")
+        self.n_env = n_env
+        self.bimanual = tasks[0].bimanual if tasks else True
+        for field in dataclasses.fields(ParticipantTask):
+            if field.name != "bimanual":
+                setattr(self, field.name, np.array([getattr(task, field.name) for task in tasks], dtype=float))

@@ -44,7 +44,9 @@ Places, per phase:
   obstacle threatens.
 * Shared mode: the hand rests until the fine-tune prompt is seen (the window shows it
   from alpha ``otgym.task.task.FINE_TUNE_ALPHA``, 0.4), watching the pace at which the
-  robots carry the cell (the pace intended once acting). Then the hand corrects by
+  robots carry the cell (the pace intended once acting), judged over a glimpse that
+  lies wholly in the rest (the first glimpse after the hand stops still shows its own
+  motion; until a whole one has passed the pace watched before stands). Then the hand corrects by
   feedback: each sub-movement reaches, at the manual mapping, for the difference
   between where the person wants the robots when it ends (a place moving on at the
   intended velocity, at most ``shared_lead_um`` from the robots as perceived) and where
@@ -61,13 +63,15 @@ of their robot's handles) and yield to it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from otgym.human.avoidance import choose_velocity, unit
 from otgym.human.motor import HumanMotor
 from otgym.human.params import HumanParams
-from otgym.human.participant_task import ParticipantTask
-from otgym.human.percept import DISPLAY_LATENCY_S, Percept, ShownRoute, latency_ticks
+from otgym.human.participant_task import ParticipantTask, ParticipantTasks
+from otgym.human.percept import DISPLAY_LATENCY_S, Percept, ShownRoute, latency_ticks, rows_at_latency
 from otgym.task.geometry import rotate
 from otgym.task.task import APPROACH, CARRY
 from otgym.teleop.feedback import FeedbackConfig, chip_force_n
@@ -97,8 +101,9 @@ class SimulatedParticipants:
     Per tick: ``intend(percept, trap_robot)`` gives the hands' trap increments dP_h from
     what the window shows (``otgym.human.percept.Percept``) and ``feel(obs, ...)`` the
     stylus force each hand feels next. ``route``: the route and the robots' shape as the
-    window shows them; ``display_latency_s``: the window's latency, to which the person
-    has adapted."""
+    window shows them; ``task``: one ``ParticipantTask`` for all, or one per
+    environment; ``display_latency_s``: the window's latency, to which the person has
+    adapted (one for all, or one per environment)."""
 
     def __init__(
         self,
@@ -109,11 +114,12 @@ class SimulatedParticipants:
         retarget: RetargetConfig,
         feedback: FeedbackConfig,
         bend_distance_um: float,
-        task: ParticipantTask = ParticipantTask(),
+        task: ParticipantTask | Sequence[ParticipantTask] = ParticipantTask(),
         wall_distance_um=None,
-        display_latency_s: float = DISPLAY_LATENCY_S,
+        display_latency_s=DISPLAY_LATENCY_S,
     ):
         self.n_env = len(params)
+        task = ParticipantTasks(task, self.n_env)
         self.wall_distance_um = wall_distance_um
         """``(n, 2) um -> (n,)`` distance to the chip's walls, or None (no walls)."""
         self.tick_s = tick_s
@@ -128,15 +134,17 @@ class SimulatedParticipants:
         )
         self.retargeter = BatchRetargeter(retarget, 1.0 / tick_s, self.n_env * N_HANDS)
         self._latency_ticks = latency_ticks(display_latency_s, tick_s)
+        self._max_latency_ticks = int(np.max(self._latency_ticks))
         self.delay_s = (self.motor.delay_ticks[::N_HANDS] + self._latency_ticks) * tick_s
         """(E,) how old what the person perceives is: their reaction delay plus the window's latency."""
-        self._glimpses = max(1, int(round(task.glimpse_s / tick_s)))
+        self._glimpses = np.maximum(1, np.rint(task.glimpse_s / tick_s).astype(np.int64))  # (E,)
         self._history: list[np.ndarray] = []
         self._own_um: np.ndarray | None = None  # the hands' own trap motion, summed (efference copy)
         self._own_shown: list[np.ndarray] = []  # the same, as old as the window's picture
         self._pending_um = np.zeros((self.n_env, N_HANDS, 2))
-        self._pending_keep = float(np.exp(-tick_s / task.pending_memory_s))
-        self._seen_pace_um_s = np.full(self.n_env, task.carry_speed_um_s)  # the robots' pace, watched
+        self._pending_keep = np.exp(-tick_s / task.pending_memory_s)[:, None, None]
+        self._seen_pace_um_s = task.carry_speed_um_s.copy()  # the robots' pace, watched
+        self._resting_ticks = np.zeros(self.n_env, np.int64)  # shared mode: ticks the hand has rested, watching
         self._intended_um: np.ndarray | None = None  # shared mode: where the person wants the formation's centre
         self.feedback_n = np.zeros((self.n_env, N_HANDS, 2))
         self.closing = np.zeros(self.n_env, bool)
@@ -155,7 +163,9 @@ class SimulatedParticipants:
         )
         self.closing = closing
         side = np.sign(np.array([offsets[trap_robot == r, 1].mean() for r in range(N_HANDS)]))[trap_robot]  # (T,)
-        opened = offsets + np.where(closing[:, None, None], 0.0, task.open_gap_um * side[None, :, None] * [0.0, 1.0])
+        opened = offsets + np.where(
+            closing[:, None, None], 0.0, task.open_gap_um[:, None, None] * side[None, :, None] * [0.0, 1.0]
+        )
         about = np.where(((phase == CARRY) & closing)[:, None], centre, cell_now)
         return about[:, None] + rotate(opened, heading)
 
@@ -186,7 +196,7 @@ class SimulatedParticipants:
         across = unit(robots[:, 1] - robots[:, 0])  # closing is along the line between the robots
         inward = np.stack([across, -across], axis=1)  # (E, hands, 2)
         needed = np.sum((goals - robots) * inward, axis=-1)
-        allowed = np.maximum(self.task.close_speed_um_s * duration, needed - self.task.close_guard_um)
+        allowed = np.maximum(self.task.close_speed_um_s[:, None] * duration, needed - self.task.close_guard_um[:, None])
         closing = np.sum((reach_um - want[:, None] * duration[..., None]) * inward, axis=-1)
         excess = np.where((phase == APPROACH)[:, None], np.maximum(closing - allowed, 0.0), 0.0)
         return reach_um - excess[..., None] * inward
@@ -201,7 +211,7 @@ class SimulatedParticipants:
         probes = np.concatenate([flat, flat + [step_um, 0.0], flat + [0.0, step_um]])
         distance = np.asarray(self.wall_distance_um(probes), float).reshape(3, *places.shape[:2])
         normal = unit(np.stack([distance[1] - distance[0], distance[2] - distance[0]], axis=-1))
-        short = np.maximum(self.task.wall_clearance_um - distance[0], 0.0)  # (E, T)
+        short = np.maximum(self.task.wall_clearance_um[:, None] - distance[0], 0.0)  # (E, T)
         shift = np.zeros_like(places)
         for r in range(N_HANDS):
             mine = trap_robot == r
@@ -214,20 +224,24 @@ class SimulatedParticipants:
     def _side_room_um(self, traps_um, route_direction, max_um: float):
         """(E, 2) how far the formation of traps (E, T, 2) can move to the left and to the
         right of ``route_direction`` (E, 2), in steps of ``side_step_resolution_um``, up to
-        ``max_um``, before a handle comes ``wall_clearance_um`` from a wall (or closer than
-        it is now); None without walls."""
+        ``max_um``, before a handle comes ``wall_clearance_um`` from a wall (or closer
+        than it is now); None without walls."""
         if self.wall_distance_um is None:
             return None
         task = self.task
-        steps_um = np.arange(0.0, max_um + task.side_step_resolution_um, task.side_step_resolution_um)  # (S,)
+        grids = {r: np.arange(0.0, max_um + r, r) for r in np.unique(task.side_step_resolution_um)}
+        counts = np.array([len(grids[r]) for r in task.side_step_resolution_um])  # (E,)
+        steps_um = np.stack(  # (E, S): each environment's grid, its last step repeated to the longest
+            [np.pad(grids[r], (0, counts.max() - len(grids[r])), mode="edge") for r in task.side_step_resolution_um]
+        )
         left = np.stack([-route_direction[:, 1], route_direction[:, 0]], axis=-1)
         sides = np.stack([left, -left], axis=1)  # (E, 2, 2)
-        probes = traps_um[:, None, None] + steps_um[None, None, :, None, None] * sides[:, :, None, None]
+        probes = traps_um[:, None, None] + steps_um[:, None, :, None, None] * sides[:, :, None, None]
         distance = np.asarray(self.wall_distance_um(probes.reshape(-1, 2)), float).reshape(probes.shape[:-1])
-        limit = np.minimum(task.wall_clearance_um, distance[:, :, :1])  # (E, 2, 1, T): now or the clearance
+        limit = np.minimum(task.wall_clearance_um[:, None, None, None], distance[:, :, :1])  # (E, 2, 1, T)
         blocked = np.any(distance < limit - 1e-6, axis=-1)  # (E, 2, S)
-        free_steps = np.where(blocked.any(axis=-1), np.argmax(blocked, axis=-1) - 1, len(steps_um) - 1)
-        return steps_um[np.maximum(free_steps, 0)]
+        free_steps = np.where(blocked.any(axis=-1), np.argmax(blocked, axis=-1) - 1, counts[:, None] - 1)
+        return np.take_along_axis(steps_um, np.maximum(free_steps, 0), axis=1)
 
     def _perceive(self, percept: Percept, trap_robot):
         """What each participant perceives now (one reaction time after the window showed
@@ -239,8 +253,9 @@ class SimulatedParticipants:
         if self._own_um is None:
             self._own_um = np.zeros((self.n_env, n_traps, 2))
         self._own_shown.append(self._own_um.copy())
-        if len(self._own_shown) > self._latency_ticks + 1:
+        if len(self._own_shown) > self._max_latency_ticks + 1:
             self._own_shown.pop(0)
+        own_at_picture = rows_at_latency(self._own_shown, self._latency_ticks)  # own motion as old as the picture
         now = np.concatenate(
             [
                 percept.cell_xy_um,
@@ -248,7 +263,7 @@ class SimulatedParticipants:
                 percept.obstacle_xy_um.reshape(self.n_env, -1),
                 percept.cell_arc_um[:, None],
                 percept.phase[:, None].astype(float),
-                self._own_shown[0].reshape(self.n_env, -1),  # own motion at the picture's moment
+                own_at_picture.reshape(self.n_env, -1),
                 percept.alpha_shown[:, None],
                 percept.fine_tune_shown[:, None].astype(float),
             ],
@@ -256,24 +271,23 @@ class SimulatedParticipants:
         )
         seen = self.motor.perceive(np.repeat(now, N_HANDS, axis=0))[::N_HANDS]
         self._history.append(seen)
-        if len(self._history) > self._glimpses + 1:
+        if len(self._history) > int(self._glimpses.max()) + 1:
             self._history.pop(0)
         split = np.cumsum([2, 2 * n_traps, 2 * n_obs, 1, 1, 2 * n_traps, 1])
         cell, traps, obstacles, arc, phase, own, alpha, prompt = np.split(seen, split, axis=1)
-        earlier = np.split(self._history[0], split, axis=1)
-        elapsed = max(len(self._history) - 1, 1) * self.tick_s
+        earlier = np.split(rows_at_latency(self._history, self._glimpses), split, axis=1)  # a glimpse ago
+        elapsed = np.maximum(np.minimum(len(self._history) - 1, self._glimpses), 1) * self.tick_s  # (E,)
         obstacles = obstacles.reshape(self.n_env, n_obs, 2)
         traps = traps.reshape(self.n_env, n_traps, 2)
         own = own.reshape(self.n_env, n_traps, 2)
-        unexplained = (
-            (traps - earlier[1].reshape(traps.shape)) - (own - earlier[5].reshape(own.shape))
-        ) / elapsed  # the robots' seen motion less the hand's own
+        seen_moved = (traps - earlier[1].reshape(traps.shape)) - (own - earlier[5].reshape(own.shape))
+        unexplained = seen_moved / elapsed[:, None, None]  # the robots' seen motion less the hand's own
         return dict(
             cell=cell,
-            cell_velocity=(cell - earlier[0]) / elapsed,
+            cell_velocity=(cell - earlier[0]) / elapsed[:, None],
             traps=traps,
             obstacles=obstacles,
-            velocity=(obstacles - earlier[2].reshape(self.n_env, n_obs, 2)) / elapsed,
+            velocity=(obstacles - earlier[2].reshape(self.n_env, n_obs, 2)) / elapsed[:, None, None],
             arc=arc[:, 0],
             phase=phase[:, 0].round().astype(int),
             since_um=self._own_um - own + self._pending_um[:, trap_robot],
@@ -302,12 +316,14 @@ class SimulatedParticipants:
         obstacles_now = obstacles + velocity * delay[:, :, None]
         route_direction = unit(self.route.point_at(seen["arc"] + task.lookahead_um) - cell_now)
         watching = shared & carrying[:, 0] & ~seen["prompt"]  # the hand rests: the pace the robots keep
-        self._seen_pace_um_s = np.where(watching, np.linalg.norm(cell_velocity, axis=-1), self._seen_pace_um_s)
+        self._resting_ticks = np.where(watching, self._resting_ticks + 1, 0)
+        settled = watching & (self._resting_ticks > self._glimpses)  # the whole glimpse is the robots' own motion
+        self._seen_pace_um_s = np.where(settled, np.linalg.norm(cell_velocity, axis=-1), self._seen_pace_um_s)
         pace = np.where(shared, self._seen_pace_um_s, task.carry_speed_um_s)
         want = np.where(
             carrying, route_direction * pace[:, None], np.where(phase[:, None] == APPROACH, cell_velocity, 0.0)
         )
-        room = self._side_room_um(traps_now, route_direction, float(pace.max()) * task.horizon_s)
+        room = self._side_room_um(traps_now, route_direction, float(np.max(pace * task.horizon_s)))
         chosen, _ = choose_velocity(cell_now, obstacles_now, velocity, want, route_direction, task, room)
         want = np.where(carrying, chosen, want)
         places = self._grip_places(cell_now, traps_now, phase, trap_robot)
@@ -317,7 +333,7 @@ class SimulatedParticipants:
             error = np.repeat(error.mean(axis=1, keepdims=True), N_HANDS, axis=1)
         scale = self.retarget_config.motion_scale_um_per_mm
         limit_mm_s = self.retarget_config.max_trap_speed_um_s / scale
-        tolerance_mm = task.grip_tolerance_um / scale
+        tolerance_mm = np.repeat(task.grip_tolerance_um / scale, N_HANDS)  # per hand
         duration = self.motor.submovement_duration_s(
             np.linalg.norm(error, axis=-1).ravel() / scale, tolerance_mm, limit_mm_s
         ).reshape(self.n_env, N_HANDS)

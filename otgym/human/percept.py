@@ -90,11 +90,29 @@ def percept_from_window(obs, modes, alpha_shown) -> Percept:
     )
 
 
-def latency_ticks(latency_s: float, tick_s: float) -> int:
-    """The window's latency in whole ticks (at least 0)."""
-    if not (np.isfinite(latency_s) and latency_s >= 0):
+def latency_ticks(latency_s, tick_s: float):
+    """The window's latency in whole ticks (at least 0): an int for one latency, an
+    (E,) int array for one per environment."""
+    latency = np.asarray(latency_s, dtype=float)
+    if not (np.all(np.isfinite(latency)) and np.all(latency >= 0)):
         raise ValueError(f"display latency must be a non-negative number of seconds, got {latency_s!r}")
-    return int(round(latency_s / tick_s))
+    ticks = np.rint(latency / tick_s).astype(np.int64)
+    return int(ticks) if ticks.ndim == 0 else ticks
+
+
+def rows_at_latency(history, ticks):
+    """Per environment, the entry of ``history`` (a sequence of (E, ...) arrays or
+    ``Percept``s, oldest first, newest last) ``ticks`` older than the newest, or the
+    oldest while fewer are kept: ``ticks`` an int (the same for all) or (E,)."""
+    if np.ndim(ticks) == 0:
+        return history[max(len(history) - 1 - int(ticks), 0)]
+    index = np.maximum(len(history) - 1 - np.asarray(ticks), 0)
+    if np.all(index == index[0]):
+        return history[int(index[0])]
+    rows = np.arange(len(index))
+    if isinstance(history[0], Percept):
+        return Percept(**{name: np.stack([getattr(h, name) for h in history])[index, rows] for name in PERCEPT_FIELDS})
+    return np.stack(list(history))[index, rows]
 
 
 class WindowDisplay:
@@ -102,10 +120,11 @@ class WindowDisplay:
     each tick (the snapshot the window would draw: the scene after the tick, the mode and
     the alpha the tick used), ``percept()`` what is on screen now: the snapshot
     ``latency_s`` (in whole ticks) older than the latest (the oldest one kept until there
-    are enough)."""
+    are enough). ``latency_s``: one latency, or one per environment (E,)."""
 
-    def __init__(self, tick_s: float, latency_s: float = DISPLAY_LATENCY_S):
-        self._snapshots: deque[Percept] = deque(maxlen=latency_ticks(latency_s, tick_s) + 1)
+    def __init__(self, tick_s: float, latency_s=DISPLAY_LATENCY_S):
+        self._ticks = latency_ticks(latency_s, tick_s)
+        self._snapshots: deque[Percept] = deque(maxlen=int(np.max(self._ticks)) + 1)
 
     def show(self, obs, modes, alpha) -> None:
         self._snapshots.append(percept_from_window(obs, modes, alpha))
@@ -113,4 +132,4 @@ class WindowDisplay:
     def percept(self) -> Percept:
         if not self._snapshots:
             raise RuntimeError("the window has shown nothing yet: call show() first")
-        return self._snapshots[0]
+        return rows_at_latency(self._snapshots, self._ticks)

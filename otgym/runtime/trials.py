@@ -33,7 +33,6 @@ from otgym.autonomy.navigator import RouteNavigator
 from otgym.autonomy.protocol import Navigator
 from otgym.autonomy.rl_navigator import RLNavigator
 from otgym.human.params import HumanParams
-from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
 from otgym.human.percept import DISPLAY_LATENCY_S, ShownRoute, WindowDisplay
@@ -129,7 +128,7 @@ def run_trials(
     recorder: Callable[[TickView], None] | None = None,
     participant_tasks: Sequence[ParticipantTask] | None = None,
     speed_policy=None,
-    display_latency_s: float = DISPLAY_LATENCY_S,
+    display_latency_s=DISPLAY_LATENCY_S,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
     (with ``autonomy``: whose dP_r the trial got, ``route``, ``mpc`` or ``rl``). The
@@ -142,8 +141,8 @@ def run_trials(
     ``ScenarioConfig``; ``recorder`` is called after every tick with a ``TickView`` of
     the batch (``otgym.runtime.trace.TraceRecorder`` copies chosen rows; it must not
     change what it sees). ``participant_tasks`` (one per spec) gives each trial's
-    participant its own task parameters instead of ``participant_task``
-    (``otgym.human.participant_groups``). ``rl`` trials and, with
+    participant its own task parameters instead of ``participant_task``, in the same
+    batch; ``display_latency_s`` is one latency or one per spec. ``rl`` trials and, with
     ``shared_autonomy="rl"``, shared ones get the learned-speed navigator's dP_r
     (``speed_policy``, default the shipped ``SPEED_POLICY``). The participants perceive
     only the window (``otgym.human.percept``): after each tick it shows the scene, the
@@ -151,8 +150,6 @@ def run_trials(
     autonomy's dP_r."""
     if not specs:
         raise ValueError("no trials to run")
-    if recorder is not None and participant_tasks is not None:
-        raise ValueError("a recorder traces one population's trials: give participant_tasks or recorder, not both")
     if shared_autonomy not in AUTONOMIES:
         raise ValueError(f"unknown shared autonomy {shared_autonomy!r}; choose one of {', '.join(AUTONOMIES)}")
     tick = task.config.tick_s
@@ -187,7 +184,7 @@ def run_trials(
         learned.reset(len(rl_rows))
     law = task.config.scene.trap_law
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
-    people = (SimulatedParticipants if participant_tasks is None else ParticipantGroups)(
+    people = SimulatedParticipants(
         [participants[s.participant] for s in specs],
         tick,
         seed,

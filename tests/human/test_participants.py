@@ -16,10 +16,9 @@ import pytest
 
 from otgym.human.avoidance import choose_velocity, miss_um
 from otgym.human.params import HumanParams, sample_population
-from otgym.human.participant_groups import ParticipantGroups
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
-from otgym.human.percept import PERCEPT_FIELDS, ShownRoute, percept_from_window
+from otgym.human.percept import PERCEPT_FIELDS, ShownRoute, WindowDisplay, percept_from_window
 from otgym.runtime.trials import TASK_RETARGET
 from otgym.task.task import APPROACH, CARRY, FINE_TUNE_ALPHA, Observation
 from otgym.teleop.feedback import FeedbackConfig
@@ -338,14 +337,11 @@ def test_the_participant_step_takes_only_what_the_window_shows():
     command, imports the autonomy, or is told the traps' blended command afterwards
     (the old ``moved``). Fails for a participant that reads dP_r or the exact alpha."""
     import otgym.human.avoidance
-    import otgym.human.participant_groups
     import otgym.human.participants
     import otgym.human.percept
 
-    for step in (SimulatedParticipants.intend, ParticipantGroups.intend):
-        assert list(inspect.signature(step).parameters) == ["self", "percept", "trap_robot"]
-    for cls in (SimulatedParticipants, ParticipantGroups):
-        assert not hasattr(cls, "moved")
+    assert list(inspect.signature(SimulatedParticipants.intend).parameters) == ["self", "percept", "trap_robot"]
+    assert not hasattr(SimulatedParticipants, "moved")
     assert set(PERCEPT_FIELDS) == {
         "mode",
         "phase",
@@ -360,7 +356,6 @@ def test_the_participant_step_takes_only_what_the_window_shows():
     banned = ("robot_increment", "autonomy", "navigator", "dp_r", "shared_um", "human_weight")
     for module in (
         otgym.human.participants,
-        otgym.human.participant_groups,
         otgym.human.avoidance,
         otgym.human.percept,
     ):
@@ -472,6 +467,34 @@ def test_shared_mode_intends_the_pace_it_watched_the_robots_keep(monkeypatch):
     np.testing.assert_allclose(seen[-1], [3.0, 8.0], rtol=1e-6)
 
 
+def test_a_brief_lapse_of_the_cue_does_not_reset_the_watched_pace(monkeypatch):
+    """The stall of development seed 90 (scenario 900006, participant 2): the person had
+    watched the robots carry at 5 um/s, then held them at an obstacle (cue on, robots
+    still); the cue went off for a moment and came back. The glimpse over which the pace
+    is watched then still spans the time the person held the robots, so it reads about
+    0, and the person went on intending 0 for the rest of the trial. The pace is watched
+    only once the hand has rested for a whole glimpse: here it stays 5 um/s. Fails for a
+    participant that takes the pace from any resting tick."""
+    import otgym.human.participants as participants_module
+
+    seen = []
+
+    def spy(cell_um, obstacle_um, obstacle_velocity_um_s, want_um_s, *rest):
+        seen.append(np.linalg.norm(want_um_s, axis=-1))
+        return want_um_s, np.zeros(len(want_um_s), bool)
+
+    monkeypatch.setattr(participants_module, "choose_velocity", spy)
+    cell = np.array([[10.0, 0.0]])
+    obs = scene(cell, cell[:, None] + OFFSETS_UM, CARRY)
+    participants = people([STEADY])
+    drive(participants, obs, ["shared"], 100, alpha=np.zeros(1), autonomy=np.full((1, 4, 2), [5.0 * TICK_S, 0.0]))
+    assert seen[-1] == pytest.approx([5.0], rel=1e-6)
+    for alpha, ticks in ((0.5, 40), (0.0, 15), (0.5, 15)):  # held still with the cue on, off a moment, on again
+        for _ in range(ticks):
+            look(participants, obs, ["shared"], np.array([alpha]))
+    assert seen[-1] == pytest.approx([5.0], rel=1e-6)
+
+
 def test_the_person_squeezes_past_a_standing_obstacle_rather_than_wait_beside_it():
     """Carrying along +x at 2 um/s with walls that leave no room to either side, past an
     obstacle standing 6 um ahead: 11.6 um to the side (0.6 um inside the 12.2 um still
@@ -509,27 +532,31 @@ def test_grip_heading_is_the_robots_own_turn_not_the_tilt_of_a_shear_between_the
 
 
 @pytest.mark.slow
-def test_participant_groups_give_each_environment_its_own_task():
-    """``ParticipantGroups``: with one task for all it is that ``SimulatedParticipants``
-    (the same seed: identical hands); with two carry paces, 2 and 4 um/s, the steady
-    participant with the faster pace carries about twice as far in 4 s (ratio within
-    1.6-2.4: the reaction time and lags take the same time off both), the slower one
-    exactly as its group alone would."""
+def test_one_batch_gives_each_environment_its_own_task_and_latency():
+    """Per-environment task parameters and window latencies (what the sensitivity
+    analysis varies in one batch): a list of one task for all is that one task (the same
+    seed: identical hands); with two carry paces, 2 and 4 um/s, the steady participant
+    with the faster pace carries about twice as far in 4 s (ratio within 1.6-2.4: the
+    reaction time and lags take the same time off both). A window 0.2 s late for one
+    environment only: that one sees the scene of 10 ticks ago, the other the latest, and
+    that one's person perceives 0.2 s later."""
     gripped = np.array([[10.0, 0.0]] * 2)
     obs = lambda: scene(gripped, gripped[:, None] + OFFSETS_UM, CARRY)  # noqa: E731
     fast = ParticipantTask(carry_speed_um_s=4.0)
 
-    def groups(tasks):
-        return ParticipantGroups(
-            [STEADY] * 2, TICK_S, 0, shown_route(), TASK_RETARGET, FeedbackConfig(), 0.6, tasks, None, 0.0
-        )
-
     alone = drive(people([STEADY] * 2), obs(), ["manual"] * 2, 200)
-    np.testing.assert_array_equal(drive(groups([TASK, TASK]), obs(), ["manual"] * 2, 200), alone)
-    mixed = drive(groups([TASK, fast]), obs(), ["manual"] * 2, 200)
-    # group 0 is the first task's environments alone (seed 0); their motor jitter is drawn
-    # from that group's own stream
-    first = drive(people([STEADY]), scene(gripped[:1], gripped[:1, None] + OFFSETS_UM, CARRY), ["manual"], 200)
-    np.testing.assert_array_equal(mixed[0], first[0])
+    np.testing.assert_array_equal(drive(people([STEADY] * 2, task=[TASK, TASK]), obs(), ["manual"] * 2, 200), alone)
+    mixed = drive(people([STEADY] * 2, task=[TASK, fast]), obs(), ["manual"] * 2, 200)
     ratio = mixed[1, :, 0].mean() / mixed[0, :, 0].mean()
     assert 1.6 < ratio < 2.4, ratio
+
+    display = WindowDisplay(TICK_S, np.array([0.0, 0.2]))
+    for tick in range(12):
+        display.show(
+            scene(gripped + [tick, 0.0], gripped[:, None] + OFFSETS_UM, CARRY), np.array(["manual"] * 2), [1, 1]
+        )
+    np.testing.assert_array_equal(display.percept().cell_xy_um[:, 0], [10.0 + 11, 10.0 + 1])  # now; 10 ticks ago
+    late = SimulatedParticipants(
+        [STEADY] * 2, TICK_S, 0, shown_route(), TASK_RETARGET, FeedbackConfig(), 0.6, TASK, None, np.array([0.0, 0.2])
+    )
+    np.testing.assert_allclose(late.delay_s - people([STEADY] * 2).delay_s, [0.0, 0.2])
