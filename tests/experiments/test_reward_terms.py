@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from otgym.experiments.reward_terms import main, markdown, summarize
+from otgym.experiments.reward_terms import markdown, summarize
+from tests.otgym_cli import run_cli
 
 
 def test_summary_counts_binding_steps_and_shares():
@@ -22,20 +23,20 @@ def test_summary_counts_binding_steps_and_shares():
 @pytest.mark.parametrize(
     "arguments, message",
     [
-        (["--episodes", "0"], "--episodes must be an integer in [1, 4096], got 0"),
-        (["--seed", "-1"], "--seed must be an integer in [0, 4294967295]"),
+        (["--episodes", "0"], "--episodes must lie in [1, 4096], not 0"),
+        (["--seed", "-1"], "--seed must lie in [0, 4294967295], not -1"),
         (["--policy", "nowhere.npz"], "nowhere.npz does not exist"),
     ],
 )
 def test_bad_input_is_one_line_before_any_work(tmp_path, capsys, arguments, message):
-    with pytest.raises(SystemExit) as exit_info:
-        main([*arguments, "--out", str(tmp_path / "out")])
-    assert exit_info.value.code == 2 and message in capsys.readouterr().err
+    assert run_cli(["experiment", "reward-terms", *arguments, "--out", str(tmp_path / "out")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("error:") and message in error and "\n" not in error
+    assert not (tmp_path / "out").exists()
 
 
 def test_an_out_that_is_a_file_is_refused(tmp_path, capsys):
     target = tmp_path / "taken"
     target.write_text("x")
-    with pytest.raises(SystemExit):
-        main(["--out", str(target)])
+    assert run_cli(["experiment", "reward-terms", "--out", str(target)]) == 2
     assert "is a file, not a folder" in capsys.readouterr().err

@@ -119,7 +119,7 @@ def test_a_folder_without_its_command_is_refused_by_name(tmp_path):
 def test_the_shipped_files_are_report_runs_on_held_out_seeds():
     """What the demo quotes: the front of the shipped policy (1,024 held-out episodes) and,
     where shipped, the Fig. 8 runs, each on a seed listed as a report seed."""
-    from otgym.experiments.seeds import REPORT_SEEDS
+    from otgym.experiments.seeds import DEVELOPMENT, REPORT_SEEDS
 
     front = sr.shipped_front()
     assert front is not None and front["seed_status"] == "held out" and front["episodes"] >= 1024
@@ -129,5 +129,12 @@ def test_the_shipped_files_are_report_runs_on_held_out_seeds():
     fig8 = sr.shipped_fig8()
     if fig8 is not None:
         for run in fig8["runs"]:
-            assert run["seed_status"] == "report seed" and run["seed"] == REPORT_SEEDS["shared-control"]
+            # a report run on today's report seed, or on one retired since (the model changed after
+            # its run; the seed registry names it and its successor, and the old result stays shipped)
+            retired = any(
+                use.space == "study" and use.first <= run["seed"] <= use.last and "next report uses seed" in use.used_for
+                for use in DEVELOPMENT
+            )
+            assert run["seed_status"] == "report seed"
+            assert run["seed"] == REPORT_SEEDS["shared-control"] or retired, run["seed"]
             assert all(mode["participants"] == 8 and mode["trials"] >= 64 for mode in run["modes"])
