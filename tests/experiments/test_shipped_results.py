@@ -132,7 +132,9 @@ def test_the_shipped_files_are_report_runs_on_held_out_seeds():
             # a report run on today's report seed, or on one retired since (the model changed after
             # its run; the seed registry names it and its successor, and the old result stays shipped)
             retired = any(
-                use.space == "study" and use.first <= run["seed"] <= use.last and "next report uses seed" in use.used_for
+                use.space == "study"
+                and use.first <= run["seed"] <= use.last
+                and "next report uses seed" in use.used_for
                 for use in DEVELOPMENT
             )
             assert run["seed_status"] == "report seed"
