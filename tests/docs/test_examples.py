@@ -4,7 +4,9 @@ Each ```python block is executed as it stands, in a fresh namespace, with a temp
 folder as the working directory, so an example that drifts from the API fails here
 instead of in a reader's hands. A block that cannot run (it needs hardware or a
 display) is preceded by the line ``<!-- no-test -->``; there may be at most
-``MAX_UNTESTED`` of those, so that marking is an exception and not a way out.
+``MAX_UNTESTED`` of those, so that marking is an exception and not a way out. A block
+preceded by ``<!-- tested-by: tests/PATH.py -->`` is run by that test file (through
+``example_code``), which checks its results, so the run is not paid twice.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 DOC_FILES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 NO_TEST = "<!-- no-test -->"
+TESTED_BY = re.compile(r"^<!-- tested-by: (?P<path>tests/\S+\.py) -->$")
 MAX_UNTESTED = 3
 
 OPENING = re.compile(r"^(?P<indent>[ \t]*)```python[ \t]*$", re.MULTILINE)
@@ -41,6 +44,7 @@ class Example:
     line: int
     code: str
     untested: bool
+    tested_by: str | None = None
 
     @property
     def name(self) -> str:
@@ -55,7 +59,9 @@ def examples() -> list[Example]:
             before = text[: match.start()].rstrip().splitlines()
             line = text.count("\n", 0, match.start()) + 1
             code = textwrap.dedent(match["body"])
-            found.append(Example(path, line, code, bool(before) and before[-1].strip() == NO_TEST))
+            marker = before[-1].strip() if before else ""
+            tested_by = TESTED_BY.match(marker)
+            found.append(Example(path, line, code, marker == NO_TEST, tested_by["path"] if tested_by else None))
     return found
 
 
@@ -76,12 +82,30 @@ def test_untested_examples_are_few():
     assert len(untested) <= MAX_UNTESTED, f"{len(untested)} examples marked {NO_TEST}: {untested}"
 
 
+def example_code(doc: str, contains: str) -> str:
+    """The code of the one example in ``doc`` (a path below the repository) that
+    contains ``contains`` and is marked tested-by: for the test file that runs it."""
+    found = [e for e in EXAMPLES if e.path == ROOT / doc and e.tested_by and contains in e.code]
+    assert len(found) == 1, f"{len(found)} tested-by examples in {doc} contain {contains!r}"
+    return found[0].code
+
+
+def test_every_example_tested_elsewhere_is_run_by_its_test():
+    """A tested-by marker names an existing test file that calls ``example_code`` on
+    the marked example's document, so a marker cannot hide an example from every test."""
+    for example in [e for e in EXAMPLES if e.tested_by]:
+        test_file = ROOT / example.tested_by
+        assert test_file.is_file(), example.name
+        doc = example.path.relative_to(ROOT).as_posix()
+        assert f'example_code("{doc}"' in test_file.read_text(encoding="utf-8"), example.name
+
+
 def _missing_target_packages(code: str) -> list[str]:
     return [name for name in IMPORTS.findall(code) if name in TARGET_LAYOUT and importlib.util.find_spec(name) is None]
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("example", [e for e in EXAMPLES if not e.untested], ids=lambda e: e.name)
+@pytest.mark.parametrize("example", [e for e in EXAMPLES if not e.untested and not e.tested_by], ids=lambda e: e.name)
 def test_example_runs(example: Example, tmp_path, monkeypatch):
     missing = _missing_target_packages(example.code)
     if missing:

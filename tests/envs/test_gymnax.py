@@ -57,26 +57,21 @@ def test_spaces_and_errors(env):
 
 
 @pytest.mark.slow
-def test_rejax_dqn_trains_on_a_task(env):
-    """rejax's DQN, unchanged, trains on the paper's task for 2048 steps in 8
-    environments: every step taken, the Q-network updated from its initial weights, no
-    value or weight not finite."""
-    rejax = pytest.importorskip("rejax")
-    algo = rejax.DQN.create(
-        env=env,
-        env_params=env.default_params,
-        total_timesteps=TRAIN_STEPS,
-        eval_freq=TRAIN_STEPS,
-        num_envs=TRAIN_ENVS,
-        fill_buffer=256,
-        buffer_size=TRAIN_STEPS,
-        batch_size=32,
-        skip_initial_evaluation=True,
-    )
-    algo = algo.replace(eval_callback=lambda algo, state, rng: state.q_ts.params)  # rejax's own runs 128 episodes
+def test_rejax_dqn_trains_on_a_task(tmp_path, monkeypatch):
+    """The rejax example of docs/speed-control.md, run as it stands: rejax's DQN,
+    unchanged, trains on the paper's task for 2048 steps in 8 environments: every step
+    taken, the Q-network updated from its initial weights, no value or weight not
+    finite."""
+    pytest.importorskip("rejax")
+    from tests.docs.test_examples import example_code
+
+    monkeypatch.chdir(tmp_path)
+    namespace = {"__name__": "__docs_example__"}
+    exec(compile(example_code("docs/speed-control.md", "rejax.DQN.create"), "speed-control.md", "exec"), namespace)
+    algo, trained = namespace["algo"], namespace["trained"]
+    assert (algo.total_timesteps, algo.num_envs) == (TRAIN_STEPS, TRAIN_ENVS)
     key = jax.random.PRNGKey(0)
     initial = algo.init_state(key).q_ts.params
-    trained, evaluations = jax.jit(algo.train)(key)
     assert int(trained.global_step) == TRAIN_STEPS
     before, after = jax.tree.leaves(initial), jax.tree.leaves(trained.q_ts.params)
     assert all(np.all(np.isfinite(np.asarray(leaf))) for leaf in after)

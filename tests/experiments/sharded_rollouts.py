@@ -1,8 +1,11 @@
 """Run by ``test_sharding.py`` in a fresh process started with two host devices (the
 device count is fixed when JAX starts): ``python -m tests.experiments.sharded_rollouts
 OUT_DIR PART...`` with parts ``physics`` (a batched physics rollout of four
-environments), ``training`` (a short DQN training, the canonical test configuration of
-``tests.rl.canonical``) and ``evaluation`` (an evaluation rollout of four episodes).
+environments), ``training`` (the first chunk of the canonical test training of
+``tests.rl.canonical``: 100 iterations of 64 environments, the Q-network updated from
+the 79th on) and ``evaluation`` (an evaluation rollout of four episodes; the training's
+chunk holds its parts, the Q-network's forward pass over split environments and their
+episode ends, so ``test_sharding`` runs physics and training only).
 
 Each part runs twice: first on one device, as a one-device process runs it
 (``otgym.physics.sharding.environment_mesh`` answering None, so no array is constrained
@@ -44,10 +47,8 @@ def training():
     init, run_chunk, _ = make_train(config, make_env(spc.make_params(preset("paper"))))
     runner = jax.jit(init)(jax.random.PRNGKey(0))
     run_chunk = jax.jit(run_chunk)
-    metrics = []
-    for _ in range(config.n_chunks):
-        runner, chunk = run_chunk(runner)
-        metrics.append(chunk)
+    runner, chunk = run_chunk(runner)  # the first chunk: the updates from iteration 79 on are compared
+    metrics = [chunk]
     leaves = jax.tree_util.tree_leaves_with_path(runner.q_params)
     out = {f"train_q{jax.tree_util.keystr(path)}": leaf for path, leaf in leaves}
     out["train_obs"] = runner.obs
