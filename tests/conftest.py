@@ -69,20 +69,46 @@ def fixed_action_q_params():
     return make
 
 
-if os.environ.get("OTGYM_COMPILE_STATS"):  # a profile of the suite: XLA compilations per test, appended as JSON lines
+if os.environ.get("OTGYM_COMPILE_STATS"):  # a profile of the suite: XLA compilations and CPU per test, as JSON lines
     import json
+    import logging
+    import re
+    import resource
     import time
 
     _compiles: list[float] = []
+    _programs: list[tuple[str, float]] = []
     jax.monitoring.register_event_duration_secs_listener(
         lambda event, duration, **kwargs: _compiles.append(duration) if "backend_compile" in event else None
     )
 
+    class _ProgramNames(logging.Handler):
+        """The name and seconds of each XLA compilation over 1 s (JAX's log_compiles lines)."""
+
+        FINISHED = re.compile(r"Finished XLA compilation of (\S+) in ([0-9.e-]+) sec")
+
+        def emit(self, record):
+            found = self.FINISHED.search(record.getMessage())
+            if found and float(found[2]) > 1.0:
+                _programs.append((found[1], round(float(found[2]), 1)))
+
+    jax.config.update("jax_log_compiles", True)
+    _jax_log = logging.getLogger("jax")
+    _jax_log.addHandler(_ProgramNames())
+    _jax_log.setLevel(logging.DEBUG)
+    _jax_log.propagate = False
+
+    def _cpu_s() -> float:
+        own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_protocol(item, nextitem):
         _compiles.clear()
-        began = time.perf_counter()
+        _programs.clear()
+        began, cpu = time.perf_counter(), _cpu_s()
         yield
         with open(os.environ["OTGYM_COMPILE_STATS"], "a") as stats:
-            row = {"test": item.nodeid, "wall_s": time.perf_counter() - began, "compiles": len(_compiles)}
-            stats.write(json.dumps(row | {"compile_s": sum(_compiles)}) + "\n")
+            row = {"test": item.nodeid, "wall_s": time.perf_counter() - began, "cpu_s": _cpu_s() - cpu}
+            row |= {"compiles": len(_compiles), "compile_s": sum(_compiles), "programs": list(_programs)}
+            stats.write(json.dumps(row) + "\n")

@@ -328,8 +328,8 @@ def build_model(
     body_of_sphere[np.arange(n_spheres), sphere_body] = 1.0
     trap_sphere = tuple(sphere_start[b] + h for b, h in traps)
 
-    def arr(x):
-        return jnp.asarray(np.asarray(x, float), dtype)
+    def arr(x):  # rounded to dtype on the host: no conversion program compiled per field
+        return jnp.asarray(np.asarray(x, float).astype(dtype))
 
     return Model(
         sphere_offset_um=arr(offsets).reshape(n_spheres, 2),

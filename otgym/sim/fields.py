@@ -120,14 +120,16 @@ def fields_from(fields: ChipFields, fluid: np.ndarray, dtype=jnp.float32) -> tup
     """Wrap derived numpy fields as JAX samplers; the flow is scaled from the depth
     average to the focal plane (mid-height) by ``fields.mid_height_factor``."""
     factor = fields.mid_height_factor
+
+    def device(x):  # rounded to dtype on the host: no conversion program compiled per field
+        return jnp.asarray(np.asarray(x).astype(dtype))
+
     flow = GridFlow.from_arrays(
-        jnp.asarray(factor * fields.flow.node_velocity_um_s(fluid), dtype),
-        jnp.asarray(factor * fields.flow.node_vorticity_per_s(fluid), dtype),
+        device(factor * fields.flow.node_velocity_um_s(fluid)),
+        device(factor * fields.flow.node_vorticity_per_s(fluid)),
         fields.flow.pixel_size_um,
     )
-    walls = GridWalls.from_arrays(
-        jnp.asarray(fields.distance_um, dtype), jnp.asarray(fields.normal, dtype), fields.flow.pixel_size_um
-    )
+    walls = GridWalls.from_arrays(device(fields.distance_um), device(fields.normal), fields.flow.pixel_size_um)
     return flow, walls
 
 

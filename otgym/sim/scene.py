@@ -188,11 +188,11 @@ def _assembly_pose(scene_model: ph.Model, config: SceneConfig, centre, heading):
 
 
 def _assembly_radius_um(model: ph.Model, config: SceneConfig, n_payload: int) -> float:
-    pose = np.asarray(_assembly_pose(model, config, jnp.zeros(2), jnp.zeros(())))
+    pose = np.asarray(jax.jit(lambda m, c, h: _assembly_pose(m, config, c, h))(model, jnp.zeros(2), jnp.zeros(())))
     full = np.zeros((model.n_bodies, 3))
     full[:n_payload] = pose
     full[n_payload:, :2] = 1e6
-    xy = np.asarray(ph.sphere_positions_um(model, jnp.asarray(full, model.sphere_radius_um.dtype)))
+    xy = np.asarray(jax.jit(ph.sphere_positions_um)(model, jnp.asarray(full.astype(model.sphere_radius_um.dtype))))
     radii = np.asarray(model.sphere_radius_um)
     payload = np.array([b < n_payload for b in model.sphere_body])
     return float(np.max(np.linalg.norm(xy[payload], axis=1) + radii[payload]))

@@ -184,6 +184,9 @@ _reset_one = jax.jit(sc.reset_at)
 """``sc.reset_at`` compiled whole (bitwise the op-by-op result, without compiling each op)."""
 _reset_batch = jax.jit(jax.vmap(sc.reset_at, in_axes=(None, 0, None, None)))
 """``sc.reset_at`` for a batch of keys, compiled whole."""
+_start_heading = jax.jit(lambda route: fm.heading_at(route, 0.0))
+"""The route's heading at its start (rad), one compiled program instead of a dozen eager ones."""
+_formation_offsets = jax.jit(fm.formation_offsets)
 
 
 class InteractiveTask:
@@ -205,9 +208,9 @@ class InteractiveTask:
         self.route = fm.dense_path(plan.smoothed_um)
         self.route_um = np.asarray(self.route.points_um, float)
         self.route_arc_um = np.asarray(self.route.arc_um, float)
-        heading = fm.heading_at(self.route, 0.0)
+        heading = _start_heading(self.route)
         gripped = _reset_one(self.scene, jax.random.PRNGKey(0), self.route.points_um[0], heading)
-        self.offsets_um = np.asarray(fm.formation_offsets(gripped.physics.trap_xy_um, self.route.points_um[0], heading))
+        self.offsets_um = np.asarray(_formation_offsets(gripped.physics.trap_xy_um, self.route.points_um[0], heading))
         model = self.scene.model
         self.trap_sphere = np.asarray(model.trap_sphere, int)
         self.trap_robot = np.asarray([model.sphere_body[s] for s in self.trap_sphere], int)  # (T,) robot of each trap
@@ -248,7 +251,7 @@ class InteractiveTask:
         """E environments, one per scenario: the cell at the route's start, the robots
         ``approach_gap_um`` out from their grip, the obstacles at their tracks' starts."""
         n_env = len(scenarios)
-        heading = fm.heading_at(self.route, 0.0)
+        heading = _start_heading(self.route)
         keys = jax.random.split(key, n_env)
         state = _reset_batch(self.scene, keys, self.route.points_um[0], heading)
         pose = np.array(state.physics.pose)
