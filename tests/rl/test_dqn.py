@@ -1,5 +1,7 @@
-"""Pure-JAX DQN: the whole loop jits and vmaps over seeds on the real task; the
-epsilon schedule; policy files round-trip and reject wrong or missing files."""
+"""Pure-JAX DQN: the whole loop jits and vmaps over seeds (on the corridor MDP of
+``test_dqn_known_mdp``, a program that compiles in seconds; the real task's training
+chunk is compiled once for the suite by ``tests.rl.canonical``'s users); the epsilon
+schedule; policy files round-trip and reject wrong or missing files."""
 
 import dataclasses
 
@@ -7,22 +9,20 @@ import jax
 import numpy as np
 import pytest
 
-from otgym.experiments.speed_control import make_env
 from otgym.rl.dqn import DQNConfig, epsilon, make_train
+from otgym.rl.network import QNetwork
 from otgym.rl.policy import load_policy, save_policy
 from otgym.tasks.transport import core as tr
+from tests.rl.test_dqn_known_mdp import corridor_env
 
 TINY = DQNConfig(
     n_envs=8, total_env_steps=160, chunk_iters=10, buffer_size=64, batch_size=16, learning_starts=32, target_every=5
 )
 
 
-pytestmark = [pytest.mark.xdist_group("dqn_trained"), pytest.mark.slow]  # one worker trains the module fixture once
-
-
-@pytest.fixture(scope="session")  # kept if the worker runs another module between its tests
-def trained(paper_params):
-    _, _, train = make_train(TINY, make_env(paper_params))
+@pytest.fixture(scope="module")
+def trained():
+    _, _, train = make_train(TINY, corridor_env())
     runner, metrics = jax.jit(jax.vmap(train))(jax.random.split(jax.random.PRNGKey(0), 2))
     return runner, metrics
 
@@ -45,9 +45,8 @@ def test_epsilon_decays_linearly_to_its_end():
     assert float(epsilon(config, 19)) == pytest.approx(0.01)
 
 
-def test_policy_file_round_trip_and_errors(trained, tmp_path):
-    runner, _ = trained
-    q_params = jax.tree.map(lambda a: a[0], runner.q_params)
+def test_policy_file_round_trip_and_errors(tmp_path):
+    q_params = QNetwork(6, (128, 128)).init(jax.random.PRNGKey(3), np.zeros((1, tr.OBS_SIZE), np.float32))
     path = save_policy(tmp_path / "policy.npz", q_params, {"preset": "paper", "hidden": [128, 128]})
     loaded, meta = load_policy(path, tr.OBS_SIZE, 6)
     assert meta["preset"] == "paper"
