@@ -7,6 +7,8 @@ from gymnasium.utils.env_checker import check_env
 
 import otgym.envs  # noqa: F401  (registers the ids)
 
+pytestmark = pytest.mark.xdist_group("gym_envs")  # one worker compiles each task's single and vector step once
+
 
 @pytest.mark.parametrize("env_id", ["otgym/SpeedControl-v0", "otgym/CellTransport-v0"])
 @pytest.mark.slow

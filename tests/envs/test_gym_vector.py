@@ -15,6 +15,8 @@ import otgym.envs  # noqa: F401  (registers the ids)
 from otgym.envs.gym_adapter import TaskEnv
 from otgym.envs.gym_vector import TaskVectorEnv
 
+pytestmark = pytest.mark.xdist_group("gym_envs")  # one worker compiles each task's single and vector step once
+
 N = 4
 SPEED_ID, CELL_ID = "otgym/SpeedControl-v0", "otgym/CellTransport-v0"
 

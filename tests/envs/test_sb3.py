@@ -21,6 +21,8 @@ from stable_baselines3.common.env_util import make_vec_env  # noqa: E402
 
 import otgym.envs  # noqa: E402,F401  (registers the ids)
 
+pytestmark = pytest.mark.xdist_group("gym_envs")  # one worker compiles each task's single and vector step once
+
 ENV_IDS = ["otgym/SpeedControl-v0", "otgym/CellTransport-v0"]
 
 
