@@ -4,7 +4,8 @@ description, tags, extras)``. Chips are not listed: each ``NAME.png`` with its s
 
 Tags say what a part is usable for. Devices: ``play`` (``otgym play --device``),
 ``node`` (``otgym node device --device``), ``window`` (the window node's own input),
-``driver`` (a ``Device`` that ``otgym.teleop.device.open_device`` builds by name).
+``driver`` (a ``Device`` that ``otgym.teleop.device.open_device`` builds by name);
+extra ``play_binding``: how it drives the two robots (``otgym.ui.bindings.PlayBinding``).
 Navigators: ``trial-mode`` (also a mode of the batched trials, beside manual, shared
 and autonomous), ``shared`` (the autonomy that shared control blends with); extras
 ``label`` (its short name in reports), ``about`` (what it does, in a report's words) and
@@ -84,7 +85,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.teleop.pygame_devices:KeyboardMouseDevice",
         "arrow keys move the robots, the mouse drags one (the window's keyboard and mouse)",
         ("play", "node", "window", "driver"),
-        {},
+        {"play_binding": "otgym.ui.bindings:ONE_WINDOW_DEVICE_FOR_BOTH"},
     ),
     (
         "devices",
@@ -92,7 +93,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.teleop.pygame_devices:GamepadDevice",
         "a gamepad's two sticks, one robot each",
         ("play", "node", "window", "driver"),
-        {},
+        {"play_binding": "otgym.ui.bindings:A_STICK_EACH"},
     ),
     (
         "devices",
@@ -100,7 +101,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.teleop.touch:TouchDevice",
         "3D Systems' Geomagic Touch haptic stylus, with force feedback (needs OpenHaptics)",
         ("play", "node", "driver"),
-        {},
+        {"play_binding": "otgym.ui.bindings:A_DEVICE_EACH_BY_NAME"},
     ),
     (
         "devices",
@@ -108,7 +109,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.teleop.servo:simulated_haptic_device",
         "a simulated haptic stylus in its own 1 kHz servo process, with force feedback",
         ("play", "node", "driver"),
-        {},
+        {"play_binding": "otgym.ui.bindings:ROBOT_0_ONLY"},
     ),
     (
         "devices",

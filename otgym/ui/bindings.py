@@ -33,27 +33,60 @@ process boundary it need not cross.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 
+from otgym import registry
 from otgym.runtime.loop import DeviceBinding
 from otgym.runtime.trials import TASK_RETARGET
 from otgym.teleop.device import Device, open_device
 from otgym.teleop.feedback import FeedbackConfig
 from otgym.teleop.mouse_drag import MouseDragDevice
-from otgym.ui.device_names import TOUCH_NAMES, check_device_name
+from otgym.ui.device_names import TOUCH_NAMES
+
+
+@dataclasses.dataclass(frozen=True)
+class PlayBinding:
+    """How one ``--device`` drives the two robots; a device's registry entry names its
+    binding in the extra ``play_binding`` (``"module:attribute"``), and a device without
+    one is ``ROBOT_0_ONLY``."""
+
+    window: tuple[dict, ...] = ()
+    """``open_device`` options of each device the window reads (its SDL events)."""
+    robots: tuple[int | None, int | None] = (None, None)
+    """Robot 0's and robot 1's window device: an index into ``window`` (None: none)."""
+    session: tuple[dict | None, dict | None] = (None, None)
+    """``open_device`` options of each robot's device opened in the session's process,
+    where ``window`` is empty (None: that robot has the mouse only)."""
+    clutch: bool = True
+    """False for a rate device that stops when its key is released: no clutch."""
+
+
+ONE_WINDOW_DEVICE_FOR_BOTH = PlayBinding(window=({"pump_events": False},), robots=(0, 0), clutch=False)
+"""The keyboard: one window device moves both robots as a formation."""
+A_STICK_EACH = PlayBinding(
+    window=({"stick": "left", "pump_events": False}, {"stick": "right", "pump_events": False}), robots=(0, 1)
+)
+"""The gamepad: the left stick drives robot 0, the right stick robot 1."""
+A_DEVICE_EACH_BY_NAME = PlayBinding(session=({"device_name": TOUCH_NAMES[0]}, {"device_name": TOUCH_NAMES[1]}))
+"""The Touch: one stylus per robot, found by its name in Touch Setup."""
+ROBOT_0_ONLY = PlayBinding(session=({}, None))
+"""One device opened in the session's process for robot 0 (the simulated stylus)."""
+
+
+def play_binding(name: str) -> PlayBinding:
+    """The binding of registered device ``name`` (ValueError for an unknown one)."""
+    found = registry.entry("devices", name)
+    target = found.extras.get("play_binding")
+    if target is None:
+        return ROBOT_0_ONLY if "play" in found.tags else PlayBinding()
+    module, _, attribute = target.partition(":")
+    return getattr(importlib.import_module(module), attribute)
 
 
 def window_devices(name: str) -> list[Device]:
     """The devices of ``--device name`` that the window reads (constructed, not
     started): the keyboard, or the gamepad's left and right stick; none otherwise."""
-    check_device_name(name)
-    if name == "keyboard":
-        return [open_device("keyboard", pump_events=False)]
-    if name == "gamepad":
-        return [
-            open_device("gamepad", stick="left", pump_events=False),
-            open_device("gamepad", stick="right", pump_events=False),
-        ]
-    return []
+    return [open_device(name, **options) for options in play_binding(name).window]
 
 
 def robot_primaries(name: str, windowed: list[Device]) -> tuple[Device | None, Device | None]:
@@ -61,14 +94,10 @@ def robot_primaries(name: str, windowed: list[Device]) -> tuple[Device | None, D
     devices ``windowed`` (``window_devices(name)``, or what stands for them in another
     process), or the haptic devices opened here. The Touch raises the teleop layer's
     DeviceError at once without pyOpenHaptics and its runtime."""
-    check_device_name(name)
-    if name == "keyboard":
-        return windowed[0], windowed[0]
-    if name == "gamepad":
-        return windowed[0], windowed[1]
-    if name == "touch":
-        return open_device("touch", device_name=TOUCH_NAMES[0]), open_device("touch", device_name=TOUCH_NAMES[1])
-    return open_device("simulated"), None
+    binding = play_binding(registry.check("devices", name, "play"))
+    if binding.window:
+        return tuple(None if index is None else windowed[index] for index in binding.robots)
+    return tuple(None if options is None else open_device(name, **options) for options in binding.session)
 
 
 def primary_devices(name: str) -> tuple[Device | None, Device | None]:
@@ -76,11 +105,12 @@ def primary_devices(name: str) -> tuple[Device | None, Device | None]:
     return robot_primaries(name, window_devices(name))
 
 
-def play_bindings(primaries, keyboard: bool, feedback: FeedbackConfig | None = None) -> list[DeviceBinding]:
+def play_bindings(primaries, clutch: bool = True, feedback: FeedbackConfig | None = None) -> list[DeviceBinding]:
     """One binding per robot, a ``MouseDragDevice`` over each primary (None: mouse
-    only); ``feedback``: the styluses' feedback (``trials.task_feedback``, the scale at
-    which the hand-trap loop is stable)."""
-    retarget = dataclasses.replace(TASK_RETARGET, clutch_bit=None) if keyboard else TASK_RETARGET
+    only); ``clutch``: the device's ``PlayBinding.clutch``; ``feedback``: the styluses'
+    feedback (``trials.task_feedback``, the scale at which the hand-trap loop is
+    stable)."""
+    retarget = TASK_RETARGET if clutch else dataclasses.replace(TASK_RETARGET, clutch_bit=None)
     bindings = []
     for robot, primary in enumerate(primaries):
         config = retarget if primary is not None else TASK_RETARGET

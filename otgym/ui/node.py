@@ -333,7 +333,7 @@ def run_window(
     from otgym.ui.app import PlayApp
     from otgym.ui.bindings import window_devices
 
-    windowed = window_devices(kind) if kind != "mouse" else []
+    windowed = window_devices(kind)  # none for the mouse alone
     pygame.display.init()
     pygame.font.init()
     try:

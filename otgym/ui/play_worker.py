@@ -25,7 +25,7 @@ def play_setup(
     from otgym.runtime.trials import stylus_feedback
     from otgym.sim.chip import load_chip
     from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
-    from otgym.ui.bindings import play_bindings, robot_primaries
+    from otgym.ui.bindings import play_binding, play_bindings, robot_primaries
     from otgym.ui.recording import SessionRecording
 
     config = InteractiveConfig(scene=interactive_scene(chip=load_chip(chip)))
@@ -35,7 +35,7 @@ def play_setup(
     feedback = stylus_feedback(task)
     primaries = robot_primaries(device, list(forwarded))
     recording = SessionRecording(recording_path)
-    bindings = recording.wrap(play_bindings(primaries, keyboard=device == "keyboard", feedback=feedback))
+    bindings = recording.wrap(play_bindings(primaries, clutch=play_binding(device).clutch, feedback=feedback))
 
     def discard() -> None:  # the session never started: leave no recording behind
         recording.close()

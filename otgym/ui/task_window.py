@@ -258,7 +258,7 @@ def play_task(
     ``out/episodes.csv`` (and the screenshot). None if closed before it was ready."""
     from otgym import tasks
     from otgym.teleop.device import DeviceError, start_devices
-    from otgym.ui.bindings import play_bindings, robot_primaries, window_devices
+    from otgym.ui.bindings import play_binding, play_bindings, robot_primaries, window_devices
     from otgym.ui.startup import StartupAborted, StartupStatus, draw_startup, wait_in_window
 
     task = check_playable(tasks.load(task_name))
@@ -283,7 +283,7 @@ def play_task(
             wait_in_window(screen, lambda: built.append(Compiled.build(task, preset)), title, status)
         except StartupAborted:
             return None
-        binding = play_bindings([primary], keyboard=bool(keyboards))[0]
+        binding = play_bindings([primary], clutch=play_binding(device).clutch)[0]
         window = TaskWindow(built[0], primary, binding.retarget, seed=seed, keyboards=keyboards, screen=screen)
         window.run(duration_s)
         out.mkdir(parents=True, exist_ok=True)

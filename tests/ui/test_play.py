@@ -79,7 +79,7 @@ def session(task, tmp_path):
     steps frames, each advancing the clock: 60 ms, three ticks, by default)."""
     pygame.init()
     spy = SpyStylus()
-    simulation = Session(task, play_bindings([spy, None], keyboard=False), "T1", "shared", seed=3, clock=SteppedClock())
+    simulation = Session(task, play_bindings([spy, None], clutch=True), "T1", "shared", seed=3, clock=SteppedClock())
     simulation.start()
     app = PlayApp(simulation, tmp_path, questionnaire=False, step=True)
     yield app, simulation, spy
@@ -328,7 +328,7 @@ def test_a_finished_trial_asks_the_questionnaires_and_saves_the_answers(task, tm
     pygame.init()
     clock = SteppedClock()
     simulation = Session(
-        task, play_bindings([SpyStylus(), None], keyboard=False), "Q1", "manual", seed=3, duration_s=0.2, clock=clock
+        task, play_bindings([SpyStylus(), None], clutch=True), "Q1", "manual", seed=3, duration_s=0.2, clock=clock
     )
     simulation.start()
     try:
@@ -368,7 +368,7 @@ def test_the_keyboard_moves_both_robots_as_a_formation(task):
     pygame.init()
     primaries = primary_devices("keyboard")
     clock = SteppedClock()
-    simulation = Session(task, play_bindings(primaries, keyboard=True), "K1", "manual", seed=3, clock=clock)
+    simulation = Session(task, play_bindings(primaries, clutch=False), "K1", "manual", seed=3, clock=clock)
     simulation.start()
     try:
         simulation.advance()

@@ -93,7 +93,7 @@ def window(compiled):
     pygame.init()
     keyboard = open_device("keyboard", pump_events=False)
     keyboard.start()
-    retarget = play_bindings([keyboard], keyboard=True)[0].retarget
+    retarget = play_bindings([keyboard], clutch=False)[0].retarget
     window = TaskWindow(compiled, keyboard, retarget, keyboards=[keyboard])
     window.mouse.start()
     yield window
