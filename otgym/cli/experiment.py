@@ -58,6 +58,7 @@ def register(app: typer.Typer) -> None:
     )
     app.add_typer(experiment, name="experiment")
     from otgym.cli.calibrate import register as register_calibrate
+    from otgym.cli.distil_mpc import register as register_distil_mpc
     from otgym.cli.human_sensitivity import register as register_human_sensitivity
     from otgym.cli.speed_front import register as register_speed_front
     from otgym.cli.speed_policy import register as register_speed_policy
@@ -66,6 +67,7 @@ def register(app: typer.Typer) -> None:
     register_calibrate(experiment)
     register_human_sensitivity(experiment)
     register_speed_policy(experiment)
+    register_distil_mpc(experiment)
 
     @experiment.command("shared-control")
     def shared_control(

@@ -2,15 +2,15 @@
 trials on development scenarios, train the clone, evaluate it in mode ``mpc`` trials
 with the clone as navigator.
 
-    python -m otgym.experiments.distil_mpc collect OUT.npz --scenarios 32 --first 900000
-    python -m otgym.experiments.distil_mpc train DATA.npz POLICY.npz
-    python -m otgym.experiments.distil_mpc dagger DATA.npz POLICY.npz OUT_DIR --iterations 3 --scenarios 8 \
-        --first 900100 --beta 0.5 --decay 0 --time-limit 90
-    python -m otgym.experiments.distil_mpc evaluate POLICY.npz --trials 64 --seed 14 [--mpc]
+    otgym experiment distil-mpc collect OUT.npz --scenarios 32 --first 900000
+    otgym experiment distil-mpc train DATA.npz POLICY.npz
+    otgym experiment distil-mpc dagger DATA.npz POLICY.npz OUT_DIR --iterations 3 --scenarios 8 \
+        --first 900100 --beta 0.5 --decay 0 --time-limit-s 90
+    otgym experiment distil-mpc evaluate POLICY.npz --trials 64 --seed 14 [--mpc]
 
-``dagger`` (Ross, Gordon & Bagnell 2011): each round drives the current clone (mixed
+(``otgym.cli.distil_mpc`` parses and checks; this module runs.) ``dagger`` (Ross, Gordon & Bagnell 2011): each round drives the current clone (mixed
 with the MPC by ``--beta``, times ``--decay`` each round) on the next ``--scenarios``
-development scenarios (simulation seed 0, trials cut at ``--time-limit`` s), labels
+development scenarios (simulation seed 0, trials cut at ``--time-limit-s``), labels
 the states it visits with the MPC's decisions, aggregates them with all data so far and
 retrains; it writes OUT_DIR/dagger<round>.data.npz and OUT_DIR/dagger<round>.policy.npz
 after every round (rounds use scenarios first, first + scenarios, ...).
@@ -18,9 +18,8 @@ after every round (rounds use scenarios first, first + scenarios, ...).
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import functools
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -70,36 +69,26 @@ def _kept(holder: dict) -> int:
     return sum(len(f) for f in holder["nav"].features) if "nav" in holder else 0
 
 
-def _positive(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive whole number, got {text}")
-    return value
+DEVELOPMENT_FIRST_SCENARIO = 900_000
+"""Collection and DAgger run on development scenarios only: numbers from here on."""
 
 
-def _fraction(text: str) -> float:
-    value = float(text)
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be between 0 and 1, got {text}")
-    return value
+@dataclasses.dataclass(frozen=True)
+class DaggerRun:
+    """A ``dagger`` run: the data and clone to start from, the output folder and the
+    rounds' sizes (``otgym experiment distil-mpc dagger --help``)."""
 
-
-def _check(args) -> None:
-    """Bad input as one line before any work: ValueError with the reason."""
-    if args.command in ("collect", "dagger") and args.first < 900000:
-        raise ValueError(f"{args.command} only from development scenarios (--first >= 900000)")
-    if args.command == "dagger" and args.time_limit <= 0:
-        raise ValueError(f"--time-limit must be positive, got {args.time_limit}")
-    for name in ("data", "policy"):
-        path = getattr(args, name, None)
-        if path is not None and not Path(path).is_file():
-            raise ValueError(f"{path} is not a file")
-    out = getattr(args, "out", None)
-    if args.command == "dagger":
-        if not Path(out).is_dir():
-            raise ValueError(f"the output folder {out} does not exist")
-    elif out is not None and not Path(out).resolve().parent.is_dir():
-        raise ValueError(f"the folder of {out} does not exist")
+    data: Path
+    policy: Path
+    out: Path
+    iterations: int = 1
+    scenarios: int = 8
+    first: int = 900_100
+    beta: float = 0.0
+    decay: float = 1.0
+    label_every: int = 5
+    epochs: int = 200
+    time_limit_s: float = 300.0
 
 
 def _fit(f, a, epochs: int) -> ClonedPolicy:
@@ -117,9 +106,10 @@ def _fit(f, a, epochs: int) -> ClonedPolicy:
     return policy
 
 
-def _dagger(args) -> None:
+def dagger_rounds(args: DaggerRun) -> None:
+    """Run ``args.iterations`` DAgger rounds, writing each round's data and clone."""
     data = np.load(args.data)
-    task = _task(args.time_limit)
+    task = _task(args.time_limit_s)
     out = Path(args.out)
 
     def collect(policy, round_):
@@ -167,82 +157,39 @@ def _dagger(args) -> None:
         )
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="distil_mpc")
-    sub = parser.add_subparsers(dest="command", required=True)
-    collect = sub.add_parser("collect")
-    collect.add_argument("out")
-    collect.add_argument("--scenarios", type=_positive, default=32)
-    collect.add_argument("--first", type=int, default=900000)
-    fit = sub.add_parser("train")
-    fit.add_argument("data")
-    fit.add_argument("out")
-    fit.add_argument("--epochs", type=_positive, default=200)
-    aggregate = sub.add_parser("dagger")
-    aggregate.add_argument("data")
-    aggregate.add_argument("policy")
-    aggregate.add_argument("out")
-    aggregate.add_argument("--iterations", type=_positive, default=1)
-    aggregate.add_argument("--scenarios", type=_positive, default=8)
-    aggregate.add_argument("--first", type=int, default=900100)
-    aggregate.add_argument(
-        "--beta",
-        type=_fraction,
-        default=0.0,
-        help="probability that a labelled decision executes the MPC's action in round 1",
+def collect(out: Path, scenarios: int = 32, first: int = DEVELOPMENT_FIRST_SCENARIO) -> None:
+    """Record the MPC's (features, action) pairs on ``scenarios`` development scenarios."""
+    holder = {}
+
+    def factory(*a, **k):
+        holder["nav"] = RecordingMPCNavigator(*a, **k)
+        return holder["nav"]
+
+    _trials(_task(), range(first, first + scenarios), 0, factory, {}, pairs=lambda: _kept(holder))
+    nav = holder["nav"]
+    np.savez(out, features=np.concatenate(nav.features), actions=np.concatenate(nav.actions))
+    print(f"{sum(len(f) for f in nav.features)} pairs -> {out}")
+
+
+def fit_file(data: Path, out: Path, epochs: int = 200) -> None:
+    """Train the clone on a collected data file and save it."""
+    loaded = np.load(data)
+    _fit(loaded["features"], loaded["actions"], epochs).save(out)
+
+
+def evaluate(policy: Path, trials: int = 64, seed: int = 14, mpc: bool = False) -> None:
+    """The clone (or, with ``mpc``, the MPC itself) as navigator of mode ``mpc`` trials
+    on scenarios ``seed * 10000 + t``; writes POLICY[.mpc].seedSEED.csv beside it."""
+    task = _task()
+    scenarios = [seed * 10_000 + t for t in range(trials)]
+    stats = {}
+    navigator = None if mpc else functools.partial(PolicyNavigator, policy=ClonedPolicy.load(policy))
+    began = time.perf_counter()
+    rows = _trials(task, scenarios, seed, navigator, stats)
+    frame = pd.DataFrame(rows)
+    print(summarize(frame).T.to_string())
+    seconds, sizes = np.asarray(stats["replan_seconds"]), np.asarray(stats["environments_planned"])
+    print(
+        f"decision time per environment {1e3 * seconds.sum() / sizes.sum():.3f} ms; wall {time.perf_counter() - began:.0f} s"
     )
-    aggregate.add_argument(
-        "--decay",
-        type=_fraction,
-        default=1.0,
-        help="beta of round i is beta * decay ** (i - 1) (Ross et al.'s beta_i = p ** (i - 1))",
-    )
-    aggregate.add_argument("--label-every", type=_positive, default=5)
-    aggregate.add_argument("--epochs", type=_positive, default=200)
-    aggregate.add_argument("--time-limit", type=float, default=300.0)
-    evaluate = sub.add_parser("evaluate")
-    evaluate.add_argument("policy")
-    evaluate.add_argument("--trials", type=_positive, default=64)
-    evaluate.add_argument("--seed", type=int, default=14)
-    evaluate.add_argument("--mpc", action="store_true")
-    args = parser.parse_args(argv)
-    try:
-        _check(args)
-    except ValueError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
-    if args.command == "collect":
-        holder = {}
-
-        def factory(*a, **k):
-            holder["nav"] = RecordingMPCNavigator(*a, **k)
-            return holder["nav"]
-
-        _trials(_task(), range(args.first, args.first + args.scenarios), 0, factory, {}, pairs=lambda: _kept(holder))
-        nav = holder["nav"]
-        np.savez(args.out, features=np.concatenate(nav.features), actions=np.concatenate(nav.actions))
-        print(f"{sum(len(f) for f in nav.features)} pairs -> {args.out}")
-    elif args.command == "train":
-        data = np.load(args.data)
-        _fit(data["features"], data["actions"], args.epochs).save(args.out)
-    elif args.command == "dagger":
-        _dagger(args)
-    else:
-        task = _task()
-        scenarios = [args.seed * 10_000 + t for t in range(args.trials)]
-        stats = {}
-        navigator = None if args.mpc else functools.partial(PolicyNavigator, policy=ClonedPolicy.load(args.policy))
-        began = time.perf_counter()
-        rows = _trials(task, scenarios, args.seed, navigator, stats)
-        frame = pd.DataFrame(rows)
-        print(summarize(frame).T.to_string())
-        seconds, sizes = np.asarray(stats["replan_seconds"]), np.asarray(stats["environments_planned"])
-        print(
-            f"decision time per environment {1e3 * seconds.sum() / sizes.sum():.3f} ms; wall {time.perf_counter() - began:.0f} s"
-        )
-        frame.to_csv(args.policy + (".mpc" if args.mpc else "") + f".seed{args.seed}.csv", index=False)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+    frame.to_csv(str(policy) + (".mpc" if mpc else "") + f".seed{seed}.csv", index=False)

@@ -153,30 +153,33 @@ def test_dagger_corrects_the_covariate_shift_of_plain_cloning():
 @pytest.mark.parametrize(
     "argv, reason",
     [
-        (["collect", "x.npz", "--first", "130000"], "development scenarios"),
-        (["dagger", "d.npz", "p.npz", ".", "--first", "140000"], "development scenarios"),
-        (["dagger", "missing.npz", "missing.npz", "."], "is not a file"),
-        (["train", "missing.npz", "out.npz"], "is not a file"),
-        (["evaluate", "missing.npz"], "is not a file"),
+        (["collect", "x.npz", "--first", "130000"], "development scenario"),
+        (["dagger", "d.npz", "p.npz", ".", "--first", "140000"], "development scenario"),
+        (["dagger", "missing.npz", "missing.npz", "."], "does not exist"),
+        (["train", "missing.npz", "out.npz"], "does not exist"),
+        (["evaluate", "missing.npz"], "does not exist"),
         (["collect", "no/such/folder/x.npz"], "does not exist"),
     ],
 )
-def test_distil_script_refuses_bad_input_in_one_line_before_any_work(argv, reason, tmp_path, monkeypatch, capsys):
-    from otgym.experiments.distil_mpc import main
+def test_distil_command_refuses_bad_input_in_one_line_before_any_work(argv, reason, tmp_path, monkeypatch):
+    from tests.otgym_cli import run_otgym
 
     monkeypatch.chdir(tmp_path)
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert err.startswith("error: ") and reason in err and err.count("\n") == 1
-    assert list(tmp_path.iterdir()) == []  # nothing written
+    if argv[0] == "dagger" and "missing.npz" not in argv:
+        for name in argv[1:3]:
+            (tmp_path / name).write_bytes(b"")
+    before = sorted(tmp_path.iterdir())
+    run = run_otgym(["experiment", "distil-mpc", *argv])
+    assert run.returncode == 2
+    assert run.stderr.startswith("error: ") and reason in run.stderr and run.stderr.count("\n") == 1, run.stderr
+    assert sorted(tmp_path.iterdir()) == before  # nothing written
 
 
-def test_dagger_refuses_an_output_folder_that_does_not_exist(tmp_path, capsys):
-    from otgym.experiments.distil_mpc import main
+def test_dagger_refuses_an_output_folder_that_does_not_exist(tmp_path):
+    from tests.otgym_cli import run_otgym
 
     for name in ("d.npz", "p.npz"):
         (tmp_path / name).write_bytes(b"")
-    assert main(["dagger", str(tmp_path / "d.npz"), str(tmp_path / "p.npz"), str(tmp_path / "no")]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith("error: ") and "does not exist" in err and err.count("\n") == 1
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.npz", "p.npz"]
+    run = run_otgym(["experiment", "distil-mpc", "dagger", tmp_path / "d.npz", tmp_path / "p.npz", tmp_path / "no"])
+    assert run.returncode == 2 and run.stderr.startswith("error: ") and "does not exist" in run.stderr
+    assert run.stderr.count("\n") == 1 and sorted(p.name for p in tmp_path.iterdir()) == ["d.npz", "p.npz"]
