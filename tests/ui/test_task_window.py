@@ -201,6 +201,8 @@ def test_a_played_session_is_recorded_and_replay_summarises_it(compiled, tmp_pat
     assert task["metrics"] == {"success": 0.5}
     printed = run_otgym(["replay", tmp_path / "session.mcap"])
     assert printed.returncode == 0, printed.stderr
-    assert "task walker (seed 0): 2 episode(s) (2 terminated), 1 succeeded; mean time to success 0.50 s" in printed.stdout
+    assert (
+        "task walker (seed 0): 2 episode(s) (2 terminated), 1 succeeded; mean time to success 0.50 s" in printed.stdout
+    )
     refused = run_otgym(["replay", tmp_path / "session.mcap", "--out", tmp_path / "frames"])
     assert refused.returncode == 2 and refused.stderr.count("error:") == 1 and "--task walker" in refused.stderr
