@@ -180,8 +180,18 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     _one("transport", 1, "the demo's whole-path transport (otgym demo --runs 8 --seed 1)"),
     # the assemble and orient tasks' evaluation episodes
     _one("assemble", 0, "the baseline's pace table in docs/tasks.md (64 episodes per pace, ring and ring-16)"),
-    _one("assemble", 100, "the development learned pace against the baseline (64 episodes)"),
-    _one("orient", 1, "the scripted policies and the development DQN in docs/tasks.md (64 episodes)"),
+    _one(
+        "assemble",
+        100,
+        "the development learned pace against the baseline (64 episodes); otgym experiment assemble's "
+        "cost measured on 16 episodes before its report run",
+    ),
+    _one(
+        "orient",
+        1,
+        "the scripted policies and the development DQN in docs/tasks.md (64 episodes); otgym experiment "
+        "orient's cost measured on 16 episodes before its report run",
+    ),
 )
 
 
