@@ -8,8 +8,6 @@ summary gives back. Only the tasks' resets are compiled (no step). The window's 
 
 from __future__ import annotations
 
-import base64
-
 import jax
 import numpy as np
 import pytest
@@ -18,9 +16,20 @@ from otgym import tasks
 from otgym.record.mcap_file import read_recording
 from otgym.record.replay import summary
 from otgym.ui.task_recording import TaskRecording, info_metrics
-from tests.bus.test_foxglove import scene_class
 
 pytest.importorskip("foxglove")
+
+
+def scene_class(schema_data: bytes):
+    """The protobuf class of ``foxglove.SceneUpdate`` from the recorded FileDescriptorSet."""
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    files = descriptor_pb2.FileDescriptorSet.FromString(schema_data)
+    pool = descriptor_pool.DescriptorPool()
+    for file in files.file:
+        pool.Add(file)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName("foxglove.SceneUpdate"))
+
 
 STAMP_S = 1_700_000_000.0
 
@@ -30,10 +39,7 @@ def recorded_scenes(path):
 
     with open(path, "rb") as stream:
         found = list(make_reader(stream).iter_messages(topics=["/otgym/scene"]))
-    return [
-        (message, scene_class(base64.b64encode(schema.data).decode()).FromString(message.data))
-        for schema, _, message in found
-    ]
+    return [(message, scene_class(schema.data).FromString(message.data)) for schema, _, message in found]
 
 
 @pytest.mark.slow  # builds each task's params and compiles its reset: 10-18 s on the loaded 2-core machine
