@@ -15,7 +15,9 @@ substeps, as benchmarks/assemble_throughput.py does); the transport scene's step
 (walls, flow, obstacle propulsion, the events the transport and orient tasks read) has
 none, and its row says so.
 
-Run: python benchmarks/task_throughput.py [--envs 1,1024] [--quick] [--tasks a,b]
+Run from the checkout to time (the script's folder comes first on ``sys.path``, so name
+the checkout): PYTHONPATH=. python benchmarks/task_throughput.py [--envs 1,1024]
+[--quick] [--tasks a,b]
 """
 
 from __future__ import annotations
@@ -95,7 +97,10 @@ def main() -> None:
     window = 1.0 if args.quick else 3.0
     names = args.tasks.split(",") if args.tasks else list(registry.names("tasks"))
     counts = [int(n) for n in args.envs.split(",")]
+    import otgym
+
     print(f"{platform.processor() or platform.machine()}, JAX {jax.__version__} on {jax.devices()[0].device_kind}")
+    print(f"otgym from {Path(otgym.__file__).parent}")
     print("| task | preset | envs | compile s (reset + step) | env steps/s | NumPy loop env steps/s | task / NumPy |")
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: |")
     for name in names:
