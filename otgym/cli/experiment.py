@@ -62,12 +62,14 @@ def register(app: typer.Typer) -> None:
     from otgym.cli.human_sensitivity import register as register_human_sensitivity
     from otgym.cli.speed_front import register as register_speed_front
     from otgym.cli.speed_policy import register as register_speed_policy
+    from otgym.cli.task_experiment import register as register_task_experiments
 
     register_speed_front(experiment)
     register_calibrate(experiment)
     register_human_sensitivity(experiment)
     register_speed_policy(experiment)
     register_distil_mpc(experiment)
+    register_task_experiments(experiment)
 
     @experiment.command("shared-control")
     def shared_control(

@@ -47,7 +47,7 @@ def register(app: typer.Typer) -> None:
             "tasks",
             None,
             "Play this task in a generic window (its frame, the device's velocity as its action) "
-            "instead of the interactive task; writes episodes.csv.",
+            "instead of the interactive task; writes episodes.csv and session.mcap.",
         ),
         preset: str = typer.Option(None, "--preset", metavar="NAME", help="With --task: the task's preset."),
         out: Path = options.out_dir(..., "Folder for trials.csv, session.mcap (and questionnaires.csv)."),
@@ -59,7 +59,9 @@ def register(app: typer.Typer) -> None:
 
         With --task NAME any registered task (otgym list tasks) is played in a generic
         window instead: its frame each step, the device's velocity turned into its action;
-        --device, --seed, --duration, --screenshot, --headless and --out apply.
+        --device, --seed, --duration, --screenshot, --headless and --out apply; episodes.csv
+        and the recording (session.mcap: the episodes with the task's metrics, the scene)
+        are written to --out.
 
         Example: otgym play --device keyboard --mode shared --out results/play
         """
@@ -141,7 +143,8 @@ def _play_task(
     episodes = len(window.rows)
     print(
         f"{window.steps} steps of {task_name}, {episodes} episode(s), {window.successes} reached success; "
-        f"wrote {out / 'episodes.csv'}" + (f"; screenshot {screenshot}" if screenshot is not None else "")
+        f"wrote {out / 'episodes.csv'}; recording {window.recording.path}"
+        + (f"; screenshot {screenshot}" if screenshot is not None else "")
     )
 
 

@@ -42,8 +42,9 @@ def register(app: typer.Typer) -> None:
             960, "--width", min=64, max=7680, help="Frame width in pixels (the height follows the chip)."
         ),
     ) -> None:
-        """Print a recording's duration, messages per topic and trials; with --out, draw
-        frames of the global view; with --video, encode them as an MP4.
+        """Print a recording's duration, messages per topic and trials (for a recording of
+        otgym play --task: its episodes' success, time and the task's own metrics); with
+        --out, draw frames of the global view; with --video, encode them as an MP4.
 
         Example: otgym replay results/play/session.mcap --out results/frames --every 25
         """
@@ -76,8 +77,15 @@ def register(app: typer.Typer) -> None:
             f"trials: {info['trials']} started, {len(info['ended_by'])} finished"
             + (f" ({', '.join(str(e) for e in info['ended_by'])})" if info["ended_by"] else "")
         )
+        if info["task"] is not None:
+            print_task_episodes(info["task"])
         if out is None and not video:
             return
+        if info["task"] is not None:
+            raise ValueError(
+                f"{file} records otgym play --task {info['task']['task']}: it has no chip view to draw "
+                "(--out and --video draw the interactive task's; Foxglove shows its /otgym/scene)"
+            )
         scene = session_scene(recording)
         print(f"note: {scene.chip_note}" if scene.chip_note else f"chip: {scene.chip.name}")
         console = Console()
@@ -108,3 +116,23 @@ def register(app: typer.Typer) -> None:
             )
         else:
             print(f"wrote {len(frames)} frame(s) to {out} in {wall_s:.1f} s")
+
+
+def print_task_episodes(task: dict) -> None:
+    """The lines ``otgym replay`` prints for a recording of ``otgym play --task``."""
+    ended = ", ".join(f"{count} {how}" for how, count in sorted(task["ended_by"].items()))
+    time_text = (
+        f"; mean time to success {task['mean_time_to_success_s']:.2f} s"
+        if task["mean_time_to_success_s"] is not None
+        else ""
+    )
+    preset = f"preset {task['preset']}, " if task["preset"] else ""
+    print(
+        f"task {task['task']} ({preset}seed {task['seed']}): {task['episodes']} episode(s)"
+        + (f" ({ended})" if ended else "")
+        + f", {task['successes']} succeeded{time_text}"
+    )
+    if task["metrics"]:
+        print(f"  metrics, mean over the {task['metrics_over']} episode(s) that ended on their own:")
+        for name, value in task["metrics"].items():
+            print(f"    {name:30s} {value:12.4g}")

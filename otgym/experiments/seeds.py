@@ -23,6 +23,12 @@ Seed spaces (what a number seeds; the same number in two spaces is two different
   the study seed that reached it.
 - ``population``: the simulated participants (``sample_population(n, seed)``).
 - ``transport``: the demo's whole-path transport runs (``otgym demo --runs``).
+- ``assemble``, ``orient``: the evaluation episodes of those tasks, one batch from
+  ``jax.random.PRNGKey(seed)`` (``otgym experiment assemble`` / ``orient``; the same
+  starts and step keys for every policy compared).
+
+``TRAINING_SEEDS`` names the training seed (space ``training``) of each task's shipped
+learned policy, named before it was trained.
 
 Where a development figure was recorded without its seed (the issue that introduced
 this module tried Table II on "another fresh seed", 256 episodes, and Fig. 8 on
@@ -34,7 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 
-SPACES = ("episodes", "training", "study", "scenarios", "population", "transport")
+SPACES = ("episodes", "training", "study", "scenarios", "population", "transport", "assemble", "orient")
 
 SCENARIOS_PER_STUDY_SEED = 10_000
 """Study seed s reaches scenarios s * 10000 .. s * 10000 + 9999 (trial t: + t)."""
@@ -95,7 +101,8 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         4,
         "benchmarks/training.py's training seeds; pretrain's candidates 0-2 (seed 1 shipped, as the policy "
         "file's metadata says; seed 2 before it); "
-        "otgym train's default 0; the reward variants of RewardWeights' docstring (seed 0, seed 1)",
+        "otgym train's default 0; the reward variants of RewardWeights' docstring (seed 0, seed 1); "
+        "the development DQN runs of assemble (seed 1) and orient (seed 0) in docs/tasks.md",
     ),
     SeedUse(
         "training", 10, 19, "issue 29's development of the speed front's family (reward and loss variants, seed 10)"
@@ -171,6 +178,20 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     ),
     # the demo's transport
     _one("transport", 1, "the demo's whole-path transport (otgym demo --runs 8 --seed 1)"),
+    # the assemble and orient tasks' evaluation episodes
+    _one("assemble", 0, "the baseline's pace table in docs/tasks.md (64 episodes per pace, ring and ring-16)"),
+    _one(
+        "assemble",
+        100,
+        "the development learned pace against the baseline (64 episodes); otgym experiment assemble's "
+        "cost measured on 16 episodes before its report run",
+    ),
+    _one(
+        "orient",
+        1,
+        "the scripted policies and the development DQN in docs/tasks.md (64 episodes); otgym experiment "
+        "orient's cost measured on 16 episodes before its report run",
+    ),
 )
 
 
@@ -179,6 +200,8 @@ REPORT_SEEDS = {
     "speed-front": 74_000,
     "shared-control": 7_700,
     "route-bound": 7_700,
+    "assemble": 75_000,
+    "orient": 76_000,
 }
 """The held-out seed each full-size command uses by default, named before it was run
 (route-bound bounds shared-control's scenarios, so the two share it). Evaluation
@@ -186,11 +209,17 @@ commands use ``seed .. seed + batches - 1``."""
 
 COMMANDS = tuple(REPORT_SEEDS)
 
+TRAINING_SEEDS = {"assemble": 38, "orient": 39}
+"""The ``otgym train --task NAME --seed`` of each task's shipped learned policy (the
+report's policy), named before its training; unused by development (space ``training``)."""
+
 
 def _spans(command: str, seed: int, batches: int, trials: int) -> list[tuple[str, int, int]]:
     """The (space, first, last) seed ranges one run of ``command`` draws from."""
     if command in ("evaluate", "speed-front"):
         return [("episodes", seed, seed + batches - 1)]
+    if command in ("assemble", "orient"):
+        return [(command, seed, seed + batches - 1)]
     if command in ("shared-control", "route-bound"):
         first = seed * SCENARIOS_PER_STUDY_SEED
         spans = [("study", seed, seed), ("scenarios", first, first + trials - 1)]
@@ -268,6 +297,9 @@ def _check_report_seeds_held_out() -> None:
     for command, seed in REPORT_SEEDS.items():
         if is_development(command, seed, batches=16):
             raise AssertionError(f"report seed {seed} of {command} is a development seed")
+    for task, seed in TRAINING_SEEDS.items():
+        if any(use.space == "training" and use.first <= seed <= use.last for use in DEVELOPMENT):
+            raise AssertionError(f"training seed {seed} of {task}'s shipped policy is a development seed")
 
 
 _check_report_seeds_held_out()

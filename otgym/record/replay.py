@@ -64,12 +64,47 @@ def events(recording: Recording) -> list[dict]:
     return [json.loads(decode(m).data) for m in recording.topic(EVENTS)]
 
 
+def task_episodes(trial_events: list[dict]) -> dict | None:
+    """For a recording of ``otgym play --task`` (its ``task`` event,
+    ``otgym.ui.task_recording``): the task, preset and seed; episodes finished, by how
+    they ended; successes; the mean time to success (s); and the mean of each of the
+    task's own metrics over the episodes that ended on their own (terminated or
+    truncated). None for other recordings."""
+    described = next((e for e in trial_events if e["event"] == "task"), None)
+    if described is None:
+        return None
+    ends = [e for e in trial_events if e["event"] == "trial_end"]
+    own = [e for e in ends if e.get("ended_by") in ("terminated", "truncated")]
+    times = [float(e["time_s"]) for e in ends if e.get("success")]
+    names = sorted({name for e in own for name in e.get("metrics", {})})
+    metrics = {}
+    for name in names:
+        values = [float(e["metrics"][name]) for e in own if name in e.get("metrics", {})]
+        metrics[name] = float(np.mean(values))
+    ended_by: dict[str, int] = {}
+    for e in ends:
+        ended_by[str(e.get("ended_by"))] = ended_by.get(str(e.get("ended_by")), 0) + 1
+    return {
+        "task": described.get("task"),
+        "preset": described.get("preset"),
+        "seed": described.get("seed"),
+        "episodes": len(ends),
+        "ended_by": ended_by,
+        "successes": sum(bool(e.get("success")) for e in ends),
+        "mean_time_to_success_s": float(np.mean(times)) if times else None,
+        "metrics": metrics,
+        "metrics_over": len(own),
+    }
+
+
 def summary(recording: Recording) -> dict:
     """duration_s (first to last log time), counts per topic, trials started and the
-    ``ended_by`` of each finished trial, and whether the file is complete."""
+    ``ended_by`` of each finished trial, whether the file is complete, and for a
+    recording of ``otgym play --task`` its ``task_episodes`` (else None)."""
     times = [m.log_time_ns for m in recording.messages]
     trial_events = events(recording)
     return {
+        "task": task_episodes(trial_events),
         "duration_s": (max(times) - min(times)) * 1e-9 if times else 0.0,
         "messages": len(recording.messages),
         "counts": dict(sorted(recording.counts().items())),

@@ -23,6 +23,9 @@ mujoco_playground:
   play --task`` sends.
 - ``control_period_s(params)``: the simulated seconds one ``step`` spans, so ``otgym
   play --task`` steps in real time (default None: the window's own rate).
+- ``scene(state, params)``: a ``TaskScene`` of one environment (its spheres, traps,
+  targets and lines in um), what ``otgym play --task`` records for Foxglove's 3D scene
+  (default None: the recording has the episodes' events but no scene).
 
 A task is registered by name (``otgym.registry``, kind ``tasks``, target the ``Task``
 subclass); ``otgym.tasks.load(name)`` returns an instance.
@@ -30,12 +33,39 @@ subclass); ``otgym.tasks.load(name)`` returns an instance.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, ClassVar
 
 import gymnasium as gym
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class TaskScene:
+    """What one environment shows, in the task's plane (um; x right, y down, as the
+    chip frame): each sphere's centre, radius and kind (one of ``"robot"``, ``"cell"``,
+    ``"obstacle"``, ``"bead"``: ``otgym.physics.bodies.BodyKind`` by value), each trap's
+    centre, the targets (discs of ``target_radius_um`` where something should end up)
+    and polylines (a planned path, a target direction)."""
+
+    spheres_um: np.ndarray
+    radii_um: np.ndarray
+    kinds: tuple[str, ...]
+    traps_um: np.ndarray
+    targets_um: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))
+    target_radius_um: float = 0.5
+    lines_um: tuple[np.ndarray, ...] = ()
+
+    def __post_init__(self):
+        n = np.asarray(self.spheres_um).reshape(-1, 2).shape[0]
+        if np.asarray(self.radii_um).shape != (n,) or len(self.kinds) != n:
+            raise ValueError(f"need one radius and one kind per sphere ({n}), got {self.radii_um!r}, {self.kinds!r}")
+
+
+KIND_NAMES = ("robot", "cell", "obstacle", "bead")
+"""``otgym.physics.bodies.BodyKind`` names by value, as ``TaskScene.kinds`` gives them."""
 
 
 class Task:
@@ -124,6 +154,10 @@ class Task:
     def device_action(self, velocity_um_s: np.ndarray, params) -> np.ndarray:
         """The action a 2-D pointing device asks for (default: none, ValueError)."""
         raise ValueError(f"task {self.name!r} takes no pointing-device input")
+
+    def scene(self, state, params) -> TaskScene | None:
+        """One environment's ``TaskScene`` for a recording's 3D scene (default: None)."""
+        return None
 
 
 def check_action(space: gym.Space, action, unit: str = "") -> np.ndarray:

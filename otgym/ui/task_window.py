@@ -8,7 +8,8 @@ task's ``control_period_s`` of wall time has passed, the sum over the period bec
 velocity (um/s), the task's ``device_action`` turns it into an action, and the task
 steps once; its ``frame`` is drawn with the episode's step, reward, return and the
 successes so far. A finished episode (terminated or truncated) is written as a row and
-a fresh one starts. Stepping runs in the window's own thread: a step slower than the
+a fresh one starts. With a ``recording`` (``otgym.ui.task_recording``) every episode's
+start and end (with the task's metrics) and every state are recorded too. Stepping runs in the window's own thread: a step slower than the
 period slows the episode, it never queues steps.
 
 Input. ``--device`` is read as ``otgym play`` reads it (``otgym.ui.bindings``: the
@@ -99,6 +100,7 @@ class TaskWindow:
         keyboards=(),
         screen: pygame.Surface | None = None,
         label: str = "",
+        recording=None,
     ):
         import jax
 
@@ -112,6 +114,8 @@ class TaskWindow:
         self.label = label or compiled.task.name
         self.key = jax.random.PRNGKey(seed)
         self.rows: list[dict] = []
+        self.recording = recording
+        self.last_info: dict | None = None
         self.running = True
         self.steps = 0
         self.successes = 0
@@ -128,12 +132,19 @@ class TaskWindow:
         self.key, reset_key = jax.random.split(self.key)
         self.obs, self.state = self.compiled.reset(reset_key, self.compiled.params)
         self.episode_steps, self.episode_return, self.last_reward = 0, 0.0, 0.0
+        self.last_info = None
         self._dirty = True
+        if self.recording is not None:
+            self.recording.episode_start(len(self.rows) + 1, self.state)
 
     def _record(self, success: bool, ended_by: str) -> None:
         row = (len(self.rows) + 1, self.episode_steps, round(self.episode_return, 6), success, ended_by)
         self.rows.append(dict(zip(EPISODE_FIELDS, row)))
         self.successes += bool(success)
+        if self.recording is not None:
+            self.recording.episode_end(
+                len(self.rows), self.episode_steps, self.episode_return, success, ended_by, self.last_info
+            )
 
     def _end_episode(self, success: bool, ended_by: str) -> None:
         self._record(success, ended_by)
@@ -153,7 +164,10 @@ class TaskWindow:
         self.episode_steps += 1
         self.last_reward = float(reward)
         self.episode_return += self.last_reward
+        self.last_info = info
         self._dirty = True
+        if self.recording is not None:
+            self.recording.state(self.state)
         if bool(terminated) or bool(truncated):
             self._end_episode(bool(info["success"]), "terminated" if bool(terminated) else "truncated")
 
@@ -254,12 +268,15 @@ def play_task(
     out: Path,
 ) -> TaskWindow | None:
     """``otgym play --task``: open the window, build and compile the task while the
-    start-up screen shows it, play until Esc or ``duration_s``, write
-    ``out/episodes.csv`` (and the screenshot). None if closed before it was ready."""
+    start-up screen shows it, play until Esc or ``duration_s``, record the session
+    (``out/session.mcap``: ``otgym.ui.task_recording``), write ``out/episodes.csv``
+    (and the screenshot). None if closed before it was ready (nothing recorded)."""
     from otgym import tasks
+    from otgym.record.mcap_file import session_path
     from otgym.teleop.device import DeviceError, start_devices
     from otgym.ui.bindings import play_binding, play_bindings, robot_primaries, window_devices
     from otgym.ui.startup import StartupAborted, StartupStatus, draw_startup, wait_in_window
+    from otgym.ui.task_recording import TaskRecording
 
     task = check_playable(tasks.load(task_name))
     task.config(preset)  # an unknown preset: ValueError before the window opens
@@ -284,9 +301,16 @@ def play_task(
         except StartupAborted:
             return None
         binding = play_bindings([primary], clutch=play_binding(device).clutch)[0]
-        window = TaskWindow(built[0], primary, binding.retarget, seed=seed, keyboards=keyboards, screen=screen)
-        window.run(duration_s)
         out.mkdir(parents=True, exist_ok=True)
+        compiled = built[0]
+        recording = TaskRecording(session_path(out), task, compiled.params, preset, seed, compiled.period_s)
+        try:
+            window = TaskWindow(
+                compiled, primary, binding.retarget, seed=seed, keyboards=keyboards, screen=screen, recording=recording
+            )
+            window.run(duration_s)
+        finally:
+            recording.close()
         write_episodes(out / "episodes.csv", window.rows)
         if screenshot is not None:
             window.save_screenshot(screenshot)

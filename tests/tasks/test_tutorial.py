@@ -157,6 +157,11 @@ def test_otgym_play_plays_one_second(site, tmp_path):
         rows = list(csv.DictReader(handle))
     assert sum(int(row["steps"]) for row in rows) == 10  # 1 s of 0.1 s steps
     assert rows[-1]["ended_by"] in ("stopped", "terminated", "truncated")
+    from otgym.record.mcap_file import read_recording
+    from otgym.record.replay import summary
+
+    recorded = summary(read_recording(tmp_path / "play" / "session.mcap"))["task"]  # the session's recording
+    assert (recorded["task"], recorded["episodes"]) == ("push-bead", len(rows))
     import pygame
 
     shot = pygame.surfarray.array3d(pygame.image.load(tmp_path / "play" / "shot.png"))

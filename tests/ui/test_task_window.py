@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 import pygame  # noqa: E402
 import pytest  # noqa: E402
 
-from otgym.tasks.base import Task  # noqa: E402
+from otgym.tasks.base import Task, TaskScene  # noqa: E402
 from otgym.teleop.device import open_device  # noqa: E402
 from otgym.ui.bindings import play_bindings  # noqa: E402
 from otgym.ui.task_window import FRAME_SIZE, Compiled, TaskWindow, check_playable, write_episodes  # noqa: E402
@@ -73,6 +73,10 @@ class Walker(Task):
         if np.hypot(*velocity) < 0.5:
             return np.asarray(0, np.int32)
         return np.asarray(int(np.argmax(MOVES @ velocity)), np.int32)
+
+    def scene(self, state, params):
+        xy = np.asarray(state[0], float)[None]
+        return TaskScene(xy, np.ones(1), ("bead",), xy + 0.5, targets_um=np.array([[3.0, 0.0]]))
 
 
 class Frameless(Walker):
@@ -163,3 +167,42 @@ def test_a_task_without_a_frame_or_device_input_is_refused(task, word):
     with pytest.raises(ValueError, match=word):
         check_playable(task)
     assert check_playable(Walker()).name == "walker"
+
+
+def test_a_played_session_is_recorded_and_replay_summarises_it(compiled, tmp_path):
+    from otgym.record.mcap_file import read_recording
+    from otgym.record.replay import summary
+    from otgym.ui.task_recording import TaskRecording
+    from tests.otgym_cli import run_otgym
+
+    pygame.init()
+    keyboard = open_device("keyboard", pump_events=False)
+    keyboard.start()
+    retarget = play_bindings([keyboard], keyboard=True)[0].retarget
+    recording = TaskRecording(tmp_path / "session.mcap", compiled.task, compiled.params, None, 0, PERIOD_S)
+    window = TaskWindow(compiled, keyboard, retarget, keyboards=[keyboard], recording=recording)
+    window.mouse.start()
+    try:
+        run_frames(window, 5 * EPISODE_STEPS + 1)  # one idle episode: a failure
+        pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=pygame.K_RIGHT, mod=0, unicode="", scancode=0))
+        run_frames(window, 5 * EPISODE_STEPS + 1, start_s=1.0)  # one to the right: a success
+    finally:
+        window.mouse.stop()
+        recording.close()
+        pygame.quit()
+    assert [row["success"] for row in window.rows] == [False, True]
+    info = summary(read_recording(tmp_path / "session.mcap"))
+    # a state per reset and per step: three resets (the third episode's only) and ten steps
+    assert info["counts"]["/otgym/bodies"] == 3 + 2 * EPISODE_STEPS
+    task = info["task"]
+    assert (task["task"], task["episodes"], task["successes"]) == ("walker", 2, 1)
+    assert task["ended_by"] == {"terminated": 2}
+    assert task["mean_time_to_success_s"] == pytest.approx(EPISODE_STEPS * PERIOD_S)  # no time_s in its info
+    assert task["metrics"] == {"success": 0.5}
+    printed = run_otgym(["replay", tmp_path / "session.mcap"])
+    assert printed.returncode == 0, printed.stderr
+    assert (
+        "task walker (seed 0): 2 episode(s) (2 terminated), 1 succeeded; mean time to success 0.50 s" in printed.stdout
+    )
+    refused = run_otgym(["replay", tmp_path / "session.mcap", "--out", tmp_path / "frames"])
+    assert refused.returncode == 2 and refused.stderr.count("error:") == 1 and "--task walker" in refused.stderr

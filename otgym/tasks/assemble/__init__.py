@@ -18,7 +18,7 @@ import numpy as np
 
 from otgym.tasks.assemble import core
 from otgym.tasks.assemble.config import PRESETS, AssembleConfig, preset
-from otgym.tasks.base import Task
+from otgym.tasks.base import Task, TaskScene
 
 
 @functools.lru_cache(maxsize=8)
@@ -76,6 +76,19 @@ class Assemble(Task):
         kinds = np.array([-1] * n + [int(BodyKind.BEAD)] * n)
         return _renderer(float(config.arena_um), tuple(size_px)).render(
             np.concatenate([targets, beads]), radii, kinds, np.zeros(2 * n, bool), np.asarray(state.physics.trap_xy_um)
+        )
+
+    def scene(self, state, params) -> TaskScene:
+        """The beads, their traps and the targets (discs of the placement tolerance)."""
+        config = params.config
+        state = jax.device_get(state)
+        return TaskScene(
+            spheres_um=np.asarray(state.physics.pose, float)[:, :2],
+            radii_um=np.full(config.n_beads, float(config.bead_radius_um)),
+            kinds=("bead",) * config.n_beads,
+            traps_um=np.asarray(state.physics.trap_xy_um, float),
+            targets_um=np.asarray(state.goal_um, float),
+            target_radius_um=float(config.placement_tolerance_um),
         )
 
     def device_action(self, velocity_um_s, params) -> np.ndarray:

@@ -16,10 +16,10 @@ import numpy as np
 
 from otgym import physics as ph
 from otgym.sim.scene import SceneConfig
-from otgym.tasks.base import Task
+from otgym.tasks.base import Task, TaskScene
 from otgym.tasks.orient import core
 from otgym.tasks.orient.core import OrientConfig, OrientParams
-from otgym.tasks.scene_frame import scene_frame
+from otgym.tasks.scene_frame import scene_frame, scene_of
 
 
 def default() -> OrientConfig:
@@ -34,6 +34,8 @@ def default() -> OrientConfig:
 
 
 PRESETS = {"default": default}
+TARGET_LINE_HALF_UM = 12.0
+"""Half the length of the recorded scene's target line (about the robots' reach)."""
 
 
 class Orient(Task):
@@ -76,6 +78,14 @@ class Orient(Task):
 
     def frame(self, state, params: OrientParams, size_px=(600, 400)) -> np.ndarray:
         return scene_frame(params.scene, state.scene.physics, None, size_px)
+
+    def scene(self, state, params: OrientParams) -> TaskScene:
+        """The robots, the cell and the traps, and the target: the grip axis (robot a to
+        robot b) turned by the target, a line through the formation's centre."""
+        centre = np.asarray(state.centre_um, float)
+        angle = float(state.grip_start_rad) + float(state.target_rad)
+        half = TARGET_LINE_HALF_UM * np.array([np.cos(angle), np.sin(angle)])
+        return scene_of(params.scene, state.scene.physics, lines_um=[np.stack([centre - half, centre + half])])
 
     def device_action(self, velocity_um_s, params: OrientParams) -> np.ndarray:
         """The device's horizontal component picks the direction: right turns the cell

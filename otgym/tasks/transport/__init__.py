@@ -10,8 +10,8 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-from otgym.tasks.base import Task
-from otgym.tasks.scene_frame import scene_frame
+from otgym.tasks.base import Task, TaskScene
+from otgym.tasks.scene_frame import scene_frame, scene_of
 from otgym.tasks.transport import cell_transport, core, speed_control
 from otgym.tasks.transport.presets import PRESETS, TaskConfig, preset
 
@@ -64,6 +64,10 @@ class _Transport(Task):
 
     def frame(self, state, params, size_px=(600, 400)) -> np.ndarray:
         return scene_frame(params.scene, state.scene.physics, params.path.points_um, size_px)
+
+    def scene(self, state, params) -> TaskScene:
+        """The robots, the cell, the obstacles and the traps, and the planned path."""
+        return scene_of(params.scene, state.scene.physics, lines_um=[params.path.points_um])
 
 
 class SpeedControl(_Transport):

@@ -1,0 +1,91 @@
+"""The recording of ``otgym play --task`` (``otgym.ui.task_recording``): a reset state of
+the ``assemble`` and ``orient`` tasks is recorded and read back as Foxglove reads it:
+``/otgym/scene`` decodes with its own protobuf schema, its ``bodies`` entity has a
+sphere per body where the state has it, ``traps`` a cross per trap and ``targets`` the
+task's targets; the episode's end carries the task's metrics, which ``otgym replay``'s
+summary gives back. Only the tasks' resets are compiled (no step). The window's path
+(every step and episode recorded) is tested on a toy task in ``test_task_window``."""
+
+from __future__ import annotations
+
+import jax
+import numpy as np
+import pytest
+
+from otgym import tasks
+from otgym.record.mcap_file import read_recording
+from otgym.record.replay import summary
+from otgym.ui.task_recording import TaskRecording, info_metrics
+
+pytest.importorskip("foxglove")
+
+
+def scene_class(schema_data: bytes):
+    """The protobuf class of ``foxglove.SceneUpdate`` from the recorded FileDescriptorSet."""
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    files = descriptor_pb2.FileDescriptorSet.FromString(schema_data)
+    pool = descriptor_pool.DescriptorPool()
+    for file in files.file:
+        pool.Add(file)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName("foxglove.SceneUpdate"))
+
+
+STAMP_S = 1_700_000_000.0
+
+
+def recorded_scenes(path):
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as stream:
+        found = list(make_reader(stream).iter_messages(topics=["/otgym/scene"]))
+    return [(message, scene_class(schema.data).FromString(message.data)) for schema, _, message in found]
+
+
+@pytest.mark.slow  # builds each task's params and compiles its reset: 10-18 s on the loaded 2-core machine
+@pytest.mark.parametrize("name", ["assemble", "orient"])
+def test_a_recorded_episode_shows_the_task_s_scene_and_metrics(name, tmp_path):
+    task = tasks.load(name)
+    params = task.make_params(task.config())
+    _, state = jax.jit(task.reset)(jax.random.PRNGKey(3), params)
+    scene = task.scene(state, params)
+    recording = TaskRecording(tmp_path / "session.mcap", task, params, None, 3, 0.05, clock_s=lambda: STAMP_S)
+    recording.episode_start(1, state)
+    info = {"success": np.bool_(True), "time_s": np.float32(2.5), "my_metric": np.float32(0.25), "pair": np.zeros(2)}
+    recording.episode_end(1, 40, 7.5, True, "terminated", info)
+    recording.close()
+
+    (message, update), *rest = recorded_scenes(tmp_path / "session.mcap")
+    assert not rest and message.log_time == int(STAMP_S * 1e9)
+    entities = {entity.id: entity for entity in update.entities}
+    assert set(entities) == {"bodies", "traps", "targets"}
+    centres = [(s.pose.position.x, s.pose.position.y) for s in entities["bodies"].spheres]
+    np.testing.assert_allclose(centres, scene.spheres_um, atol=1e-9)
+    assert [s.size.x for s in entities["bodies"].spheres] == pytest.approx(2 * scene.radii_um)
+    assert entities["bodies"].metadata[0].value == ",".join(scene.kinds)
+    assert len(entities["traps"].lines[0].points) == 4 * len(scene.traps_um)
+    if name == "assemble":
+        assert set(scene.kinds) == {"bead"}
+        n_beads = params.config.n_beads
+        assert len(scene.spheres_um) == len(scene.traps_um) == n_beads
+        targets = [(c.pose.position.x, c.pose.position.y) for c in entities["targets"].cylinders]
+        np.testing.assert_allclose(targets, np.asarray(state.goal_um), atol=1e-9)
+    else:
+        assert set(scene.kinds) == {"robot", "cell"} and scene.kinds.count("cell") == 1 and len(scene.traps_um) == 4
+        (line,) = entities["targets"].lines
+        ends = np.array([(p.x, p.y) for p in line.points])
+        turned = np.arctan2(*(ends[1] - ends[0])[::-1])
+        expected = float(state.grip_start_rad) + float(state.target_rad)
+        assert np.cos(turned - expected) == pytest.approx(1.0)  # the line lies along the target grip axis
+
+    info_back = summary(read_recording(tmp_path / "session.mcap"))
+    assert info_back["counts"]["/otgym/bodies"] == 1 and info_back["trials"] == 1
+    episodes = info_back["task"]
+    assert (episodes["task"], episodes["seed"], episodes["episodes"], episodes["successes"]) == (name, 3, 1, 1)
+    assert episodes["mean_time_to_success_s"] == 2.5  # the info's time, not steps x period (2.0)
+    assert episodes["metrics"] == {"my_metric": 0.25, "success": 1.0, "time_s": 2.5}
+
+
+def test_info_metrics_keeps_scalars_only():
+    info = {"success": np.bool_(False), "n": np.int32(3), "x": np.float32(0.5), "v": np.ones(2), "one": np.ones(1)}
+    assert info_metrics(info) == {"success": False, "n": 3.0, "x": 0.5, "one": 1.0}
