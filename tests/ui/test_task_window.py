@@ -178,7 +178,7 @@ def test_a_played_session_is_recorded_and_replay_summarises_it(compiled, tmp_pat
     pygame.init()
     keyboard = open_device("keyboard", pump_events=False)
     keyboard.start()
-    retarget = play_bindings([keyboard], keyboard=True)[0].retarget
+    retarget = play_bindings([keyboard], clutch=False)[0].retarget
     recording = TaskRecording(tmp_path / "session.mcap", compiled.task, compiled.params, None, 0, PERIOD_S)
     window = TaskWindow(compiled, keyboard, retarget, keyboards=[keyboard], recording=recording)
     window.mouse.start()
