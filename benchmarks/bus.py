@@ -13,7 +13,8 @@ against the in-process runtime measured in the same run.
   - ``same-process``: the earlier design, a ``Node`` whose subscriber callback answers
     while the same process's main thread ticks ``InteractiveLoop`` back to back (worst
     case: the tick holds the interpreter lock the callback waits for);
-  - ``same-process, paced``: as above, ticks paced at 50 Hz (the earlier sim node).
+  - ``same-process, paced``: as above, ticks paced at 50 Hz (the earlier sim node);
+  - ``idle``: a ``Node`` of role sim that only answers (the bus alone, no simulation).
   Reference in the same run: the in-process runtime's device path (``Device.read`` and
   ``Device.set_force`` around one tick; no bus).
 * Liveliness: a light child node (no simulation) is started and SIGKILLed ``--kills``
@@ -141,6 +142,7 @@ def round_trip(n: int, side: str) -> None:
         "node": "otgym node sim (ticks in its worker)",
         "sim": "same process, ticks back to back",
         "paced": "same process, ticks at 50 Hz",
+        "idle": "an echo only, no simulation",
     }[side]
     print(
         f"bus round trip device -> sim -> feedback, {label}: {percentiles_ms(rtts)}; {n - len(rtts)} lost; "

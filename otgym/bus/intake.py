@@ -23,13 +23,12 @@ import threading
 
 from otgym.bus import messages as msg
 from otgym.bus import ros_graph
-from otgym.bus.schemas import SCHEMAS
-from otgym.bus.type_hash import rihs01
+from otgym.bus.schemas import SCHEMAS, TYPE_HASHES
 
 log = logging.getLogger(__name__)
 REASONS = ("type", "hash", "attachment", "stale", "size", "malformed")
-TYPE_HASH = {name: rihs01(name, text) for name, text in SCHEMAS.items()}
-"""RIHS01 of every type otgym sends or reads, computed from its definition."""
+TYPE_HASH = TYPE_HASHES
+"""RIHS01 of every type otgym sends or reads (rosbags' type store: ``otgym.bus.schemas``)."""
 DDS_NAME = {name: ros_graph.dds_type_name(name) for name in SCHEMAS}
 MAX_PAYLOAD_BYTES = {
     msg.COMPRESSED_IMAGE: msg.LIMITS.image_bytes + 4096,

@@ -26,8 +26,8 @@ shared or autonomous), nothing else. Header stamps are UNIX wall time (a
 (``"chip"`` or the device's name).
 
 Bytes. CDR (XCDR1, little endian: the four-byte encapsulation header 00 01 00 00) as
-ROS 2's rmw implementations write it, encoded and decoded by mcap-ros2-support's
-dynamic serialiser from the ``SCHEMAS`` text.
+ROS 2's rmw implementations write it, encoded and decoded by rosbags' type store of the
+ROS 2 definitions (``otgym.bus.schemas``).
 
 Checks on receipt (``decode``): the bytes must decode under the topic's schema, every
 float must be finite and within ``LIMITS``, strings short, buttons 0/1, a mode one of
@@ -41,12 +41,12 @@ import dataclasses
 import json
 import math
 import re
-import struct
 
 import numpy as np
 
 from otgym.bus.schemas import (
     COMPRESSED_IMAGE,
+    DECODE_ERRORS,
     DECODERS,
     ENCODERS,
     FLOAT64,
@@ -221,7 +221,7 @@ def command(name: str, mode: str | None = None) -> bytes:
 # --- decoding and checks ----------------------------------------------------------------
 def decode(topic: str, data: bytes):
     """The checked message on ``topic`` (an object with the type's fields, as
-    mcap-ros2-support decodes it); MessageError with the reason otherwise."""
+    rosbags decodes it); MessageError with the reason otherwise."""
     return decode_as(topic_type(topic), data, topic)
 
 
@@ -231,7 +231,7 @@ def decode_as(type_name: str, data: bytes, topic: str):
         raise MessageError(f"{topic}: not little-endian CDR (encapsulation {bytes(data[:4]).hex() or 'missing'})")
     try:
         message = DECODERS[type_name](bytes(data))
-    except (struct.error, UnicodeDecodeError, ValueError, IndexError, OverflowError, MemoryError) as error:
+    except DECODE_ERRORS as error:
         raise MessageError(f"{topic}: does not decode as {type_name} ({type(error).__name__})") from None
     _CHECKS[type_name](message, topic)
     return message

@@ -8,7 +8,7 @@ Written from ros2/rmw_zenoh's ``docs/design.md`` and ``rmw_zenoh_cpp/src/detail`
 
 - data key ``<domain>/<fully qualified topic without its leading slash>/<type>/<hash>``,
   the type as DDS names it (``std_msgs::msg::dds_::String_``), the hash RIHS01
-  (``otgym.bus.type_hash``);
+  (rosbags' REP 2011 hashing: ``otgym.bus.schemas``);
 - liveliness tokens ``@ros2_lv/<domain>/<zenoh session id>/<node id>/<entity id>/<kind>/
   <enclave>/<namespace>/<node name>`` for a node (kind ``NN``, entity id = node id), and
   for a publisher (``MP``) or subscription (``MS``) also ``/<topic>/<type>/<hash>/<qos>``;

@@ -1,28 +1,32 @@
-"""The ROS 2 message types otgym's topics use (``otgym.bus.messages``), as schema text
-in MCAP's ``ros2msg`` encoding (``SCHEMAS``: the type's own definition, then each
-dependency after a line of 80 ``=`` and ``MSG: pkg/Type``; the definitions of ROS 2
-Humble's common_interfaces), and their CDR encoders and decoders (mcap-ros2-support's
-dynamic serialiser)."""
+"""The ROS 2 message types otgym's topics use (``otgym.bus.messages``): their
+definitions, RIHS01 type hashes and CDR encoders and decoders, all from rosbags' type
+store of ROS 2 Jazzy (``STORE``: rosbags, https://ternaris.gitlab.io/rosbags/, a
+maintained pure-Python implementation of ROS 2's message definitions, REP 2011 hashing
+and CDR), none written here.
+
+- ``SCHEMAS``: each type's definition as MCAP's ``ros2msg`` schema text (the type's own
+  fields, then each dependency after a line of 80 ``=`` and ``MSG: pkg/Type``), as
+  rosbags generates it;
+- ``TYPE_HASHES``: each type's ``RIHS01_...`` hash, as rmw_zenoh puts it in its keys;
+- ``ENCODERS[type](message)``: CDR bytes (XCDR1, little endian) of a message given as
+  nested dicts of the type's fields (``build`` makes rosbags' message object of them) or
+  as such an object;
+- ``DECODERS[type](data)``: the message object of CDR bytes (fields as attributes;
+  primitive arrays as numpy arrays). Malformed bytes raise ``DECODE_ERRORS``.
+"""
 
 from __future__ import annotations
 
-from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
+import struct
 
-_RULE = "=" * 80
-_HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
-_VECTOR3 = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
-_POSE = (
-    "MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientation\n"
-    + _RULE
-    + "\nMSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n"
-    + _RULE
-    + "\nMSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n"
-)
+import numpy as np
+from rosbags.serde import SerdeError
+from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys.base import Nodetype
 
-
-def _schema(body: str, *dependencies: str) -> str:
-    return "\n".join([body, *(f"{_RULE}\n{d}" for d in dependencies)])
-
+STORE = get_typestore(Stores.ROS2_JAZZY)
+"""rosbags' type store of ROS 2 Jazzy's message definitions (the oldest distribution
+with type hashes that rmw_zenoh supports; these types' hashes are the same in later ones)."""
 
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"
 TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
@@ -33,34 +37,54 @@ STRING = "std_msgs/msg/String"
 PATH = "nav_msgs/msg/Path"
 TWIST = "geometry_msgs/msg/Twist"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
+TYPES = (POSE_ARRAY, TWIST_STAMPED, WRENCH_STAMPED, JOY, FLOAT64, STRING, PATH, COMPRESSED_IMAGE, TWIST)
 
-SCHEMAS: dict[str, str] = {
-    POSE_ARRAY: _schema("std_msgs/Header header\ngeometry_msgs/Pose[] poses\n", _HEADER, _POSE),
-    TWIST_STAMPED: _schema(
-        "std_msgs/Header header\nTwist twist\n",
-        _HEADER,
-        "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n",
-        _VECTOR3,
-    ),
-    WRENCH_STAMPED: _schema(
-        "std_msgs/Header header\nWrench wrench\n",
-        _HEADER,
-        "MSG: geometry_msgs/Wrench\nVector3 force\nVector3 torque\n",
-        _VECTOR3,
-    ),
-    JOY: _schema("std_msgs/Header header\nfloat32[] axes\nint32[] buttons\n", _HEADER),
-    FLOAT64: "float64 data\n",
-    STRING: "string data\n",
-    PATH: _schema(
-        "std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n",
-        _HEADER,
-        "MSG: geometry_msgs/PoseStamped\nstd_msgs/Header header\nPose pose\n",
-        _POSE,
-    ),
-    COMPRESSED_IMAGE: _schema("std_msgs/Header header\nstring format\nuint8[] data\n", _HEADER),
-    TWIST: _schema("Vector3 linear\nVector3 angular\n", _VECTOR3),
-}
-"""ros2msg schema text per type (definitions of ROS 2 Humble's common_interfaces)."""
+SCHEMAS: dict[str, str] = {name: STORE.generate_msgdef(name, ros_version=2)[0] for name in TYPES}
+"""ros2msg schema text per type."""
+TYPE_HASHES: dict[str, str] = {name: STORE.hash_rihs01(name) for name in TYPES}
+"""RIHS01 hash per type (REP 2011)."""
+DECODE_ERRORS = (SerdeError, struct.error, UnicodeDecodeError, ValueError, IndexError, OverflowError, MemoryError)
+"""What decoding malformed bytes may raise."""
+_SEQUENCES = (Nodetype.ARRAY, Nodetype.SEQUENCE)
 
-ENCODERS = {name: serialize_dynamic(name, text)[name] for name, text in SCHEMAS.items()}
-DECODERS = {name: generate_dynamic(name, text)[name] for name, text in SCHEMAS.items()}
+
+def build(type_name: str, value):
+    """rosbags' message object of ``type_name`` from nested dicts of its fields (an
+    object is returned as it is)."""
+    if not isinstance(value, dict):
+        return value
+    fields = {}
+    for name, (node, spec) in STORE.fielddefs[type_name][1]:
+        field = value[name]
+        if node == Nodetype.NAME:
+            field = build(spec, field)
+        elif node in _SEQUENCES:
+            (element_node, element), _size = spec
+            if element_node == Nodetype.NAME:
+                field = [build(element, item) for item in field]
+            elif element[0] in ("string", "wstring"):
+                field = list(field)
+            elif isinstance(field, (bytes, bytearray, memoryview)):
+                field = np.frombuffer(field, dtype=np.uint8).copy()
+            else:
+                field = np.asarray(field, dtype=element[0] if element[0] != "bool" else bool)
+        fields[name] = field
+    return STORE.types[type_name](**fields)
+
+
+def _encoder(type_name: str):
+    def encode(message) -> bytes:
+        return bytes(STORE.serialize_cdr(build(type_name, message), type_name))
+
+    return encode
+
+
+def _decoder(type_name: str):
+    def decode(data: bytes):
+        return STORE.deserialize_cdr(data, type_name)
+
+    return decode
+
+
+ENCODERS = {name: _encoder(name) for name in TYPES}
+DECODERS = {name: _decoder(name) for name in TYPES}

@@ -1,8 +1,8 @@
 """otgym's topics: their names, their ROS 2 types, which are latched, and the
 device names a topic may carry; ``MessageError`` for a topic otgym does not use.
 
-Types (ROS 2 common_interfaces, Humble; the ``.msg`` definitions are copied into
-``otgym.bus.schemas.SCHEMAS`` in MCAP's ``ros2msg`` schema encoding)::
+Types (ROS 2 common_interfaces; their definitions from rosbags' type store of ROS 2
+Jazzy, ``otgym.bus.schemas``, in MCAP's ``ros2msg`` schema encoding)::
 
     /otgym/traps                    geometry_msgs/msg/PoseArray   trap centres, um, chip frame
     /otgym/bodies                   geometry_msgs/msg/PoseArray   sphere centres, um, chip frame

@@ -1,19 +1,24 @@
-"""One process's place on the bus: a zenoh session in peer mode, loopback only by
-default, with a liveliness token and checked subscriptions (eclipse-zenoh 1.x,
-https://zenoh.io/docs/).
+"""One process's place on the bus: a zenoh session, loopback only by default, with a
+liveliness token and checked subscriptions (eclipse-zenoh 1.x, https://zenoh.io/docs/).
 
-Network. Every node is a zenoh peer (``mode: "peer"``) with multicast scouting off,
-so nothing is sent to or accepted from outside loopback unless endpoints say so. The
-simulator listens on ``SIM_ENDPOINT`` (tcp/127.0.0.1:7447); every other node listens on
-an ephemeral loopback port and connects to the simulator's endpoint, retried every
-0.1-0.5 s for as long as it runs (zenoh's ``connect/retry``), so a restarted simulator
-is found again; gossip scouting (on by default) tells peers each other's loopback
-listeners, so they stay meshed while the simulator is away. ``--listen``/``--connect``
-replace these endpoints (another machine's address to span machines); a zenoh
-configuration file (``config_file``) adds TLS or user/password authentication. What the
-file sets (endpoints, multicast scouting) is kept unless ``--listen``/``--connect`` are
-given; what it leaves out gets the loopback defaults above, never zenoh's own (which
-listen on every interface and scout by multicast).
+Network. The simulator is a zenoh router (``mode: "router"``) listening on
+``SIM_ENDPOINT`` (tcp/127.0.0.1:7447, the port of rmw_zenoh's router ``rmw_zenohd``);
+every other node is a zenoh peer that listens on an ephemeral loopback port and connects
+to the simulator's endpoint, retried every 0.1-0.5 s for as long as it runs (zenoh's
+``connect/retry``), so a restarted simulator is found again. Multicast scouting is off,
+so nothing is sent to or accepted from outside loopback unless endpoints say so. Gossip
+scouting is on: the router tells every peer linked to it of the others (its gossip goes
+to routers and peers), each peer dials every peer it hears of, and the router forwards
+between two peers that are not linked (``peers_failover_brokering``). So a ROS 2 node on
+rmw_zenoh, a peer that sends its gossip only to routers and dials only peers of a smaller
+zenoh id, finds every otgym node through the simulator as through ``rmw_zenohd``
+(``otgym.bus.router``, which also lets the simulator join an ``rmw_zenohd`` already on
+its port), and otgym's peers stay meshed while the simulator is away.
+``--listen``/``--connect`` replace these endpoints (another machine's address to span
+machines); a zenoh configuration file (``config_file``) adds TLS or user/password
+authentication. What the file sets (endpoints, multicast and gossip scouting) is kept
+unless ``--listen``/``--connect`` are given; what it leaves out gets the defaults above,
+never zenoh's own (which listen on every interface and scout by multicast).
 
 Keys and the ROS 2 graph (``otgym.bus.ros_graph``: rmw_zenoh's layout). A topic
 ``/otgym/traps`` of a node in namespace ``/`` and domain ``ROS_DOMAIN_ID`` (0) travels on
@@ -94,6 +99,18 @@ of a missed last sample works as with a ROS 2 publisher."""
 LATCHED_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.TRANSIENT_LOCAL, ros_graph.KEEP_LAST, 1)
 ALL_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_ALL, ros_graph.DEFAULT_DEPTH)
 STREAM_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_LAST, 1)
+GOSSIP = {
+    "scouting/multicast/enabled": "false",
+    "scouting/gossip/enabled": "true",
+    "scouting/gossip/target": '{"router": ["router", "peer"], "peer": ["router", "peer"]}',
+    "scouting/gossip/autoconnect": '{"router": [], "peer": ["router", "peer"]}',
+    "scouting/gossip/autoconnect_strategy": '{"peer": {"to_router": "always", "to_peer": "always"}}',
+    "routing/router/peers_failover_brokering": "true",
+}
+"""Scouting and routing (see the module's docstring), each kept where a configuration
+file sets it: no multicast; gossip from the router to routers and peers (and from a peer
+to both); a peer dials every router and peer it hears of, whatever their zenoh ids; the
+router forwards between two peers that are not linked to each other."""
 log = logging.getLogger(__name__)
 
 
@@ -110,16 +127,25 @@ def ros_node_name(role: str, name: str) -> str:
 
 
 def zenoh_config(
-    role: str, listen: list[str] | None = None, connect: list[str] | None = None, config_file: str | None = None
+    role: str,
+    listen: list[str] | None = None,
+    connect: list[str] | None = None,
+    config_file: str | None = None,
+    mode: str | None = None,
 ) -> zenoh.Config:
-    """The session configuration of a node of ``role`` (see the module's docstring)."""
+    """The session configuration of a node of ``role`` (see the module's docstring);
+    ``mode``: zenoh's mode, by default ``router`` for the simulator, ``peer`` for the
+    others (a simulator that joins a router is a peer: ``otgym.bus.router``)."""
     if role not in ROLES:
         raise ValueError(f"unknown node role {role!r}; choose one of {', '.join(ROLES)}")
+    mode = mode or ("router" if role == "sim" else "peer")
+    if mode not in ("router", "peer"):
+        raise ValueError(f"a node is a zenoh router or peer, not {mode!r}")
     config = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
     unset = zenoh.Config()  # what a file leaves out reads as zenoh's defaults: replaced by ours below
     default_listen = [SIM_ENDPOINT] if role == "sim" else [EPHEMERAL_ENDPOINT]
     default_connect = [] if role == "sim" else [SIM_ENDPOINT]
-    config.insert_json5("mode", '"peer"')
+    config.insert_json5("mode", json.dumps(mode))
     config.insert_json5("timestamping/enabled", "true")  # latched topics' publishers need it
     for key, given, default in (
         ("listen/endpoints", listen, default_listen),
@@ -127,8 +153,9 @@ def zenoh_config(
     ):
         if given or config.get_json(key) == unset.get_json(key):
             config.insert_json5(key, json.dumps(list(given or default)))
-    if config.get_json("scouting/multicast/enabled") == unset.get_json("scouting/multicast/enabled"):
-        config.insert_json5("scouting/multicast/enabled", "false")
+    for key, value in GOSSIP.items():
+        if config.get_json(key) == unset.get_json(key):
+            config.insert_json5(key, value)
     drop_key = "transport/link/tx/queue/congestion_control/drop/wait_before_drop"
     if config.get_json(drop_key) == unset.get_json(drop_key):
         config.insert_json5(drop_key, str(WAIT_BEFORE_DROP_US))
@@ -156,7 +183,8 @@ class Node:
     tokens (otgym's and the ROS 2 graph's), and ``watch`` for other nodes' tokens.
     ``namespace``: the ROS 2 namespace of the node and of otgym's topics; ``domain``:
     the ROS 2 domain id (default ``ROS_DOMAIN_ID``); ``ros_name``: its ROS 2 node name
-    (default ``ros_node_name``). ``close`` withdraws everything."""
+    (default ``ros_node_name``); ``mode``: zenoh's (``zenoh_config``). ``close``
+    withdraws everything."""
 
     def __init__(
         self,
@@ -169,13 +197,14 @@ class Node:
         namespace: str = "/",
         domain: int | None = None,
         ros_name: str | None = None,
+        mode: str | None = None,
     ):
         msg.check_name(name)
         self.role, self.name = role, name
         self.namespace = ros_graph.check_namespace(namespace)
         self.domain = ros_graph.domain_id() if domain is None else int(domain)
         self.ros_name = ros_graph.check_node_name(ros_name or ros_node_name(role, name))
-        self.session = zenoh.open(zenoh_config(role, listen, connect, config_file))
+        self.session = zenoh.open(zenoh_config(role, listen, connect, config_file, mode))
         self.zid = str(self.session.zid())
         self.token = self.session.liveliness().declare_token(f"otgym/node/{role}/{name}")
         self._entity_ids = itertools.count(1)

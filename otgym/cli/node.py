@@ -156,6 +156,7 @@ def sim(
 
     Example: otgym node sim --name device0 --mode shared --seed 0
     """
+    from otgym.bus.router import place_sim
     from otgym.bus.sim_node import serve_sim_node
     from otgym.bus.transport import Node
     from otgym.cli.errors import report_worker_error
@@ -172,6 +173,9 @@ def sim(
     checks.check_duration(duration)
     stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
     load_chip(chip)  # a bad chip is an error line before anything starts
+    placement = place_sim(endpoints["listen"], endpoints["connect"], endpoints["config_file"], namespace=namespace)
+    endpoints.update(listen=placement.listen, connect=placement.connect, mode=placement.mode)
+    print(f"sim: {placement.describe()}", flush=True)
     print("starting the simulation in its own process ...", flush=True)
     with Node("sim", "sim", **endpoints) as node:
         ready = functools.partial(

@@ -2,8 +2,8 @@
 scene it shows (``SessionScene``: chip, route, what each sphere is) and its ticks
 (``ticks``: the state after each tick, for frames and video, ``otgym.record.frames``).
 
-Messages are decoded with the schema text stored in the file (mcap-ros2-support's
-dynamic decoder), so any ROS 2 recording with these topics reads the same way.
+Messages are decoded with the schema text stored in the file (read by rosbags into a
+type store of its own), so any ROS 2 recording with these topics reads the same way.
 
 The scene comes from the latched messages a session starts with (``otgym.bus.messages``:
 ``/otgym/session``, ``/otgym/chip``, ``/otgym/route``). The chip is rebuilt from its
@@ -27,8 +27,8 @@ import json
 from collections.abc import Callable, Iterator
 
 import numpy as np
-from mcap_ros2._dynamic import generate_dynamic
 from PIL import Image, UnidentifiedImageError
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from otgym.record.mcap_file import RecordedMessage, Recording
 
@@ -45,17 +45,19 @@ DEFAULT_TICK_S = 0.02
 
 
 class Decoder:
-    """Decodes recorded messages by their stored schema (one decoder per type)."""
+    """Decodes recorded messages by the schema stored with them (``ros2msg`` text, read
+    by rosbags into a type store of its own, once per type)."""
 
     def __init__(self):
-        self._decoders = {}
+        self._stores = {}
 
     def __call__(self, message: RecordedMessage):
-        decoder = self._decoders.get(message.type_name)
-        if decoder is None:
-            decoder = generate_dynamic(message.type_name, message.schema_text)[message.type_name]
-            self._decoders[message.type_name] = decoder
-        return decoder(message.data)
+        store = self._stores.get(message.type_name)
+        if store is None:
+            store = get_typestore(Stores.EMPTY)
+            store.register(get_types_from_msg(message.schema_text, message.type_name))
+            self._stores[message.type_name] = store
+        return store.deserialize_cdr(message.data, message.type_name)
 
 
 def events(recording: Recording) -> list[dict]:

@@ -30,13 +30,21 @@ Safety limits on top of the controller's (each tick that applies one counts in
 - the traps wait for the robots: they hold while the latest measurement has a trapped
   sphere farther than ``wait_fraction`` of the escape distance from its trap (the
   distance below), halfway to losing it: commands never run away from a rig that lags
-  (its own dynamics, or commands delayed on a loaded machine).
+  (its own dynamics, or commands delayed on a loaded machine);
+- the traps lead the rig by at most the escape distance: the newest command the latest
+  measurement shows the rig following (every trapped sphere within the wait distance of
+  it) is the rig's; a command farther than the escape distance from it holds the traps.
+  So commands that reach the rig late, or not at all (a controller or a bus that stalls
+  under load, a rig that stops listening), never put a trap farther ahead of the robots
+  than a trap can pull them.
 
 Each trap's distance to its handle, which decides a lost trap, is taken against the
 trap commands in effect when the rig measured (its stamp) or up to
-``COMMAND_DELAY_S`` before, the nearest of them, so the delay of the commands on their
-way to the rig (the bus, a bridge, its loop) does not count as lag, and the delay of its
-answers on their way back does not slow the traps.
+``COMMAND_DELAY_S`` before, and back to the newest command the rig was seen following,
+the nearest of them, so the delay of the commands on their way to the rig (the bus, a
+bridge, its loop) does not count as lag, the delay of its answers on their way back does
+not slow the traps, and a rig still following an older command is waited for, not
+taken as having lost its robots.
 
 What a rig does not measure: the robot-cell contact force (NaN in the observation, so
 the feedback's contact cue stays off and a trial's ``peak_contact_force_pn`` is empty);
@@ -134,6 +142,8 @@ class RigPlant:
         self._cell_radius = float(task.config.scene.cell_radius_um)
         self._commands: collections.deque = collections.deque(maxlen=COMMAND_HISTORY)
         self._start_stamp_s = -np.inf
+        self._followed: tuple[float, np.ndarray] | None = None
+        """(send time, traps) of the newest command the rig was seen following."""
         self._measured_stamp_s: float | None = None
         self._engaged = False
         self.held_ticks = 0
@@ -153,6 +163,7 @@ class RigPlant:
         self._engaged = False
         self._start_xy_um = np.asarray(state.sphere_xy_um[0], float).copy()
         self._commands.append((self._start_stamp_s, state.observation.trap_xy_um[0].copy()))
+        self._followed = self._commands[0]
         self.send_start(state.sphere_xy_um[0].copy(), self._start_stamp_s)
         return state
 
@@ -180,7 +191,12 @@ class RigPlant:
         if not np.all(np.isfinite(increment)):
             raise ValueError("trap increments must be finite")
         fresh = self._fresh()
-        if fresh is None or self._trap_distance_um(*fresh).max() > self.wait_um:
+        hold = fresh is None or self._trap_distance_um(*fresh).max() > self.wait_um
+        if not hold:
+            self._follow(*fresh)
+            lead = np.linalg.norm(state.observation.trap_xy_um[0] + increment[0] - self._followed[1], axis=-1)
+            hold = lead.max() > self.escape_distance_um
+        if hold:
             increment = np.zeros_like(increment)
             self.held_ticks += 1
         traps = state.observation.trap_xy_um + increment
@@ -196,6 +212,7 @@ class RigPlant:
         if fresh is not None:
             self._measured_stamp_s = fresh[0]
             spheres = fresh[1]
+            self._follow(*fresh)
         else:
             spheres = state.sphere_xy_um[0]  # nothing new: the last measurement, or the trial's start
         if self._measured_stamp_s is None:  # the traps have held since the start
@@ -214,15 +231,28 @@ class RigPlant:
     def step(self, state: TaskState, trap_increment_um, key=None, alpha=None) -> Observation:
         return self.complete(state, self.dispatch(state, trap_increment_um, key), alpha)
 
+    def _follow(self, stamp_s: float, spheres) -> None:
+        """The newest command sent by ``stamp_s`` with every trapped sphere of
+        ``spheres`` within the wait distance of it becomes the one the rig follows."""
+        candidates = [command for command in self._commands if self._followed[0] < command[0] <= stamp_s]
+        if not candidates:
+            return
+        handles = np.asarray(spheres, float)[self.task.trap_sphere]
+        distance = np.linalg.norm(np.stack([traps for _, traps in candidates]) - handles, axis=-1).max(axis=-1)
+        followed = np.flatnonzero(distance <= self.wait_um)
+        if followed.size:
+            self._followed = candidates[int(followed[-1])]
+
     def _trap_distance_um(self, stamp_s: float, spheres) -> np.ndarray:
         """Each trapped sphere's distance (T,) to the nearest of the trap commands in
-        effect between ``stamp_s - COMMAND_DELAY_S`` and ``stamp_s`` (the earliest kept
-        if all are later)."""
+        effect between ``stamp_s - COMMAND_DELAY_S`` (or the command the rig was seen
+        following, if older) and ``stamp_s`` (the earliest kept if all are later)."""
+        since_s = min(stamp_s - COMMAND_DELAY_S, self._followed[0])
         chosen = [self._commands[0][1]]
         for sent_s, traps in self._commands:
             if sent_s > stamp_s:
                 break
-            if sent_s <= stamp_s - COMMAND_DELAY_S:
+            if sent_s < since_s:
                 chosen = []
             chosen.append(traps)
         handles = np.asarray(spheres, float)[self.task.trap_sphere]

@@ -1,7 +1,8 @@
-"""otgym's ROS 2 messages (``otgym.bus.messages``): every type's bytes decode with an
-independent CDR implementation and ROS 2's own definitions (rosbags' Humble type
-store), round trips give back what was sent, and malformed messages are refused with
-a reason."""
+"""otgym's ROS 2 messages (``otgym.bus.messages``): every type's bytes decode under
+another distribution's definitions (rosbags' Humble type store; otgym encodes with its
+Jazzy store, ``otgym.bus.schemas``; an independent CDR implementation, mcap-ros2-support,
+reads otgym's recordings in ``tests/record/test_mcap_file.py``), round trips give back
+what was sent, and malformed messages are refused with a reason."""
 
 from __future__ import annotations
 
@@ -93,7 +94,8 @@ def test_sample_rebuilt_from_twist_and_buttons_on_the_receivers_clock():
 
 
 def test_every_schema_names_the_fields_of_the_ros2_definition():
-    """Our schema text's own fields (first block) are ROS 2 Humble's, in order."""
+    """The schema text's own fields (first block, as rosbags generates it from Jazzy's
+    definitions) are ROS 2 Humble's, in order: recordings read the same in both."""
     for type_name, text in schemas.SCHEMAS.items():
         ours = [line.split()[1] for line in text.split("=" * 80)[0].strip().splitlines()]
         theirs = [name for name, _ in TYPESTORE.fielddefs[type_name][1]]

@@ -183,6 +183,32 @@ def test_a_rig_that_stalls_holds_the_traps_and_loses_none():
     assert int(loop.observation.phase[0]) == CARRY
 
 
+def test_a_rig_that_does_not_follow_the_commands_is_waited_for_and_loses_none():
+    """The rig answers every tick, but its robots stay where the trial started, as when
+    the commands stop reaching it (a bus or controller stalled under load): the traps
+    move at most the escape distance ahead of the command it follows (the start), then
+    hold, and no trap is lost over 2 s; once it follows again the trial goes on. Fails
+    against the rules before (the traps ran 0.8 um ahead of the robots while the start
+    was among the last second's commands; a trap counted lost once it fell out)."""
+    loop, plant, rig, clocks, measured = _rig_loop()
+    start = loop.observation.trap_xy_um[0].copy()
+    escape_um = plant.escape_distance_um
+    for _ in range(100):
+        clocks.now_s += loop.tick_s
+        measured.update(clocks(), clocks(), rig.xy)  # fresh, and where the trial started
+        loop.tick()
+        lead = np.linalg.norm(loop.observation.trap_xy_um[0] - start, axis=-1).max()
+        assert lead <= escape_um + 1e-9, lead
+    assert lead > 0.5 * escape_um  # the traps did move toward the route before they held
+    assert loop.state.metrics.rows()[0]["trap_losses"] == 0 and not loop.done
+    held = plant.held_ticks
+    for _ in range(30):
+        _answer(loop, rig, clocks, measured)
+        loop.tick()
+    assert np.linalg.norm(loop.observation.trap_xy_um[0] - start, axis=-1).max() > 2 * escape_um
+    assert plant.held_ticks < held + 30 and loop.state.metrics.rows()[0]["trap_losses"] == 0
+
+
 class _Stylus(Device):
     """A stylus moved at a constant 2 mm/s along x with its clutch held, on the test's clock."""
 
