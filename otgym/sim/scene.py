@@ -198,6 +198,19 @@ def _assembly_radius_um(model: ph.Model, config: SceneConfig, n_payload: int) ->
     return float(np.max(np.linalg.norm(xy[payload], axis=1) + radii[payload]))
 
 
+def grip_geometry_um(config: SceneConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The transport assembly about a cell at the origin, heading 0 (no chip needed): the
+    trap positions (T, 2) on the robots' handles (without the grip squeeze) and the
+    radii (S,) of the robots' spheres. For tasks that need the grip's geometry without
+    simulating it (the light dose a carried cell gets, the assembly's drag)."""
+    transport = dataclasses.replace(config, kind="transport", n_obstacles=0)
+    model = ph.build_model(_bodies(transport), ph.PhysicsConfig(substeps=1))
+    pose = _assembly_pose(model, transport, jnp.zeros(2), jnp.zeros(()))
+    traps = ph.sphere_positions_um(model, pose)[np.asarray(model.trap_sphere, int)]
+    robot_spheres = [i for i, b in enumerate(model.sphere_body) if b < 2]
+    return np.asarray(traps, float), np.asarray(model.sphere_radius_um, float)[robot_spheres]
+
+
 def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
     """Load the chip, derive (or read from the cache) its walls and flow, and compile the
     physics model of the scene. Raises ValueError if the chip has no room for it."""

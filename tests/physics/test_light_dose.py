@@ -49,11 +49,7 @@ def test_the_trap_laws_beams():
 def _carried_traps(cell_radius_um: float):
     """The four handle traps of the transport scene's two robots gripping a cell at the
     origin (the scene's own geometry, without a chip)."""
-    config = sc.SceneConfig(cell_radius_um=cell_radius_um, n_obstacles=0)
-    bodies = sc._bodies(config)
-    model = ph.build_model(bodies, ph.PhysicsConfig(substeps=1))
-    pose = sc._assembly_pose(model, config, jnp.zeros(2), jnp.zeros(()))
-    return ph.sphere_positions_um(model, pose)[np.asarray(model.trap_sphere, int)]
+    return jnp.asarray(sc.grip_geometry_um(sc.SceneConfig(cell_radius_um=cell_radius_um))[0], jnp.float32)
 
 
 @pytest.mark.parametrize("cell_radius_um", [3.0, 5.0])
