@@ -19,6 +19,7 @@ top-left corner, x right, y down).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -203,12 +204,22 @@ def grip_geometry_um(config: SceneConfig) -> tuple[np.ndarray, np.ndarray]:
     trap positions (T, 2) on the robots' handles (without the grip squeeze) and the
     radii (S,) of the robots' spheres. For tasks that need the grip's geometry without
     simulating it (the light dose a carried cell gets, the assembly's drag)."""
-    transport = dataclasses.replace(config, kind="transport", n_obstacles=0)
+    traps, radii = _grip_geometry(dataclasses.replace(config, kind="transport", n_obstacles=0))
+    return traps.copy(), radii.copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _grip_geometry(transport: SceneConfig):
     model = ph.build_model(_bodies(transport), ph.PhysicsConfig(substeps=1))
-    pose = _assembly_pose(model, transport, jnp.zeros(2), jnp.zeros(()))
-    traps = ph.sphere_positions_um(model, pose)[np.asarray(model.trap_sphere, int)]
+    trap_sphere = np.asarray(model.trap_sphere, int)
+
+    @jax.jit
+    def traps_of(model):  # one program, not one per primitive
+        pose = _assembly_pose(model, transport, jnp.zeros(2), jnp.zeros(()))
+        return ph.sphere_positions_um(model, pose)[trap_sphere]
+
     robot_spheres = [i for i, b in enumerate(model.sphere_body) if b < 2]
-    return np.asarray(traps, float), np.asarray(model.sphere_radius_um, float)[robot_spheres]
+    return np.asarray(traps_of(model), float), np.asarray(model.sphere_radius_um, float)[robot_spheres]
 
 
 def build_scene(config: SceneConfig = SceneConfig()) -> Scene:
