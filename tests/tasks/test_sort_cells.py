@@ -99,6 +99,7 @@ def test_light_on_a_held_cell_is_linear_in_power_and_far_higher_in_the_trap():
         assert ratio >= ld.dose_bound_ratio(gap, len(traps), robots.waist_um) > 10
 
 
+@pytest.mark.slow
 def test_a_directly_held_cells_dose_is_its_time_held_times_the_focus_intensity():
     task = tasks.load("sort-cells")
     params = task.make_params(task.config("direct"))
