@@ -102,7 +102,9 @@ def _plugin_site(tmp_path: Path) -> Path:
     )
     chips = package / "chips"
     chips.mkdir()
-    (chips / "bead-sorter.json").write_text('{"name": "bead-sorter", "description": "a sorting chip", "pixel_size_um": 1.0}')
+    (chips / "bead-sorter.json").write_text(
+        '{"name": "bead-sorter", "description": "a sorting chip", "pixel_size_um": 1.0}'
+    )
     info = site / "mylab-0.1.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: mylab\nVersion: 0.1\n")
