@@ -48,7 +48,7 @@ def _rollout(key, params: OrientParams, n_episodes: int, modes, greedy=None):
     zeros = jnp.zeros(modes.shape[0], bool)
 
     def body(carry, step_key):
-        obs, state, done, success, failed, time_s, error, turn = carry
+        obs, state, done, success, failed, time_s, error, turn, dose = carry
         action = _scripted_actions(obs, direction, modes, config) if greedy is None else greedy(obs)
         obs, state, _, terminated, truncated, info = task.step_batch(step_key, state, action, params)
         alive = ~done
@@ -57,13 +57,15 @@ def _rollout(key, params: OrientParams, n_episodes: int, modes, greedy=None):
         time_s = jnp.where(alive, info["time_s"], time_s)
         error = jnp.where(alive, info["angle_error_rad"], error)
         turn = jnp.where(alive, turn + wrap(info["turn_rad"] - turn), turn)  # unwrapped
-        return (obs, state, done | terminated | truncated, success, failed, time_s, error, turn), None
+        dose = jnp.where(alive, info["light_dose_mj_per_um2"], dose)
+        return (obs, state, done | terminated | truncated, success, failed, time_s, error, turn, dose), None
 
-    start = (obs, state, zeros, zeros, zeros, jnp.zeros(modes.shape[0]), state.target_rad, jnp.zeros(modes.shape[0]))
+    none = jnp.zeros(modes.shape[0])
+    start = (obs, state, zeros, zeros, zeros, none, state.target_rad, none, none)
     final, _ = jax.lax.scan(body, start, jax.random.split(run_key, config.max_steps))
-    _, _, _, success, failed, time_s, error, turn = final
+    _, _, _, success, failed, time_s, error, turn, dose = final
     outcome = {"target_rad": state.target_rad, "success": success, "failed": failed, "time_s": time_s}
-    outcome.update(error_rad=error, turn_rad=turn)
+    outcome.update(error_rad=error, turn_rad=turn, light_dose_mj_per_um2=dose)
     return jax.tree.map(lambda a: a.reshape(copies, n_episodes), outcome)
 
 
@@ -77,7 +79,8 @@ def rollout(policy, n_episodes: int, seed: int, params: OrientParams | None = No
     ``PRNGKey(seed)`` under ``policy`` (a name of ``POLICIES`` or Q-network parameters):
     ``target_rad``, ``success``, ``failed``, ``time_s`` (at the episode's end) and
     ``error_rad`` (the angle error at the episode's end, wrapped) and ``turn_rad`` (the
-    measured turn at the episode's end, unwrapped: beyond the target is an overshoot)."""
+    measured turn at the episode's end, unwrapped: beyond the target is an overshoot) and
+    ``light_dose_mj_per_um2`` (the cell's light dose over the episode)."""
     params = _params(params)
     key = jax.random.PRNGKey(seed)
     if isinstance(policy, str):
@@ -118,7 +121,7 @@ def _hidden(q_params) -> tuple[int, ...]:
 def summarise(outcome: dict, tolerance_deg: float = 2.0) -> dict:
     """Success rate, its Wilson 95 % interval, mean time of the successes (s), failures,
     overshoots (episodes that end turned beyond the target by more than the tolerance)
-    and the median absolute final error (deg)."""
+    the median absolute final error (deg) and the mean light dose of the cell (mJ/um^2)."""
     success = np.asarray(outcome["success"], bool)
     target = np.asarray(outcome["target_rad"])
     tolerance = np.deg2rad(tolerance_deg)
@@ -133,6 +136,9 @@ def summarise(outcome: dict, tolerance_deg: float = 2.0) -> dict:
         "failures": int(np.sum(outcome["failed"])),
         "overshoots": int(np.sum(np.sign(target) * outcome["turn_rad"] > np.abs(target) + tolerance)),
         "median_final_error_deg": round(float(np.rad2deg(np.median(np.abs(outcome["error_rad"])))), 2),
+        "mean_light_dose_mj_per_um2": (
+            float(np.mean(outcome["light_dose_mj_per_um2"])) if "light_dose_mj_per_um2" in outcome else None
+        ),
     }
 
 

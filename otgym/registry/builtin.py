@@ -61,6 +61,14 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
             "gym_id": "otgym/orient-v0",
         },
     ),
+    (
+        "tasks",
+        "sort-cells",
+        "otgym.tasks.sort_cells:SortCells",
+        "cells of two sizes arrive with the flow; robots (or a trap) move each into its outlet",
+        (),
+        {"gym_id": "otgym/sort-cells-v0"},
+    ),
     # robots
     (
         "robots",

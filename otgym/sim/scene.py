@@ -19,6 +19,7 @@ top-left corner, x right, y down).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -196,6 +197,29 @@ def _assembly_radius_um(model: ph.Model, config: SceneConfig, n_payload: int) ->
     radii = np.asarray(model.sphere_radius_um)
     payload = np.array([b < n_payload for b in model.sphere_body])
     return float(np.max(np.linalg.norm(xy[payload], axis=1) + radii[payload]))
+
+
+def grip_geometry_um(config: SceneConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The transport assembly about a cell at the origin, heading 0 (no chip needed): the
+    trap positions (T, 2) on the robots' handles (without the grip squeeze) and the
+    radii (S,) of the robots' spheres. For tasks that need the grip's geometry without
+    simulating it (the light dose a carried cell gets, the assembly's drag)."""
+    traps, radii = _grip_geometry(dataclasses.replace(config, kind="transport", n_obstacles=0))
+    return traps.copy(), radii.copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _grip_geometry(transport: SceneConfig):
+    model = ph.build_model(_bodies(transport), ph.PhysicsConfig(substeps=1))
+    trap_sphere = np.asarray(model.trap_sphere, int)
+
+    @jax.jit
+    def traps_of(model):  # one program, not one per primitive
+        pose = _assembly_pose(model, transport, jnp.zeros(2), jnp.zeros(()))
+        return ph.sphere_positions_um(model, pose)[trap_sphere]
+
+    robot_spheres = [i for i, b in enumerate(model.sphere_body) if b < 2]
+    return np.asarray(traps_of(model), float), np.asarray(model.sphere_radius_um, float)[robot_spheres]
 
 
 def build_scene(config: SceneConfig = SceneConfig()) -> Scene:

@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from otgym import physics as ph
+from otgym.physics import light_dose as ld
 from otgym.planning import formation as fm
 from otgym.planning import plan_path
 from otgym.sim import scene as sc
@@ -117,6 +118,7 @@ class TrialMetrics:
     detachments: np.ndarray
     peak_contact_force_pn: np.ndarray
     band_time_s: np.ndarray  # (E, 3) time in ALPHA_BANDS
+    light_dose_mj_per_um2: np.ndarray  # (E,) the cell's light dose (``otgym.physics.light_dose``)
 
     @classmethod
     def empty(cls, n_env: int, n_obstacles: int) -> TrialMetrics:
@@ -132,6 +134,7 @@ class TrialMetrics:
             zeros(n_env, dtype=int),
             zeros(n_env),
             zeros(n_env, len(ALPHA_BANDS)),
+            zeros(n_env),
         )
 
     def rows(self) -> list[dict]:
@@ -153,6 +156,7 @@ class TrialMetrics:
                     "detachments": int(self.detachments[e]),
                     "peak_contact_force_pn": float(self.peak_contact_force_pn[e]),
                     "grip_time_s": float(self.grip_time_s[e]),
+                    "light_dose_mj_per_um2": float(self.light_dose_mj_per_um2[e]),
                     **{f"time_{name}_s": float(self.band_time_s[e, i]) for i, (name, _, _) in enumerate(ALPHA_BANDS)},
                 }
             )
@@ -366,6 +370,11 @@ class InteractiveTask:
             np.linalg.norm(obs.cell_xy_um - self.route_um[-1], axis=1) <= config.goal_tolerance_um
         )
         metrics.trap_losses += active & lost
+        beam = ld.TrapBeam.of_trap_law(config.scene.trap_law)
+        intensity = np.asarray(
+            ld.cell_intensity_mw_per_um2(beam, obs.trap_xy_um, obs.cell_xy_um, config.scene.cell_radius_um)
+        )
+        metrics.light_dose_mj_per_um2 += tick * np.where(active, intensity, 0.0)
         timeout = obs.time_s >= config.time_limit_s - 0.5 * tick  # time_s is float32
         finished = active & (at_goal | lost | timeout)
         metrics.reached_goal |= active & at_goal & ~lost

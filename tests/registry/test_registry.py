@@ -96,20 +96,22 @@ def _plugin_site(tmp_path: Path) -> Path:
             class Wanderer:
                 """A navigator that wanders."""
 
-            CHIP = Path(__file__).with_name("chips") / "sorter.json"
+            CHIP = Path(__file__).with_name("chips") / "bead-sorter.json"
             '''
         )
     )
     chips = package / "chips"
     chips.mkdir()
-    (chips / "sorter.json").write_text('{"name": "sorter", "description": "a sorting chip", "pixel_size_um": 1.0}')
+    (chips / "bead-sorter.json").write_text(
+        '{"name": "bead-sorter", "description": "a sorting chip", "pixel_size_um": 1.0}'
+    )
     info = site / "mylab-0.1.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: mylab\nVersion: 0.1\n")
     (info / "entry_points.txt").write_text(
-        "[otgym.tasks]\nsort-cells = mylab:Sorter\n\n"
+        "[otgym.tasks]\nsort-beads = mylab:Sorter\n\n"
         "[otgym.navigators]\nwander = mylab:Wanderer\nroute = mylab:Wanderer\nbroken = mylab:Missing\n\n"
-        "[otgym.chips]\nsorter = mylab:CHIP\n"
+        "[otgym.chips]\nbead-sorter = mylab:CHIP\n"
     )
     return site
 
@@ -127,12 +129,12 @@ def test_an_installed_package_adds_parts_through_entry_points(tmp_path):
 
     tasks = run(["-m", "otgym", "list", "tasks"])
     navigators, chips, _ = run(["-c", LIST_NAVIGATORS_AND_CHIPS]).split("--\n")
-    assert "sort-cells" in tasks and "Sort two kinds of cells into two outlets." in tasks
+    assert "sort-beads" in tasks and "Sort two kinds of cells into two outlets." in tasks
     assert "from entry point mylab" in tasks
     assert navigators.splitlines()[0].startswith("route ") and "the paper's autonomy" in navigators
     assert "entry point mylab" in navigators
     assert "wander" in navigators and "does not load" in navigators and "broken" in navigators
-    assert "sorter" in chips and "a sorting chip" in chips
+    assert "bead-sorter" in chips and "a sorting chip" in chips
 
 
 LIST_NAVIGATORS_AND_CHIPS = """

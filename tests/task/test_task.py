@@ -125,6 +125,26 @@ def test_autonomous_carry_advances_at_cruise_speed(carry_run):
     np.testing.assert_allclose(speed, 5.0, rtol=0.1)
 
 
+def test_the_cells_light_dose_is_accounted(task, carry_run):
+    """The cell's dose over the 5 s is positive (the handle traps' light reaches it) and
+    below the bound for a cell whose surface stays at least a from each of the four
+    traps, N P / (pi e a^2) per second (``otgym.physics.light_dose``), with a the
+    smallest trap-to-surface distance seen; catches a dose never accumulated, or one
+    that counts the traps' focus intensity."""
+    from otgym.physics import light_dose as ld
+
+    state, history = carry_run
+    beam = ld.TrapBeam.of_trap_law(task.config.scene.trap_law)
+    radius = task.config.scene.cell_radius_um
+    gap = min(float(np.min(np.linalg.norm(o.trap_xy_um - o.cell_xy_um[:, None], axis=-1))) for o in history) - radius
+    assert gap > 1.0
+    dose = state.metrics.light_dose_mj_per_um2
+    elapsed = CARRY_TICKS * task.config.tick_s
+    bound = 4 * beam.power_mw / (np.pi * np.e * gap**2) * elapsed
+    assert np.all(dose > 0) and np.all(dose < bound)
+    assert np.all(dose < 1e-3 * beam.focus_intensity_mw_per_um2 * elapsed)
+
+
 def test_alpha_band_time_is_accounted(task, carry_run):
     """alpha 0 for 5 s counts 5 s in the first band ('autonomous', alpha < 0.2) and none
     in the others; catches bands not accumulated or accumulated in the wrong column."""
@@ -250,6 +270,7 @@ def test_trial_metrics_rows_have_the_experiments_columns():
     metrics.grip_time_s[:] = [0.1, 0.2]
     metrics.peak_contact_force_pn[:] = [12.0, 3.0]
     metrics.band_time_s[:] = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
+    metrics.light_dose_mj_per_um2[:] = [1e-9, 2e-9]
     rows = metrics.rows()
     expected_columns = {
         "completion_time_s",
@@ -266,10 +287,12 @@ def test_trial_metrics_rows_have_the_experiments_columns():
         "time_autonomous_s",
         "time_balanced_s",
         "time_fine_tune_s",
+        "light_dose_mj_per_um2",
     }
     assert len(rows) == 2 and all(set(row) == expected_columns for row in rows)
     assert not {"participant", "mode", "trial", "scenario"} & set(rows[0])
     first, second = rows
+    assert (first["light_dose_mj_per_um2"], second["light_dose_mj_per_um2"]) == (1e-9, 2e-9)
     assert (first["obstacles_encountered"], first["obstacles_avoided"], first["collisions"]) == (3, 2, 1)
     assert first["success"] == pytest.approx(2 / 3)
     assert np.isnan(second["success"]) and second["obstacles_encountered"] == 0

@@ -14,6 +14,7 @@ from gymnasium.utils.env_checker import check_env
 
 import otgym  # noqa: F401  (registers the Gymnasium ids)
 from otgym import tasks
+from otgym.physics import light_dose as ld
 from otgym.tasks.orient import baseline, default
 from otgym.tasks.orient.core import OBS_SIZE, OrientConfig
 
@@ -110,6 +111,10 @@ def test_scripted_outcomes_hold_keeps_bang_bang_reaches_fastest_overshoots(param
     assert np.all(np.abs(target) >= np.deg2rad(params.config.target_min_deg))
     for name in ("hold", "baseline", "fastest"):
         assert not out[name]["failed"].any(), name  # the grip holds under every one of them
+        # the handle traps' light reaches the gripped cell, far below a trap's focus
+        focus = ld.TrapBeam.of_trap_law(params.config.scene.trap_law).focus_intensity_mw_per_um2
+        dose = out[name]["light_dose_mj_per_um2"]
+        assert np.all(dose > 0) and np.all(dose < 1e-3 * focus * out[name]["time_s"]), name
     # Holding still: the measured turn stays within a degree of zero for the whole 40 s
     # (rotational jitter of the grip axis is about 0.1 degree per step here).
     hold = out["hold"]

@@ -43,6 +43,7 @@ import numpy as np
 from flax import struct
 
 from otgym import physics as ph
+from otgym.physics import light_dose as ld
 from otgym.physics.validation import require_positive_scalar
 from otgym.sim import scene as sc
 from otgym.sim.scene import SceneConfig
@@ -132,6 +133,7 @@ class OrientState:
     contact_force_pn: jnp.ndarray  # (2,)
     within_steps: jnp.ndarray  # int32 consecutive steps within the tolerance
     steps: jnp.ndarray  # int32
+    light_dose_mj_per_um2: jnp.ndarray  # the cell's light dose so far this episode (``otgym.physics.light_dose``)
 
 
 def wrap(angle):
@@ -184,6 +186,7 @@ def _reset_one(key, params: OrientParams):
         contact_force_pn=jnp.zeros(2, dtype),
         within_steps=jnp.zeros((), jnp.int32),
         steps=jnp.zeros((), jnp.int32),
+        light_dose_mj_per_um2=zero,
     )
 
 
@@ -234,6 +237,14 @@ def step_batch(key, state: OrientState, action, params: OrientParams):
     measured = wrap(grip_angle(params, scene_state.physics.pose) - state.grip_start_rad)
     error = wrap(state.target_rad - measured)
     failed = events.failed
+    beam = ld.TrapBeam.of_trap_law(config.scene.trap_law)
+    intensity = ld.cell_intensity_mw_per_um2(
+        beam,
+        scene_state.physics.trap_xy_um,
+        scene_state.physics.pose[:, params.scene.payload, :2],
+        config.scene.cell_radius_um,
+    )
+    dose = state.light_dose_mj_per_um2 + period * intensity
     within = jnp.where(jnp.abs(error) <= np.deg2rad(config.tolerance_deg), state.within_steps + 1, 0)
     goal = (within >= config.hold_steps) & ~failed
     steps = state.steps + 1
@@ -251,6 +262,7 @@ def step_batch(key, state: OrientState, action, params: OrientParams):
         events.contact_force_pn,
         within.astype(jnp.int32),
         steps,
+        dose,
     )
     weights = config.reward
     reward = (
@@ -265,6 +277,7 @@ def step_batch(key, state: OrientState, action, params: OrientParams):
         "angle_error_rad": error,
         "turn_rad": measured,
         "time_s": steps * period,
+        "light_dose_mj_per_um2": dose,
         "contact_force_pn": events.contact_force_pn,
         "trap_distance_um": events.trap_distance_um,
     }

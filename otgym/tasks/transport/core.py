@@ -32,6 +32,7 @@ import numpy as np
 from flax import struct
 
 from otgym import physics as ph
+from otgym.physics import light_dose as ld
 from otgym.planning import formation as fm
 from otgym.planning import plan_path
 from otgym.sim import scene as sc
@@ -63,6 +64,7 @@ class TransportState:
     speed_um_s: jnp.ndarray  # last commanded speed along the path
     contact_force_pn: jnp.ndarray  # (2,) robot-cell contact forces of the last step
     steps: jnp.ndarray  # int32 control steps in this episode
+    light_dose_mj_per_um2: jnp.ndarray  # the cell's light dose so far this episode (``otgym.physics.light_dose``)
 
 
 def make_params(config: TaskConfig) -> TransportParams:
@@ -108,7 +110,7 @@ def reset_batch(key, params: TransportParams, n_envs: int):
     )(jax.random.split(scene_key, n_envs), starts)
     zeros = jnp.zeros_like(starts)
     state = TransportState(
-        scene_state, starts, starts, zeros, jnp.zeros((n_envs, 2), starts.dtype), jnp.zeros(n_envs, jnp.int32)
+        scene_state, starts, starts, zeros, jnp.zeros((n_envs, 2), starts.dtype), jnp.zeros(n_envs, jnp.int32), zeros
     )
     return observe_batch(params, state), state
 
@@ -198,13 +200,28 @@ def _reward(config: TaskConfig, events: sc.SceneEvents, speed, failed, goal, cel
     return sum(reward_terms(config, events, speed, failed, goal, cell_behind_um).values())
 
 
+def cell_intensity_mw_per_um2(params: TransportParams, scene_state: sc.SceneState):
+    """The light intensity (E,) on the carried cell from the four handle traps, each a
+    beam of the scene's trap law (``otgym.physics.light_dose``)."""
+    scene_config = params.config.scene
+    beam = ld.TrapBeam.of_trap_law(scene_config.trap_law)
+    physics = scene_state.physics
+    cell_xy = physics.pose[:, params.scene.payload, :2]
+    return ld.cell_intensity_mw_per_um2(beam, physics.trap_xy_um, cell_xy, scene_config.cell_radius_um)
+
+
 def advance_batch(key, params: TransportParams, state: TransportState, trap_velocity_um_s, arc_of, speed_um_s):
     """Step the scenes with trap velocities (E, T, 2); ``arc_of(new_scene_state)``
     gives the new progress (E,). Returns obs, state, reward, terminated, truncated,
     info (a dict of (E,) arrays and the step's SceneEvents)."""
     scene_state, events = sc.step_batch(params.scene, state.scene, trap_velocity_um_s, key)
     arc = arc_of(scene_state)
-    new = TransportState(scene_state, state.start_arc_um, arc, speed_um_s, events.contact_force_pn, state.steps + 1)
+    dose = state.light_dose_mj_per_um2 + params.config.scene.control_period_s * cell_intensity_mw_per_um2(
+        params, scene_state
+    )
+    new = TransportState(
+        scene_state, state.start_arc_um, arc, speed_um_s, events.contact_force_pn, state.steps + 1, dose
+    )
     failed = events.failed
     goal = (arc >= segment_end(params, new) - 1e-3) & ~failed
     terminated = failed | goal
@@ -216,6 +233,7 @@ def advance_batch(key, params: TransportParams, state: TransportState, trap_velo
         "failed": failed,
         "progress": (arc - state.start_arc_um) / params.config.segment_um,
         "time_s": new.steps * params.config.scene.control_period_s,
+        "light_dose_mj_per_um2": dose,
         "events": events,
     }
     return obs, new, reward.astype(jnp.float32), terminated, truncated, info
