@@ -9,9 +9,7 @@ from pathlib import Path
 import typer
 
 from otgym.cli import options
-from otgym.experiments.seeds import REPORT_SEEDS
-
-BASELINES = {"assemble": "the plan at 0.3 um per frame", "orient": "the bang-bang controller"}
+from otgym.experiments.seeds import REPORT_SEEDS, TASK_REPORTS
 
 
 def _register_one(experiment: typer.Typer, task_name: str) -> None:
@@ -52,7 +50,7 @@ def _register_one(experiment: typer.Typer, task_name: str) -> None:
         )
 
     command.__doc__ = f"""The {task_name} task ({PRESETS[task_name]}): the shipped learned policy against
-        {BASELINES[task_name]} on the same episodes: success (McNemar, Wilson intervals),
+        {TASK_REPORTS[task_name]["report_baseline"]} on the same episodes: success (McNemar, Wilson intervals),
         time to success (Wilcoxon signed-rank), the task's own metrics (docs/tasks.md).
 
         Example: otgym experiment {task_name} --episodes 256 --out results/{task_name}-report
@@ -60,5 +58,5 @@ def _register_one(experiment: typer.Typer, task_name: str) -> None:
 
 
 def register(experiment: typer.Typer) -> None:
-    for task_name in ("assemble", "orient"):
+    for task_name in TASK_REPORTS:
         _register_one(experiment, task_name)

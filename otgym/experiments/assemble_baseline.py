@@ -109,6 +109,16 @@ def greedy(policy_path: str, params: core.AssembleParams):
     return lambda obs: jnp.argmax(network.apply(q_params, obs), axis=-1).astype(jnp.int32)
 
 
+def report_outcomes(policy_path, preset: str, episodes: int, seed: int) -> dict:
+    """The report comparison's paired outcomes (``otgym.experiments.task_report``): the
+    plan at the baseline's constant pace and the greedy Q-network of ``policy_path`` on
+    the same ``episodes`` from ``seed``."""
+    task = tasks.load("assemble")
+    params = task.make_params(task.config(preset))
+    runs = {"baseline": constant(baseline_action(params.config)), "learned": greedy(str(policy_path), params)}
+    return {name: episode_metrics(params, policy, episodes, seed) for name, policy in runs.items()}
+
+
 def _paces(choice: str, config: AssembleConfig) -> list[int]:
     if choice == "baseline":
         return [baseline_action(config)]

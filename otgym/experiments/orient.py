@@ -145,3 +145,22 @@ def summarise(outcome: dict, tolerance_deg: float = 2.0) -> dict:
 def evaluate(policy, n_episodes: int = 64, seed: int = 1) -> dict:
     """``summarise(rollout(policy, n_episodes, seed))``."""
     return summarise(rollout(policy, n_episodes, seed))
+
+
+def report_outcomes(policy_path, preset: str, episodes: int, seed: int) -> dict:
+    """The report comparison's paired outcomes (``otgym.experiments.task_report``): the
+    bang-bang controller and the greedy Q-network of ``policy_path`` on the same
+    ``episodes`` from ``seed`` (the default preset: ``preset`` is checked), with each
+    episode's overshoot and final error."""
+    from otgym.experiments.task_report import policy_shape
+    from otgym.rl.policy import load_policy
+
+    if preset != "default":
+        raise ValueError(f"orient's report runs the default preset, not {preset!r}")
+    q_params, _ = load_policy(policy_path, *policy_shape("orient"))
+    found = {"baseline": rollout("baseline", episodes, seed), "learned": rollout(q_params, episodes, seed)}
+    for outcome in found.values():
+        target = np.asarray(outcome["target_rad"])
+        outcome["overshoot"] = np.sign(target) * outcome["turn_rad"] > np.abs(target) + np.deg2rad(2.0)
+        outcome["final_error_deg"] = np.rad2deg(np.abs(outcome["error_rad"]))
+    return found

@@ -23,12 +23,14 @@ Seed spaces (what a number seeds; the same number in two spaces is two different
   the study seed that reached it.
 - ``population``: the simulated participants (``sample_population(n, seed)``).
 - ``transport``: the demo's whole-path transport runs (``otgym demo --runs``).
-- ``assemble``, ``orient``: the evaluation episodes of those tasks, one batch from
-  ``jax.random.PRNGKey(seed)`` (``otgym experiment assemble`` / ``orient``; the same
-  starts and step keys for every policy compared).
+- one space per task with a report (a registry entry with ``report_seed``: assemble,
+  orient): its evaluation episodes, one batch from ``jax.random.PRNGKey(seed)``
+  (``otgym experiment NAME``; the same starts and step keys for every policy compared).
 
 ``TRAINING_SEEDS`` names the training seed (space ``training``) of each task's shipped
-learned policy, named before it was trained.
+learned policy, named before it was trained. A task's report and training seeds are
+written in its registry entry (``report_seed``, ``training_seed``) and gathered here,
+so the seed registry covers them and a task added with a report adds its own.
 
 Where a development figure was recorded without its seed (the issue that introduced
 this module tried Table II on "another fresh seed", 256 episodes, and Fig. 8 on
@@ -40,7 +42,12 @@ from __future__ import annotations
 
 import dataclasses
 
-SPACES = ("episodes", "training", "study", "scenarios", "population", "transport", "assemble", "orient")
+from otgym import registry
+
+TASK_REPORTS = {entry.name: entry.extras for entry in registry.entries("tasks") if "report_seed" in entry.extras}
+"""The registered tasks with a report-seed comparison, and their entries' extras."""
+
+SPACES = ("episodes", "training", "study", "scenarios", "population", "transport", *TASK_REPORTS)
 
 SCENARIOS_PER_STUDY_SEED = 10_000
 """Study seed s reaches scenarios s * 10000 .. s * 10000 + 9999 (trial t: + t)."""
@@ -200,16 +207,14 @@ REPORT_SEEDS = {
     "speed-front": 74_000,
     "shared-control": 7_700,
     "route-bound": 7_700,
-    "assemble": 75_000,
-    "orient": 76_000,
-}
+} | {name: int(extras["report_seed"]) for name, extras in TASK_REPORTS.items()}
 """The held-out seed each full-size command uses by default, named before it was run
 (route-bound bounds shared-control's scenarios, so the two share it). Evaluation
 commands use ``seed .. seed + batches - 1``."""
 
 COMMANDS = tuple(REPORT_SEEDS)
 
-TRAINING_SEEDS = {"assemble": 38, "orient": 39}
+TRAINING_SEEDS = {name: int(extras["training_seed"]) for name, extras in TASK_REPORTS.items()}
 """The ``otgym train --task NAME --seed`` of each task's shipped learned policy (the
 report's policy), named before its training; unused by development (space ``training``)."""
 
@@ -218,7 +223,7 @@ def _spans(command: str, seed: int, batches: int, trials: int) -> list[tuple[str
     """The (space, first, last) seed ranges one run of ``command`` draws from."""
     if command in ("evaluate", "speed-front"):
         return [("episodes", seed, seed + batches - 1)]
-    if command in ("assemble", "orient"):
+    if command in TASK_REPORTS:
         return [(command, seed, seed + batches - 1)]
     if command in ("shared-control", "route-bound"):
         first = seed * SCENARIOS_PER_STUDY_SEED

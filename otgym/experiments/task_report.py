@@ -21,6 +21,7 @@ its time to success is shorter with Wilcoxon p < alpha; anything else is a miss.
 
 from __future__ import annotations
 
+import importlib
 import json
 from pathlib import Path
 
@@ -28,13 +29,14 @@ import numpy as np
 
 from otgym.experiments import seeds as seed_protocol
 
-TASKS = ("assemble", "orient")
+TASKS = tuple(seed_protocol.TASK_REPORTS)
+"""The tasks with a report (registry entries with ``report_seed``; their extras name the rest)."""
 ALPHA = 0.05
 POLICY_DIR = Path(__file__).resolve().parent.parent / "data" / "policies"
-SHIPPED_POLICIES = {"assemble": POLICY_DIR / "assemble_ring.npz", "orient": POLICY_DIR / "orient_default.npz"}
+SHIPPED_POLICIES = {name: POLICY_DIR / extras["report_policy"] for name, extras in seed_protocol.TASK_REPORTS.items()}
 """The learned policies of the report (``otgym train --task NAME`` on
 ``seeds.TRAINING_SEEDS``; commands in docs/tasks.md)."""
-PRESETS = {"assemble": "ring", "orient": "default"}
+PRESETS = {name: extras["report_preset"] for name, extras in seed_protocol.TASK_REPORTS.items()}
 DEFAULT_EPISODES = 256
 
 
@@ -62,32 +64,10 @@ def check_policy(task_name: str, policy_path: Path) -> None:
 def outcomes(task_name: str, policy_path: Path, episodes: int, seed: int) -> dict[str, dict[str, np.ndarray]]:
     """``{"baseline": ..., "learned": ...}``: per-episode arrays (``episodes``) of
     ``success``, ``time_s`` (at the episode's end) and the task's own metrics."""
-    if task_name == "assemble":
-        from otgym import tasks
-        from otgym.experiments import assemble_baseline as ab
-
-        task = tasks.load("assemble")
-        params = task.make_params(task.config(PRESETS["assemble"]))
-        runs = {
-            "baseline": ab.constant(ab.baseline_action(params.config)),
-            "learned": ab.greedy(str(policy_path), params),
-        }
-        return {name: ab.episode_metrics(params, policy, episodes, seed) for name, policy in runs.items()}
-    if task_name == "orient":
-        from otgym.experiments import orient
-        from otgym.rl.policy import load_policy
-
-        q_params, _ = load_policy(policy_path, *policy_shape("orient"))
-        found = {
-            "baseline": orient.rollout("baseline", episodes, seed),
-            "learned": orient.rollout(q_params, episodes, seed),
-        }
-        for outcome in found.values():
-            target = np.asarray(outcome["target_rad"])
-            outcome["overshoot"] = np.sign(target) * outcome["turn_rad"] > np.abs(target) + np.deg2rad(2.0)
-            outcome["final_error_deg"] = np.rad2deg(np.abs(outcome["error_rad"]))
-        return found
-    raise ValueError(f"unknown task {task_name!r}; one of {TASKS}")
+    if task_name not in TASKS:
+        raise ValueError(f"unknown task {task_name!r}; one of {TASKS}")
+    module, _, function = seed_protocol.TASK_REPORTS[task_name]["report_outcomes"].partition(":")
+    return getattr(importlib.import_module(module), function)(policy_path, PRESETS[task_name], episodes, seed)
 
 
 def wilson(successes: int, n: int) -> tuple[float, float]:
@@ -171,10 +151,7 @@ def verdict(result: dict) -> str:
     return "miss: no difference in success (McNemar p >= 0.05) nor in time to success (Wilcoxon p >= 0.05)"
 
 
-METRICS = {
-    "assemble": ("rms_error_um", "beads_lost", "collisions"),
-    "orient": ("failed", "overshoot", "final_error_deg"),
-}
+METRICS = {name: tuple(extras["report_metrics"].split(",")) for name, extras in seed_protocol.TASK_REPORTS.items()}
 
 
 def descriptives(task_name: str, outcome: dict) -> dict:

@@ -16,7 +16,13 @@ returns what ``InteractiveLoop`` steps (``otgym.task.rig``); tag ``measured``: i
 bodies come from outside, as measured poses on ``/otgym/rig/poses``.
 Tasks' extras: ``gym_id`` and ``vector`` (the Gymnasium id and vector entry point),
 ``functional`` (the module of its pure ``make_params``, ``reset`` and ``step``, which
-``otgym.envs.gymnax_env`` wraps as a gymnax environment).
+``otgym.envs.gymnax_env`` wraps as a gymnax environment); a task with a report-seed
+comparison of its learned policy against its baseline (``otgym experiment NAME``,
+``otgym.experiments.task_report``) names ``report_seed`` and ``training_seed`` (seed
+registry: ``otgym.experiments.seeds``), ``report_preset``, ``report_policy`` (a file in
+``otgym/data/policies/``), ``report_baseline`` (what the baseline is, in words),
+``report_metrics`` (its own metrics, comma-separated) and ``report_outcomes`` (the
+``"module:function"`` that runs both policies on paired episodes).
 """
 
 from __future__ import annotations
@@ -49,7 +55,16 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.tasks.assemble:Assemble",
         "holographic micro-assembly: beads in N traps placed into a ring, lattice or letter, SLM-paced",
         (),
-        {"gym_id": "otgym/assemble-v0"},
+        {
+            "gym_id": "otgym/assemble-v0",
+            "report_seed": "75000",
+            "training_seed": "38",
+            "report_preset": "ring",
+            "report_policy": "assemble_ring.npz",
+            "report_baseline": "the plan at 0.3 um per frame",
+            "report_metrics": "rms_error_um,beads_lost,collisions",
+            "report_outcomes": "otgym.experiments.assemble_baseline:report_outcomes",
+        },
     ),
     (
         "tasks",
@@ -59,6 +74,13 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         (),
         {
             "gym_id": "otgym/orient-v0",
+            "report_seed": "76000",
+            "training_seed": "39",
+            "report_preset": "default",
+            "report_policy": "orient_default.npz",
+            "report_baseline": "the bang-bang controller",
+            "report_metrics": "failed,overshoot,final_error_deg",
+            "report_outcomes": "otgym.experiments.orient:report_outcomes",
         },
     ),
     (
