@@ -36,7 +36,7 @@ class Snapshot:
     autonomy_live: bool = True
     """The latest tick had the autonomy's dP_r."""
     light_dose_mj_per_um2: float = math.nan
-    """The cell's light dose so far in the trial (``TrialMetrics``); NaN where unknown (a window on the bus)."""
+    """The cell's light dose so far in the trial (``TrialMetrics``); NaN where unknown."""
 
     @property
     def time_s(self) -> float:

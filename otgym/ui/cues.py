@@ -21,7 +21,7 @@ keeping them here makes each one testable without a window.
 * Loss banner: a device or the autonomy lost (a driver's link gone, a bus node dead).
 * Light dose: the cell's light dose so far in the trial (mJ/um^2, the trial metric of
   ``otgym.physics.light_dose``: time in the traps' light weighted by its intensity at
-  the cell), or "not on the bus" where the window does not have it.
+  the cell), or "unknown" where the window does not have it (NaN).
 """
 
 from __future__ import annotations
@@ -133,10 +133,10 @@ def format_elapsed(time_s: float) -> str:
 
 
 def light_dose_text(dose_mj_per_um2: float) -> str:
-    """The light dose cue's value: three significant figures in mJ/um^2, or "not on
-    the bus" for NaN (a window on the bus: the simulator does not publish the dose)."""
+    """The light dose cue's value: three significant figures in mJ/um^2, or "unknown"
+    for NaN (``Snapshot``'s default, where its maker has no dose)."""
     dose = float(dose_mj_per_um2)
-    return "not on the bus" if math.isnan(dose) else f"{dose:.3g} mJ/um^2"
+    return "unknown" if math.isnan(dose) else f"{dose:.3g} mJ/um^2"
 
 
 def loss_warnings(lost_devices, autonomy_live: bool, mode: str, simulator_live: bool = True) -> list[str]:

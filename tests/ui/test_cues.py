@@ -84,7 +84,7 @@ def test_obstacle_tally_and_elapsed_time():
     assert cues.format_elapsed(75.25) == "1:15.2"
 
 
-def test_light_dose_text_in_mj_per_um2_or_not_on_the_bus():
+def test_light_dose_text_in_mj_per_um2_or_unknown():
     assert cues.light_dose_text(0.012345) == "0.0123 mJ/um^2"
     assert cues.light_dose_text(0.0) == "0 mJ/um^2"
-    assert cues.light_dose_text(float("nan")) == "not on the bus"
+    assert cues.light_dose_text(float("nan")) == "unknown"
