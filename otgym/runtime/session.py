@@ -323,6 +323,7 @@ class Session:
             alpha,
             tuple(f"device{i}" for i in loop.lost_devices),
             self._autonomy_live,
+            float(metrics.light_dose_mj_per_um2[0]),
         )
 
     def _end_trial(self, ended_by: str | None = None) -> None:

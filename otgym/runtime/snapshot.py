@@ -6,6 +6,7 @@ sim node's topics."""
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -34,6 +35,8 @@ class Snapshot:
     """Devices whose link was lost (binding i is ``device<i>``, as the recording and the bus name it)."""
     autonomy_live: bool = True
     """The latest tick had the autonomy's dP_r."""
+    light_dose_mj_per_um2: float = math.nan
+    """The cell's light dose so far in the trial (``TrialMetrics``); NaN where unknown."""
 
     @property
     def time_s(self) -> float:

@@ -1,6 +1,6 @@
 """What a view of the interactive task needs to know about it, as plain numpy arrays
 (``TaskLayout``): the chip, its flow sampled at the pixel centres, the planned route,
-which sphere belongs to which body, the traps' handles. It is built once from an
+which sphere belongs to which body, the traps' handles and beams. It is built once from an
 ``InteractiveTask`` (``layout_of``) where the task lives and handed to a window in
 another process (it pickles: no JAX arrays inside), so the window never builds the
 task (seconds of work beside the simulation's own build)."""
@@ -12,6 +12,7 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
+from otgym.physics.light_dose import TrapBeam
 from otgym.sim.chip import Chip
 from otgym.task.task import ROUTE_SEARCH_POINTS, InteractiveTask, Observation
 
@@ -44,6 +45,9 @@ class TaskLayout:
     """(T,) the sphere each trap holds."""
     trap_robot: np.ndarray
     """(T,) the body (a robot) of each trap's handle."""
+    trap_beam: TrapBeam
+    """Each trap's beam (``otgym.physics.light_dose``), for the cell's light dose."""
+    cell_radius_um: float
 
     @property
     def n_traps(self) -> int:
@@ -82,6 +86,8 @@ def layout_of(task: InteractiveTask) -> TaskLayout:
         obstacles=tuple(int(o) for o in task.scene.obstacles),
         trap_sphere=np.asarray(task.trap_sphere, int),
         trap_robot=np.asarray(task.trap_robot, int),
+        trap_beam=TrapBeam.of_trap_law(task.config.scene.trap_law),
+        cell_radius_um=float(task.config.scene.cell_radius_um),
     )
 
 

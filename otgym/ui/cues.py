@@ -19,11 +19,15 @@ keeping them here makes each one testable without a window.
   distance (where the feedback's bend stiffening starts, ``teleop.feedback``), rising
   to 1 at the escape distance, where the trap loses it.
 * Loss banner: a device or the autonomy lost (a driver's link gone, a bus node dead).
+* Light dose: the cell's light dose so far in the trial (mJ/um^2, the trial metric of
+  ``otgym.physics.light_dose``: time in the traps' light weighted by its intensity at
+  the cell), or "unknown" where the window does not have it (NaN).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -126,6 +130,13 @@ def format_elapsed(time_s: float) -> str:
     """ "m:ss.s" of simulated time."""
     minutes, seconds = divmod(max(float(time_s), 0.0), 60.0)
     return f"{int(minutes)}:{seconds:04.1f}"
+
+
+def light_dose_text(dose_mj_per_um2: float) -> str:
+    """The light dose cue's value: three significant figures in mJ/um^2, or "unknown"
+    for NaN (``Snapshot``'s default, where its maker has no dose)."""
+    dose = float(dose_mj_per_um2)
+    return "unknown" if math.isnan(dose) else f"{dose:.3g} mJ/um^2"
 
 
 def loss_warnings(lost_devices, autonomy_live: bool, mode: str, simulator_live: bool = True) -> list[str]:

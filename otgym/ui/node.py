@@ -13,7 +13,9 @@ the questionnaires and quitting as commands (``/otgym/command``).
   ``autonomy_lost``, ``trial_end`` with the trial's row, ``session_end``). What the
   bus does not carry is derived or left out: obstacle gaps, encounters and collisions
   from the spheres (``TaskLayout``'s radii), the handle lag from the handles' true
-  positions (no camera image travels), no contact force (the gauge says so);
+  positions (no camera image travels), the cell's light dose from the traps and the
+  cell at each tick seen (``TaskLayout.trap_beam``; from the trial's start, or from
+  when the window joined), no contact force (the gauge says so);
 - what it sends: robot i's input as the device ``ui<i>`` (``UI_DEVICES``; a liveliness
   token each, so the sim treats them as device nodes): the keyboard (both robots, as
   a formation, its clutch bit always held: its keys are their own deadman) or the
@@ -37,6 +39,7 @@ from otgym import registry
 from otgym.bus import messages as msg
 from otgym.bus.nodes import REMOTE_FORCE_LIMIT_N
 from otgym.bus.transport import Node
+from otgym.physics import light_dose as ld
 from otgym.runtime.loop import TickRecord
 from otgym.runtime.snapshot import Snapshot, smoothed_velocity
 from otgym.runtime.trials import TASK_RETARGET
@@ -121,7 +124,7 @@ class BusSession:
 
     def _new_trial(self) -> None:
         k = len(self.layout.obstacles)
-        self._ticks, self._route_index = 0, 0
+        self._ticks, self._route_index, self._dose_mj_per_um2 = 0, 0, 0.0
         self._encountered, self._collided = np.zeros(k, bool), np.zeros(k, bool)
         self._obstacle_xy, self._obstacle_velocity = None, np.zeros((k, 2))
 
@@ -184,6 +187,10 @@ class BusSession:
                 )
             self._obstacle_xy = obstacles
             traps, handles = self._traps, observation.handle_xy_um[0]
+            intensity = ld.cell_intensity_mw_per_um2(
+                layout.trap_beam, traps, observation.cell_xy_um[0], layout.cell_radius_um
+            )
+            self._dose_mj_per_um2 += layout.tick_s * float(intensity)  # as TrialMetrics adds it, tick by tick
             n_robots, n_traps = len(layout.robots), layout.n_traps
             zeros = np.zeros((n_traps, 2))
             record = TickRecord(
@@ -220,6 +227,7 @@ class BusSession:
                 alpha,
                 tuple(sorted(self._lost_devices)),
                 self._autonomy_live,
+                self._dose_mj_per_um2,
             )
 
     @property

@@ -7,7 +7,8 @@ dead band, scale, speed clamp: ``otgym.teleop.retarget``) and adds it up. Each t
 task's ``control_period_s`` of wall time has passed, the sum over the period becomes a
 velocity (um/s), the task's ``device_action`` turns it into an action, and the task
 steps once; its ``frame`` is drawn with the episode's step, reward, return and the
-successes so far. A finished episode (terminated or truncated) is written as a row and
+successes so far, and the light dose where the task's ``info`` reports one (its
+``light_dose...`` values: ``light_dose_text``). A finished episode (terminated or truncated) is written as a row and
 a fresh one starts. With a ``recording`` (``otgym.ui.task_recording``) every episode's
 start and end (with the task's metrics) and every state are recorded too. Stepping runs in the window's own thread: a step slower than the
 period slows the episode, it never queues steps.
@@ -45,7 +46,7 @@ DEFAULT_PERIOD_S = 0.1
 """Wall seconds per step for a task whose ``control_period_s`` is None."""
 FRAME_SIZE = (840, 560)
 """The task's picture, in pixels; the status lines sit below it."""
-STATUS_HEIGHT = 64
+STATUS_HEIGHT = 90
 WINDOW_SIZE = (FRAME_SIZE[0], FRAME_SIZE[1] + STATUS_HEIGHT)
 MOUSE_FULL_SPEED_PX = 100.0
 """A mouse drag this far from where it was pressed asks for the retargeter's top speed."""
@@ -239,15 +240,30 @@ class TaskWindow:
                 f"successes {self.successes} of {len(self.rows)}",
                 TEXT_RGB,
             ),
+            (light_dose_text(self.last_info), TEXT_RGB),
             ("device or arrows move; mouse: press in the picture and drag; R new episode; Esc quit", DIM_TEXT_RGB),
         )
         for row, (text, rgb) in enumerate(lines):
-            self.screen.blit(self.type["body"].render(text, True, rgb), (12, FRAME_SIZE[1] + 10 + 26 * row))
+            if text:
+                self.screen.blit(self.type["body"].render(text, True, rgb), (12, FRAME_SIZE[1] + 8 + 26 * row))
         pygame.display.flip()
         self._dirty = False
 
     def save_screenshot(self, path: Path) -> None:
         pygame.image.save(self.screen, str(path))
+
+
+def light_dose_text(info: dict | None) -> str:
+    """The light dose line of the status: each scalar ``light_dose...`` value of the
+    latest step's ``info`` (mJ/um^2, ``otgym.physics.light_dose``), e.g. "light dose
+    0.0123 mJ/um^2"; empty for a task that reports none (or before the first step)."""
+    parts = []
+    for name, value in (info or {}).items():
+        array = np.asarray(value)
+        if name.startswith("light_dose") and array.size == 1:
+            label = name.removesuffix("_mj_per_um2").replace("_", " ")
+            parts.append(f"{label} {float(array.reshape(())):.3g} mJ/um^2")
+    return "   ".join(parts)
 
 
 def write_episodes(path: Path, rows: list[dict]) -> None:

@@ -406,6 +406,11 @@ class CuePanel:
             marks=(cues.TRAP_WARNING_FRACTION,),
         )
         text(f"{lag:4.2f} um", (x + width - 64, y - 2), TEXT_RGB, "small")
+        y += 22
+        # the cell's light dose so far in the trial
+        text("cell light dose", (x, y), DIM_TEXT_RGB, "small")
+        dose = snapshot.light_dose_mj_per_um2
+        text(cues.light_dose_text(dose), (x + label_w, y - 2), DIM_TEXT_RGB if math.isnan(dose) else TEXT_RGB, "small")
         y += 30
         # motion direction compass (bottom right) beside the prompts
         centre = np.array([x + width - 36.0, self.rect.bottom - 44.0])

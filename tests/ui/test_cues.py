@@ -82,3 +82,9 @@ def test_motion_direction_points_along_the_route_ahead():
 def test_obstacle_tally_and_elapsed_time():
     assert cues.obstacle_tally([True, True, False, True], [False, True, False, False]) == (2, 3)
     assert cues.format_elapsed(75.25) == "1:15.2"
+
+
+def test_light_dose_text_in_mj_per_um2_or_unknown():
+    assert cues.light_dose_text(0.012345) == "0.0123 mJ/um^2"
+    assert cues.light_dose_text(0.0) == "0 mJ/um^2"
+    assert cues.light_dose_text(float("nan")) == "unknown"

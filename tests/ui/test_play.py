@@ -147,6 +147,28 @@ def test_the_cue_panels_mode_and_alpha_never_overlap(session):
         assert title.width > 0 and alpha.width > 0 and not title.colliderect(alpha), mode
 
 
+class SpyFont:
+    """A font that keeps every text it renders (what the panel writes), in order."""
+
+    def __init__(self, font, texts: list):
+        self.font, self.texts = font, texts
+
+    def render(self, text, *args):
+        self.texts.append(text)
+        return self.font.render(text, *args)
+
+
+def test_the_cue_panel_shows_the_trial_s_light_dose(session):
+    """The panel writes the cell's light dose so far: the trial metric the session holds."""
+    app, simulation, _ = session
+    run_frames(app, 3)
+    dose = float(simulation.loop.state.metrics.light_dose_mj_per_um2[0])
+    assert simulation.snapshot.light_dose_mj_per_um2 == dose and dose > 0.0  # the cell starts gripped, in light
+    texts: list[str] = []
+    app.cue_panel.draw(app.screen, simulation.snapshot, {size: SpyFont(font, texts) for size, font in app.type.items()})
+    assert "cell light dose" in texts and f"{dose:.3g} mJ/um^2" in texts
+
+
 def test_space_pauses_simulated_time_and_zeros_the_force(session):
     app, simulation, spy = session
     run_frames(app, 3)

@@ -3,7 +3,9 @@ the ``assemble`` and ``orient`` tasks is recorded and read back as Foxglove read
 ``/otgym/scene`` decodes with its own protobuf schema, its ``bodies`` entity has a
 sphere per body where the state has it, ``traps`` a cross per trap and ``targets`` the
 task's targets; the episode's end carries the task's metrics, which ``otgym replay``'s
-summary gives back. Only the tasks' resets are compiled (no step). The window's path
+summary gives back. Only the tasks' resets are compiled (no step); the ``sort-cells``
+scene is recorded from a state built by hand (a held cell, one upstream of it, one past
+the junction, one slot empty), so nothing is compiled for it. The window's path
 (every step and episode recorded) is tested on a toy task in ``test_task_window``."""
 
 from __future__ import annotations
@@ -89,3 +91,67 @@ def test_a_recorded_episode_shows_the_task_s_scene_and_metrics(name, tmp_path):
 def test_info_metrics_keeps_scalars_only():
     info = {"success": np.bool_(False), "n": np.int32(3), "x": np.float32(0.5), "v": np.ones(2), "one": np.ones(1)}
     assert info_metrics(info) == {"success": False, "n": 3.0, "x": 0.5, "one": 1.0}
+
+
+def sort_state(held_grip_s: float):
+    """A ``sort-cells`` state: cell 0 (kind 1) upstream of the junction, held for
+    ``held_grip_s``; cell 1 (kind 0) behind it; slot 2 empty; cell 3 (kind 0) past the
+    junction (x > 130 um on the sorter chip)."""
+    from otgym.tasks.sort_cells import core
+
+    zeros = np.zeros(4, np.float32)
+    return core.SortState(
+        xy_um=np.array([[100.0, 70.0], [40.0, 58.0], [0.0, 0.0], [180.0, 40.0]], np.float32),
+        kind=np.array([1, 0, 0, 0], np.int32),
+        active=np.array([True, True, False, True]),
+        age_s=zeros,
+        dose_mj_per_um2=zeros,
+        held=np.int32(0),
+        grip_s=np.float32(held_grip_s),
+        next_arrival_s=np.float32(10.0),
+        time_s=np.float32(20.0),
+        steps=np.int32(40),
+        arrived=np.int32(3),
+        correct=np.int32(0),
+        wrong=np.int32(0),
+        lost=np.int32(0),
+        finished_dose_mj_per_um2=np.float32(0.0),
+        finished=np.int32(0),
+    )
+
+
+@pytest.mark.slow  # builds the task's params (the chip's fields): 3.1 s on the loaded 2-core machine
+def test_a_sort_cells_recording_shows_the_cells_the_held_cell_s_traps_and_the_outlets(tmp_path):
+    import dataclasses
+
+    task = tasks.load("sort-cells")
+    params = task.make_params(task.config())  # robots: four handle traps around a held cell
+    direct = dataclasses.replace(params, config=dataclasses.replace(params.config, mode="direct"))
+    grip = params.config.grip_time
+    recording = TaskRecording(tmp_path / "session.mcap", task, params, None, 0, 0.5, clock_s=lambda: STAMP_S)
+    recording.episode_start(1, sort_state(grip + 1.0))
+    recording.state(sort_state(grip - 0.5))  # still taking hold: no trap yet
+    recording.close()
+
+    (_, held), (_, taking) = recorded_scenes(tmp_path / "session.mcap")
+    entities = {entity.id: entity for entity in held.entities}
+    centres = [(s.pose.position.x, s.pose.position.y) for s in entities["bodies"].spheres]
+    np.testing.assert_allclose(centres, [[100.0, 70.0], [40.0, 58.0], [180.0, 40.0]])  # the empty slot left out
+    radii = np.asarray(params.radius_um, float)
+    assert [s.size.x for s in entities["bodies"].spheres] == pytest.approx(2 * radii[[1, 0, 0]])
+    assert entities["bodies"].metadata[0].value == "cell,cell,cell"
+    crosses = np.array([(p.x, p.y) for p in entities["traps"].lines[0].points]).reshape(-1, 4, 2)
+    assert len(crosses) == 4  # one per handle of the two robots
+    np.testing.assert_allclose(crosses.mean(axis=(0, 1)), [100.0, 70.0], atol=1e-4)  # around the held cell
+    assert {e.id: len(e.lines) for e in taking.entities}["traps"] == 0
+    outlets = [(c.pose.position.x, c.pose.position.y) for c in entities["targets"].cylinders]
+    np.testing.assert_allclose(outlets, np.asarray(params.outlets_um, float))
+    assert entities["targets"].cylinders[0].size.x == pytest.approx(2 * params.config.exit_distance_um)
+    (route,) = entities["targets"].lines  # the target (cell 0, kind 1) to the junction, then to kind 1's outlet
+    np.testing.assert_allclose(
+        [(p.x, p.y) for p in route.points],
+        [[100.0, 70.0], np.asarray(params.junction_um), np.asarray(params.outlets_um[1])],
+    )
+    assert task.scene(sort_state(grip + 1.0), direct).traps_um.tolist() == [[100.0, 70.0]]  # one trap in the cell
+    counts = summary(read_recording(tmp_path / "session.mcap"))["counts"]
+    assert counts["/otgym/bodies"] == counts["/otgym/traps"] == 2

@@ -2,7 +2,8 @@
 (SDL's dummy drivers) on a toy task whose step is one jnp line, so it compiles in a
 moment: the keyboard's arrows and a mouse drag become the task's actions through the
 retargeting and ``device_action``, finished episodes are rows and a fresh one starts,
-R and Esc do what the help says, and a task without a frame or device input is refused.
+R and Esc do what the help says, the status shows the light dose the task's info
+reports, and a task without a frame or device input is refused.
 The pace's clock is the test's (``frame(now_s)``), so the steps a test sees do not
 depend on the machine's speed."""
 
@@ -22,7 +23,7 @@ import pytest  # noqa: E402
 from otgym.tasks.base import Task, TaskScene  # noqa: E402
 from otgym.teleop.device import open_device  # noqa: E402
 from otgym.ui.bindings import play_bindings  # noqa: E402
-from otgym.ui.task_window import FRAME_SIZE, Compiled, TaskWindow, check_playable, write_episodes  # noqa: E402
+from otgym.ui.task_window import FRAME_SIZE, STATUS_HEIGHT, Compiled, TaskWindow, check_playable, write_episodes  # noqa: E402
 
 MOVES = np.array([[0, 0], [1, 0], [-1, 0], [0, 1], [0, -1]], np.float32)
 EPISODE_STEPS = 5
@@ -30,9 +31,12 @@ FRAME_S = 0.02  # the window's 50 Hz
 PERIOD_S = 0.1
 
 
+DOSE_PER_STEP = 0.25  # mJ/um^2: the toy's light dose grows this much each step
+
+
 class Walker(Task):
     """A point that moves 1 um a step along MOVES[action]; an episode is 5 steps, a
-    success if it ends at x >= 3 um."""
+    success if it ends at x >= 3 um; its info reports a light dose of DOSE_PER_STEP per step."""
 
     name = "walker"
 
@@ -56,7 +60,7 @@ class Walker(Task):
         xy = state[0] + jnp.asarray(MOVES)[action]
         steps = state[1] + 1
         done = steps >= EPISODE_STEPS
-        info = {"success": done & (xy[0] >= 3.0)}
+        info = {"success": done & (xy[0] >= 3.0), "light_dose_mj_per_um2": DOSE_PER_STEP * steps.astype(jnp.float32)}
         return xy.astype(jnp.float32), (xy, steps), jnp.float32(1.0), done, jnp.bool_(False), info
 
     def observation_size(self, params):
@@ -158,8 +162,31 @@ def test_r_starts_a_new_episode_and_esc_quits(window, tmp_path):
 
 def test_the_frame_is_drawn_in_the_window(window):
     window.draw()
-    assert window.screen.get_size() == (FRAME_SIZE[0], FRAME_SIZE[1] + 64)
+    assert window.screen.get_size() == (FRAME_SIZE[0], FRAME_SIZE[1] + STATUS_HEIGHT)
     assert window.screen.get_at((FRAME_SIZE[0] // 2, FRAME_SIZE[1] // 2))[:3] == (0, 0, 0)  # the toy's black
+
+
+class SpyFont:
+    """A font that keeps every text it renders (what the window writes), in order."""
+
+    def __init__(self, font, texts: list):
+        self.font, self.texts = font, texts
+
+    def render(self, text, *args):
+        self.texts.append(text)
+        return self.font.render(text, *args)
+
+
+def test_the_status_shows_the_light_dose_the_task_reports(window):
+    texts: list[str] = []
+    window.type = {size: SpyFont(font, texts) for size, font in window.type.items()}
+    window.draw()
+    assert not any("light dose" in text for text in texts)  # no step yet: no info
+    run_frames(window, 5 * 2 + 1)  # two steps
+    texts.clear()
+    window.draw()
+    assert window.episode_steps == 2
+    assert f"light dose {2 * DOSE_PER_STEP:.3g} mJ/um^2" in texts
 
 
 @pytest.mark.parametrize("task, word", [(Frameless(), "frame"), (Deaf(), "device")])
@@ -198,7 +225,7 @@ def test_a_played_session_is_recorded_and_replay_summarises_it(compiled, tmp_pat
     assert (task["task"], task["episodes"], task["successes"]) == ("walker", 2, 1)
     assert task["ended_by"] == {"terminated": 2}
     assert task["mean_time_to_success_s"] == pytest.approx(EPISODE_STEPS * PERIOD_S)  # no time_s in its info
-    assert task["metrics"] == {"success": 0.5}
+    assert task["metrics"] == {"success": 0.5, "light_dose_mj_per_um2": EPISODE_STEPS * DOSE_PER_STEP}
     printed = run_otgym(["replay", tmp_path / "session.mcap"])
     assert printed.returncode == 0, printed.stderr
     assert (

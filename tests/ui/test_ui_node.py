@@ -1,6 +1,7 @@
 """The window as a node on the bus (``otgym.ui.node.BusSession``), over loopback zenoh
 nodes in this process: the snapshot it rebuilds from a tick's messages matches the
-simulator's own observation (traps, cell, handles, obstacle gaps); the mode, pause
+simulator's own observation (traps, cell, handles, obstacle gaps) and the cell's light
+dose its trial metric has; the mode, pause
 and reset keys go out as checked commands; a device node or the autonomy lost shows
 in the loss banner; a finished trial's row comes from its ``trial_end``."""
 
@@ -91,6 +92,13 @@ def test_the_window_on_the_bus_draws_what_the_sim_sees_and_sends_checked_command
         np.testing.assert_allclose(seen.handle_xy_um, truth.handle_xy_um, atol=1e-4)
         np.testing.assert_allclose(seen.obstacle_gap_um, truth.obstacle_gap_um, atol=1e-3)
         assert session.snapshot.trial == 4 and session.participant == "P9" and session.snapshot.mode == "shared"
+        # the cell's light dose, added up over the ticks seen as the trial's metric adds it
+        truth_dose = float(loop.state.metrics.light_dose_mj_per_um2[0])
+        assert truth_dose > 0.0  # the gripped cell sees the handle traps' light
+        if session._ticks == 3:  # each tick seen once (none sent again under load)
+            assert session.snapshot.light_dose_mj_per_um2 == pytest.approx(truth_dose, rel=1e-2)
+        else:  # a tick seen twice counts twice, as it does for the window's clock
+            assert session.snapshot.light_dose_mj_per_um2 >= truth_dose * 0.99
         # the keys go out as commands the sim accepts
         session.set_mode("manual")
         session.toggle_pause()

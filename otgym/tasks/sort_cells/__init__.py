@@ -21,7 +21,7 @@ from otgym.physics.bodies import BodyKind
 from otgym.sim import scene as sc
 from otgym.sim.chip import load_chip
 from otgym.sim.render import SceneRenderer
-from otgym.tasks.base import Task
+from otgym.tasks.base import Task, TaskScene
 from otgym.tasks.sort_cells import core
 from otgym.tasks.sort_cells.config import SortConfig
 
@@ -96,15 +96,33 @@ class SortCells(Task):
         active = np.asarray(state.active, bool)
         xy = np.asarray(state.xy_um)[active]
         radii = np.asarray(params.radius_um)[np.asarray(state.kind)[active]]
-        held = int(state.held)
-        traps = np.zeros((0, 2))
-        if held >= 0 and float(state.grip_s) >= params.config.grip_time and bool(state.active[held]):
-            centre = np.asarray(state.xy_um[held])
-            traps = centre[None] + (
-                _grip_offsets(params.config, int(state.kind[held])) if params.config.mode == "robots" else 0.0
-            )
+        traps = _held_traps(state, params)
         kinds = np.full(len(xy), int(BodyKind.CELL))
         return renderer.render(xy, radii, kinds, np.zeros(len(xy), bool), traps)
+
+    def scene(self, state, params: core.SortParams) -> TaskScene:
+        """The cells in the chip (kind ``"cell"``; their radii tell the two kinds apart,
+        as in ``frame``), the traps on a held cell (``_held_traps``), the two outlets as
+        targets of radius ``exit_distance_um`` (where a cell leaves by one), and the
+        target cell's route: from it through the junction to its kind's outlet."""
+        state = jax.device_get(state)
+        active = np.asarray(state.active, bool)
+        kind = np.asarray(state.kind)
+        xy = np.asarray(state.xy_um, float)
+        first, present, _, _ = core._upstream_order(params, state)
+        lines = ()
+        if bool(present):
+            outlet = np.asarray(params.outlets_um, float)[kind[int(first)]]
+            lines = (np.stack([xy[int(first)], np.asarray(params.junction_um, float), outlet]),)
+        return TaskScene(
+            spheres_um=xy[active],
+            radii_um=np.asarray(params.radius_um, float)[kind[active]],
+            kinds=("cell",) * int(active.sum()),
+            traps_um=_held_traps(state, params),
+            targets_um=np.asarray(params.outlets_um, float),
+            target_radius_um=params.config.exit_distance_um,
+            lines_um=lines,
+        )
 
     def device_action(self, velocity_um_s, params: core.SortParams) -> np.ndarray:
         """Up or down on screen moves the target toward the outlet on that side; a
@@ -114,6 +132,20 @@ class SortCells(Task):
             return np.asarray(0, np.int32)
         side = np.asarray(params.side_sign)
         return np.asarray(1 + int(np.argmax(side == np.sign(vy))), np.int32)
+
+
+def _held_traps(state, params: core.SortParams) -> np.ndarray:
+    """The traps (um, (T, 2)) of one environment once its cell is held (after the grip
+    time): on the robots' handles around it (``robots``) or one in it (``direct``);
+    none otherwise."""
+    held = int(state.held)
+    if held < 0 or float(state.grip_s) < params.config.grip_time or not bool(state.active[held]):
+        return np.zeros((0, 2))
+    centre = np.asarray(state.xy_um[held], float)
+    offsets = (
+        _grip_offsets(params.config, int(state.kind[held])) if params.config.mode == "robots" else np.zeros((1, 2))
+    )
+    return centre[None] + offsets
 
 
 def _renderer(chip: str, size_px) -> SceneRenderer:
