@@ -49,6 +49,7 @@ def _stop(child: subprocess.Popen) -> str:
 
 @pytest.mark.slow
 @pytest.mark.xfail(
+    run=False,  # a known failure that waits out its 600 s bound: run it with --runxfail
     strict=False,
     reason="open: on this 2-core machine at load average 10-16 the four processes are starved: the trap commands "
     "reached the rig up to 33 s late (the bridge fell behind and back-pressured the sim) and the rig's answers arrived "
