@@ -63,6 +63,7 @@ def _answer(loop, rig, clocks, measured, steps=2):
     measured.update(clocks(), clocks(), xy)
 
 
+@pytest.mark.slow  # an end-to-end carry of the whole route: 37 s, the quick tier's longest test
 def test_the_first_order_rig_reaches_the_goal_under_the_route_autonomy():
     """Autonomous mode on scenario 3: the robots grip the cell and carry it to the goal
     (307 um of route) with no trap lost, every tick's observation built from the rig's
