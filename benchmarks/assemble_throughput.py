@@ -27,15 +27,7 @@ from otgym import physics as ph
 from otgym import tasks
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from physics_throughput import NumpyModel, numpy_substep  # noqa: E402
-
-
-def _rate(call, min_seconds: float) -> float:
-    calls, start = 0, time.perf_counter()
-    while time.perf_counter() - start < min_seconds:
-        call()
-        calls += 1
-    return calls / (time.perf_counter() - start)
+from task_throughput import _rate, numpy_rate  # noqa: E402  (the timing loop and the NumPy reference, shared)
 
 
 def time_task(task, params, n_env: int, min_seconds: float) -> tuple[float, float]:
@@ -72,22 +64,6 @@ def time_physics(params, n_env: int, min_seconds: float) -> float:
     return _rate(one, min_seconds) * n_env
 
 
-def time_numpy(params, n_env: int, min_seconds: float) -> float:
-    """Environment steps per second of the NumPy loop (substeps timed, scaled)."""
-    model = params.model
-    task = tasks.load("assemble")
-    _, state = jax.jit(task.reset_batch, static_argnums=2)(jax.random.PRNGKey(0), params, n_env)
-    reference = NumpyModel(model)
-    pose = np.asarray(state.physics.pose, np.float64)
-    traps = np.asarray(state.physics.trap_xy_um, np.float64)
-    rng = np.random.default_rng(0)
-    substeps, start = 0, time.perf_counter()
-    while time.perf_counter() - start < min_seconds:
-        pose = numpy_substep(reference, pose, traps, rng.standard_normal(pose.shape))
-        substeps += 1
-    return substeps * n_env / (time.perf_counter() - start) / model.substeps
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--preset", default="ring")
@@ -107,10 +83,10 @@ def main() -> None:
     for n_env in [int(n) for n in args.envs.split(",")]:
         compile_s, task_rate = time_task(task, params, n_env, window)
         physics_rate = time_physics(params, n_env, window)
-        numpy_rate = time_numpy(params, n_env, window)
+        numpy_steps = numpy_rate(task, params, n_env, window)
         print(
-            f"| {n_env} | {compile_s:.1f} | {task_rate:.3g} | {physics_rate:.3g} | {numpy_rate:.3g} | "
-            f"{task_rate / numpy_rate:.1f} |",
+            f"| {n_env} | {compile_s:.1f} | {task_rate:.3g} | {physics_rate:.3g} | {numpy_steps:.3g} | "
+            f"{task_rate / numpy_steps:.1f} |",
             flush=True,
         )
 
