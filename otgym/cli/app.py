@@ -66,6 +66,18 @@ def register_commands() -> None:
 
 
 _registered = False
+_built: list = []  # the click command built from ``app``, once per process
+
+
+def command():
+    """The click command of ``app`` with every sub-command, built once per process:
+    typer derives it from the commands' signatures, which takes longer than checking
+    a command line, so a process that runs several command lines (a test, a sweep)
+    builds it only once."""
+    if not _built:
+        register_commands()
+        _built.append(typer.main.get_command(app))
+    return _built[0]
 
 
 def _fail(message: str) -> None:
@@ -78,10 +90,10 @@ def main(argv: list[str] | None = None) -> None:
     code (0 on success). A bad command line (an unknown option, a value outside its
     range, a missing file) or a user error raised by the command is one ``error:`` line
     on stderr and exit code 2."""
-    register_commands()
+    cli = command()
     _use_persistent_jax_cache()
     try:
-        code = app(args=argv, prog_name="otgym", standalone_mode=False)
+        code = cli.main(args=argv, prog_name="otgym", standalone_mode=False)
     except NoArgsIsHelpError as error:  # ``otgym`` or ``otgym chip`` alone: the help
         print(error.format_message())
         sys.exit(0)

@@ -30,15 +30,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-import typer
 
 from otgym.cli import app as cli_app
 from otgym.tasks.base import Task
 
 
 def _root():
-    cli_app.register_commands()
-    return typer.main.get_command(cli_app.app)
+    return cli_app.command()
 
 
 def leaf_commands(group=None, path=()):
