@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 
 from otgym.planning.astar import astar
-from otgym.planning.figures import plot_paths, plot_spectrum
 from otgym.planning.metrics import DEFAULT_STEP_UM, PathMetrics, path_metrics
 from otgym.planning.occupancy import OccupancyMap, build_occupancy, pixels_to_um
 from otgym.planning.smoothing import smooth_path
@@ -148,6 +147,8 @@ def write_plan(plan: PlanResult, manual_um: np.ndarray, out_dir: str | Path) -> 
     save_path_csv(out_dir / "manual.csv", manual_um)
     write_metrics_csv(out_dir / "metrics.csv", metrics)
     (out_dir / "metrics.md").write_text(metrics_markdown(metrics))
+    from otgym.planning.figures import plot_paths, plot_spectrum  # matplotlib: imported where a figure is drawn
+
     plot_paths(out_dir / "paths.png", plan.occupancy, paths)
     plot_spectrum(out_dir / "spectrum.png", paths)
     return metrics

@@ -37,7 +37,6 @@ import math
 
 import numba
 import numpy as np
-from scipy.interpolate import BSpline
 
 from otgym.planning.collision import _segment_free, segments_free
 
@@ -148,6 +147,8 @@ def _sample_curve(vertices: np.ndarray, rounding: np.ndarray, step_px: float) ->
     m = control.shape[0]
     n_spans = m - 3
     knots = np.concatenate((np.zeros(3), np.arange(n_spans + 1, dtype=np.float64), np.full(3, float(n_spans))))
+    from scipy.interpolate import BSpline  # a second to import: only where a path is smoothed
+
     curve = BSpline(knots, control, 3)
     # sample each span in proportion to the length of its control polygon, which
     # bounds the span's arc length, so short tight corners are resolved as finely

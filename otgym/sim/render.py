@@ -10,7 +10,6 @@ x right, y down), so rendering does not depend on the physics state.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 from otgym.physics.bodies import BodyKind
 from otgym.sim.chip import Chip
@@ -77,6 +76,8 @@ class SceneRenderer:
         x_um = (cols + 0.5 - self.offset[0]) / self.scale
         y_um = (rows + 0.5 - self.offset[1]) / self.scale
         index = [y_um / chip.pixel_size_um - 0.5, x_um / chip.pixel_size_um - 0.5]
+        from scipy import ndimage  # a second to import: only where a chip is drawn
+
         gray = ndimage.map_coordinates(chip.image, index, order=1, mode="constant", cval=0.0)
         return SOLID_RGB + gray[..., None] * (CHANNEL_RGB - SOLID_RGB)
 
@@ -156,6 +157,8 @@ def _draw_arrows(background, renderer: SceneRenderer, node_velocity, pixel_size_
     base_px = np.stack([cols.ravel(), rows.ravel()], axis=-1).astype(float)
     base_um = (base_px - renderer.offset) / renderer.scale
     index = [base_um[:, 1] / pixel_size_um, base_um[:, 0] / pixel_size_um]
+    from scipy import ndimage
+
     velocity = np.stack([ndimage.map_coordinates(node_velocity[..., k], index, order=1, cval=0.0) for k in (0, 1)], -1)
     length = np.linalg.norm(velocity, axis=-1)
     for start, v, size in zip(base_px, velocity, length):

@@ -11,10 +11,28 @@ UEQ-S: items, answer file, scoring), ``questionnaire_stats`` (paired tests per p
 ``participants`` (pseudonyms, a participant's folder, resuming), ``mixed``
 (mixed-effects models, order effects), ``report`` (``report.md``)."""
 
-from otgym.study.figures import plot_fig8
-from otgym.study.paper_fig8 import PAPER_FIG8
-from otgym.study.stats import MODE_ORDER, compare_modes, participant_means, stars, wilson_interval
-from otgym.study.summary import summarize, write_summary
+import importlib
+
+_HOMES = {
+    "MODE_ORDER": "stats",
+    "PAPER_FIG8": "paper_fig8",
+    "compare_modes": "stats",
+    "participant_means": "stats",
+    "plot_fig8": "figures",
+    "stars": "stats",
+    "summarize": "summary",
+    "wilson_interval": "stats",
+    "write_summary": "summary",
+}
+"""The module of each name above, imported on first use (PEP 562): the statistics and
+figure libraries take seconds to import, and the window and the nodes need neither."""
+
+
+def __getattr__(name: str):
+    if name not in _HOMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
+
 
 __all__ = [
     "MODE_ORDER",

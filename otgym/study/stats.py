@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
-import pingouin as pg
-from statsmodels.stats.proportion import proportion_confint
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 from otgym import registry
 
@@ -101,6 +102,8 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
         raise ValueError(f"confidence must lie in (0, 1), got {confidence}")
     if n == 0:
         return (math.nan, math.nan)
+    from statsmodels.stats.proportion import proportion_confint  # seconds to import: on first use
+
     low, high = proportion_confint(successes, n, alpha=1.0 - confidence, method="wilson")
     return (float(low), float(high))
 
@@ -115,6 +118,8 @@ def _anova(long: pd.DataFrame, notes: list[str]) -> dict:
     """pingouin's one-way repeated-measures ANOVA, with the Greenhouse-Geisser correction
     (computed by pingouin for more than two modes). ``p`` is the corrected p-value where
     there is one (the conservative reading), else the uncorrected one."""
+    import pingouin as pg  # seconds to import: on first use
+
     with warnings.catch_warnings():  # degenerate data (pingouin then omits F and p): NaN below, with a note
         warnings.simplefilter("ignore")
         try:
@@ -172,6 +177,8 @@ def paired_tests(long: pd.DataFrame, modes: list[str]) -> list[dict]:
     value; every participant with a value in every mode). Rows ``{a, b, T, dof, p_unc}``,
     T of a minus b; a pair whose paired differences have zero variance gets NaN T and p,
     not p = 0."""
+    import pingouin as pg
+
     with warnings.catch_warnings():  # degenerate pairs (pingouin then omits T and p): NaN below
         warnings.simplefilter("ignore")
         table = pg.pairwise_tests(
@@ -197,6 +204,8 @@ def paired_tests(long: pd.DataFrame, modes: list[str]) -> list[dict]:
 def holm(rows: list[dict]) -> list[dict]:
     """Add ``p_holm`` (Holm's step-down correction over the rows' defined ``p_unc``, by
     pingouin's ``multicomp``; NaN stays NaN) and ``stars`` to each row; return the rows."""
+    import pingouin as pg
+
     _, p_holm = pg.multicomp(np.array([row["p_unc"] for row in rows], dtype=float), method="holm")
     for row, p in zip(rows, p_holm):
         row["p_holm"] = _float(p)
