@@ -7,19 +7,20 @@ Optional: skipped unless stable-baselines3 (and torch) are installed, i.e. it ru
 only with ``pip install ".[test,sb3]"``.
 """
 
+import importlib.util
 import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
-sb3 = pytest.importorskip("stable_baselines3")
-import torch  # noqa: E402  (a dependency of stable-baselines3)
-from stable_baselines3 import DQN, PPO  # noqa: E402
-from stable_baselines3.common.env_checker import check_env  # noqa: E402
-from stable_baselines3.common.env_util import make_vec_env  # noqa: E402
+if importlib.util.find_spec("stable_baselines3") is None:
+    pytest.skip("stable-baselines3 is not installed (extra [sb3]): no SB3 check", allow_module_level=True)
 
 import otgym.envs  # noqa: E402,F401  (registers the ids)
+
+# stable-baselines3 and torch are imported inside the tests, not here: every xdist worker
+# imports every test module to collect it, and torch alone takes seconds to import.
 
 pytestmark = pytest.mark.xdist_group("gym_envs")  # one worker compiles each task's single and vector step once
 
@@ -31,17 +32,19 @@ def one_torch_thread():
     """The policies are tiny MLPs: torch's intra-op threads buy nothing, and when
     another process holds a core (2-core CI, JAX's own threads) they make SB3 10-20x
     slower (2000 DQN steps: 4 s with one thread, 50-80 s with two under load)."""
+    import torch
+
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(threads)
 
 
-def _parameters(module: torch.nn.Module) -> list[np.ndarray]:
+def _parameters(module) -> list[np.ndarray]:
     return [p.detach().cpu().numpy().copy() for p in module.parameters()]
 
 
-def _changed(before: list[np.ndarray], module: torch.nn.Module) -> bool:
+def _changed(before: list[np.ndarray], module) -> bool:
     return any(not np.array_equal(b, a) for b, a in zip(before, _parameters(module), strict=True))
 
 
@@ -64,6 +67,8 @@ def _rollout(env: gym.Env, model, n: int, seed: int):
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_sb3_env_checker_passes_without_warnings(env_id):
+    from stable_baselines3.common.env_checker import check_env
+
     env = gym.make(env_id)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -75,6 +80,9 @@ def test_sb3_env_checker_passes_without_warnings(env_id):
 
 @pytest.mark.slow
 def test_dqn_trains_on_speed_control_and_predicts_in_space():
+    import torch
+    from stable_baselines3 import DQN
+
     env = gym.make("otgym/SpeedControl-v0")
     model = DQN("MlpPolicy", env, learning_starts=500, buffer_size=5_000, seed=0, verbose=0)
     initial = _parameters(model.q_net)
@@ -103,6 +111,9 @@ def test_dqn_trains_on_speed_control_and_predicts_in_space():
 
 @pytest.mark.slow
 def test_ppo_trains_on_cell_transport_and_predicts_in_space():
+    import torch
+    from stable_baselines3 import PPO
+
     env = gym.make("otgym/CellTransport-v0")
     model = PPO("MlpPolicy", env, n_steps=256, batch_size=64, n_epochs=4, seed=0, verbose=0)
     initial = _parameters(model.policy)
@@ -137,6 +148,8 @@ def test_ppo_trains_on_cell_transport_and_predicts_in_space():
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_seeded_vec_envs_reproduce_and_differ_between_workers(env_id):
+    from stable_baselines3.common.env_util import make_vec_env
+
     space = gym.make(env_id).action_space
     space.seed(0)
     actions = [np.stack([a, a]) for a in (space.sample() for _ in range(3))]  # the same for both workers
