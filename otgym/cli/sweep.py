@@ -48,10 +48,10 @@ def _option_spec(param, name: str) -> OptionSpec:
     return OptionSpec(name, flag, "text")
 
 
-def command_specs(app: typer.Typer) -> dict[str, CommandSpec]:
-    """Every command of ``app`` that writes an ``--out`` folder (``sweep`` itself
-    excepted), by name (``"experiment shared-control"``), with its options and
-    arguments as a sweep file spells them (the long flag without dashes)."""
+def command_specs(root) -> dict[str, CommandSpec]:
+    """Every command under ``root`` (the ``otgym`` click group) that writes an ``--out``
+    folder (``sweep`` itself excepted), by name (``"experiment shared-control"``), with
+    its options and arguments as a sweep file spells them (the long flag without dashes)."""
     specs: dict[str, CommandSpec] = {}
 
     def walk(command, words: tuple[str, ...]) -> None:
@@ -75,7 +75,7 @@ def command_specs(app: typer.Typer) -> dict[str, CommandSpec]:
         if writes_out and words != ("sweep",):
             specs[" ".join(words)] = CommandSpec(words, options)
 
-    walk(typer.main.get_command(app), ())
+    walk(root, ())
     return specs
 
 
@@ -85,6 +85,7 @@ def register(app: typer.Typer, entry_point: typing.Callable[[list[str]], None]) 
 
     @app.command()
     def sweep(
+        context: typer.Context,
         sweep_file: Path = typer.Argument(
             ...,
             exists=True,
@@ -126,7 +127,7 @@ def register(app: typer.Typer, entry_point: typing.Callable[[list[str]], None]) 
         from otgym.cluster.sweep_file import load_sweep
         from otgym.experiments.output_folder import check_out_dir
 
-        loaded = load_sweep(sweep_file, command_specs(app))
+        loaded = load_sweep(sweep_file, command_specs(context.find_root().command))
         if serial and address is not None:
             raise ValueError("--serial runs without Ray; --address joins a Ray cluster: give one of them")
         if workers is not None and (workers < 1 or address is not None or serial):
