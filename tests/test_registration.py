@@ -3,6 +3,8 @@
 import subprocess
 import sys
 
+import pytest
+
 
 def test_import_otgym_registers_gym_ids_without_jax():
     """In a fresh interpreter (this test process has JAX loaded already)."""
@@ -16,6 +18,7 @@ def test_import_otgym_registers_gym_ids_without_jax():
     assert result.returncode == 0, result.stderr
 
 
+@pytest.mark.slow
 def test_registration_is_idempotent_and_entry_points_are_strings():
     """Reloading the package (as a notebook's autoreload does) registers nothing twice
     (Gymnasium would warn about overriding an id), and the entry points name the

@@ -47,6 +47,7 @@ def test_features_are_the_same_for_a_rotated_and_translated_scene():
     assert np.abs(shifted - plain).max() > 1.0
 
 
+@pytest.mark.slow
 def test_the_clone_beats_the_mean_predictor_on_held_out_states(tmp_path):
     # a nonlinear teacher (a saturating avoidance rule of the kind the MPC shows):
     # 600 fit / 200 held-out samples
@@ -132,6 +133,7 @@ def test_dagger_aggregates_the_learners_states_labelled_by_the_teacher():
     np.testing.assert_allclose(a[5:], _teacher(f[5:, 0]), rtol=1e-5)
 
 
+@pytest.mark.slow
 def test_dagger_corrects_the_covariate_shift_of_plain_cloning():
     # demonstrations: the teacher's states only (near the centre); the clone trained on
     # them drifts off in closed loop; one DAgger round on the clone's own states fixes it

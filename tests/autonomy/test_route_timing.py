@@ -91,6 +91,7 @@ def test_bad_grids_are_refused():
         passage(track((50.0, 30.0), (0.0, 1.0), 0.0, 1.0), speed_um_s=0.0)
 
 
+@pytest.mark.slow
 def test_the_tasks_assembly_is_taken_whole_and_across_the_route():
     """The task's gripped assembly in the route frame: the cell at the origin, one robot
     on each side of the route (their spheres more across than along it: the formation

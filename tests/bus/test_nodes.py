@@ -191,6 +191,7 @@ class SpyStylus(Device):
         self.forces.append(np.array(force_n, float))
 
 
+@pytest.mark.slow
 def test_sim_killed_the_device_force_is_zeroed_and_the_restarted_sim_is_found(children):
     endpoint = free_endpoint()
     spy, stop = SpyStylus(), threading.Event()
@@ -239,6 +240,7 @@ def test_recorder_node_killed_with_sigkill_keeps_all_but_its_last_moments(tmp_pa
     assert values == [i / 1000 for i in range(len(values))], values[:8]  # in order, none missing
 
 
+@pytest.mark.slow
 def test_recorder_node_says_when_the_session_end_is_in_its_file(tmp_path, children):
     """The recorder node prints its SESSION_END_RECORDED line (what ``otgym play
     --distributed`` waits for before stopping it) once the sim's session_end event is

@@ -125,6 +125,7 @@ def test_a_simulator_nodes_recording_is_refused_with_one_line(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_one_participant_draws_the_figure_and_says_no_test_is_possible(tmp_path):
     write_trials(tmp_path / "s", PARTICIPANTS[:1])
     out = tmp_path / "out"

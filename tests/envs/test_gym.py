@@ -24,6 +24,7 @@ def test_env_checker_passes_and_renders(env_id):
     env.close()
 
 
+@pytest.mark.slow
 def test_speed_control_rejects_actions_outside_the_space():
     env = gym.make("otgym/SpeedControl-v0").unwrapped
     env.reset(seed=1)

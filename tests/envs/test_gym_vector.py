@@ -93,6 +93,7 @@ def test_one_step_advances_progress_by_the_chosen_speed(speed_env):
         assert info["_progress"].all() and info["_trap_distance_um"].shape == (N,)
 
 
+@pytest.mark.slow
 def test_same_step_autoreset_returns_a_fresh_episode_and_the_final_obs_in_infos(speed_env):
     config = speed_env.params.config
     levels = np.asarray(config.speed_levels_um_s)

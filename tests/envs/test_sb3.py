@@ -65,6 +65,7 @@ def _rollout(env: gym.Env, model, n: int, seed: int):
     return np.stack(observations), np.stack(actions)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_sb3_env_checker_passes_without_warnings(env_id):
     from stable_baselines3.common.env_checker import check_env

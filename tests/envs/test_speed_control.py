@@ -94,6 +94,7 @@ def test_slow_episodes_reach_the_goal_and_fast_ones_lose_traps(paper_params):
     assert success[TREND_EPISODES:].sum() <= TREND_EPISODES - 2
 
 
+@pytest.mark.slow
 def test_auto_reset_replaces_only_finished_envs(paper_params):
     obs, state = reset_batch(jax.random.PRNGKey(7), paper_params, N_ENVS)
     done = np.tile([True, False, False, True], N_ENVS // 4)

@@ -120,6 +120,7 @@ def test_jittered_intervals_have_the_stated_mean_and_spread():
     assert abs(intervals.std() / intervals.mean() - 0.2) < 0.03
 
 
+@pytest.mark.slow
 def test_lapses_come_at_their_rate_and_stop_corrections():
     """100 participants with 360 lapses per hour (0.1 per s) lasting 2 s on average, for
     60 s at 50 Hz: the number of lapses started over the time not lapsed is Poisson; it
@@ -271,6 +272,7 @@ def test_the_motor_is_reproducible_by_seed():
     assert not np.allclose(run(0), run(1))
 
 
+@pytest.mark.slow
 def test_two_hands_of_one_person_err_together_on_the_common_part():
     """1000 persons (2000 hands, ``hands_per_person=2``) plan a common 10 mm along x plus
     +-0.5 mm along y (the hands move apart by 1 mm): the common part of the executed

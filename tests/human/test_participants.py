@@ -187,6 +187,7 @@ def test_approach_lines_up_with_the_cell_before_closing():
     assert np.all(np.abs(error[:, 0]) < TASK.align_tolerance_um) and np.all(np.abs(error[:, 1]) < 0.25), error
 
 
+@pytest.mark.slow
 def test_approach_keeps_the_wall_side_robot_off_the_wall():
     """A still cell 1.5 um toward a wall at y = -9 um: robot 0's closed place below it
     (handles at y = -8.03) lies 0.97 um from the wall, inside the 2 um clearance. The

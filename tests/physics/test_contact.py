@@ -187,6 +187,7 @@ def test_projected_contact_keeps_every_overlap_within_its_cap(seed, box_um, spee
     assert np.all(pair_overlap / PAIR_MIN_RADIUS_UM < PROJECTION_SLACK * PROJECTION_CAP)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cap", [None, 0.02], ids=["penalty", "projected"])
 def test_pushed_beads_in_steady_contact_report_the_push(cap):
     """Two beads at T = 0, a 0.5 um one pushed with 30 pN against a 1 um one held by a

@@ -57,6 +57,7 @@ def measured_variances(body, config, theta=0.0):
     return np.array([along.var(), across.var(), steps[..., 2].var()]), config.control_period_s
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "body, height, theta",
     [

@@ -393,6 +393,7 @@ def surface_average_mobility(ci, ai, cj, aj, eta=1.0, n=1000):
     return block
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ai, aj, r", [(1.0, 0.6, 2.5), (1.25, 1.0, 1.75), (0.6, 1.0, 1.0), (1.0, 0.5, 0.3)])
 def test_closed_forms_match_the_surface_integral_definition(ai, aj, r):
     """Apart, overlapping (both orders of unequal radii) and one inside the other: every
@@ -427,6 +428,7 @@ def transport_assembly():
     return offsets, np.concatenate([robot.radii_um, robot.radii_um, [4.0]])
 
 
+@pytest.mark.slow
 def test_two_handle_robot_and_cell_ratios():
     """RPY drag / free-draining sum (about the drag centre; module docstring):
     robot x 0.310, y 0.353, rotation 0.715; cell 1 exactly; assembly x 0.276, y 0.254,

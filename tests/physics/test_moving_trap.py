@@ -31,6 +31,7 @@ def drag_bead(law, speed, dt, substeps, n_steps, seed=0):
     return lag, np.asarray(reports.trap_lost)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("law", [ph.TrapLaw("harmonic", 10.0), ph.TrapLaw("gaussian", 10.0, waist_um=2.0)])
 def test_mean_lag_is_gamma_v_over_k(law):
     speed = 50.0

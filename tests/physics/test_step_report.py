@@ -12,6 +12,7 @@ from tests.physics.helpers import step
 SPIN_TORQUE_PN_UM = 40.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cap", [None, 0.02])
 def test_reported_trap_distances_are_those_of_the_returned_pose(cap):
     """Two robots beside each other spun by an external torque (with and without the

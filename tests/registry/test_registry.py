@@ -116,6 +116,7 @@ def _plugin_site(tmp_path: Path) -> Path:
     return site
 
 
+@pytest.mark.slow
 def test_an_installed_package_adds_parts_through_entry_points(tmp_path):
     """``otgym list`` in a fresh process sees the package's task, navigator and chip,
     says where they come from, keeps otgym's own ``route``, and lists the broken entry

@@ -27,6 +27,7 @@ def trained():
     return runner, metrics
 
 
+@pytest.mark.slow
 def test_training_runs_in_jit_over_two_seeds(trained):
     runner, metrics = trained
     assert metrics["loss"].shape == (2, TINY.n_chunks * TINY.chunk_iters)

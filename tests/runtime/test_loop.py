@@ -135,6 +135,7 @@ def replay_file(tmp_path, velocity_mm_s, duration_s, rate_hz=100.0, buttons=1):
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["silent", "nan", "stale", "lost"])
 def test_a_silent_or_broken_device_holds_the_traps_in_manual_mode(task, scenario, kind):
     """Manual mode (alpha 1), one device at 5 mm/s on robot 0, none on robot 1.
@@ -487,6 +488,7 @@ def test_run_stops_when_a_trap_is_lost(task, scenario):
     assert device.stops == 1 and np.array_equal(device.forces[-1], np.zeros(3))
 
 
+@pytest.mark.slow
 def test_servo_device_drives_the_traps_and_stops_with_zero_force(task, scenario):
     """A simulated haptic stylus in its own 1 kHz servo process, its hand moving at
     5 mm/s along device x, drives robot 0 for 50 real-time ticks in manual mode, once it

@@ -38,6 +38,7 @@ def wall_distance(scene, xy):
     return np.asarray(distance)
 
 
+@pytest.mark.slow
 def test_reset_places_the_cell_in_both_grippers_clear_of_walls_and_obstacles(transport):
     states = reset_batch(transport, jax.random.split(jax.random.PRNGKey(0), 64))
     xy = np.asarray(ph.sphere_positions_um(transport.model, states.physics.pose))
@@ -53,6 +54,7 @@ def test_reset_places_the_cell_in_both_grippers_clear_of_walls_and_obstacles(tra
     assert len(np.unique(cell.round(1), axis=0)) > 50  # randomised from the key
 
 
+@pytest.mark.slow
 def test_grip_holds_the_cell_and_reports_the_grip_force(transport):
     """Traps still, flow on: over 4 s the cell stays in the grip and each robot presses
     on it with about its traps' force at the squeeze offset (two handles at 0.05 um on a
@@ -69,6 +71,7 @@ def test_grip_holds_the_cell_and_reports_the_grip_force(transport):
     assert np.all(forces < trap_force_at_squeeze * 1.5)
 
 
+@pytest.mark.slow
 def test_traps_carry_the_cell_along_the_channel(transport):
     """Start in the straight top-left branch heading +x (the flow's direction) and move
     all traps at 3 um/s for 5 s: the cell follows the traps by contact alone."""

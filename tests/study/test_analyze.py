@@ -62,6 +62,7 @@ def test_trials_columns_are_the_experiments():
     assert TRIALS_COLUMNS == TRIAL_COLUMNS
 
 
+@pytest.mark.slow
 def test_scores_figure_and_summary_with_answers(tmp_path, monkeypatch):
     """Two folders (P1, P2 | P3, P4): the scores CSV matches hand computation, the figure
     has four panels, summary.md has the questionnaire table and tests. The figure shows
@@ -149,6 +150,7 @@ def test_without_answers_only_panels_a_and_b(tmp_path):
     assert pd.read_csv(tmp_path / "out" / "questionnaire_scores.csv").empty
 
 
+@pytest.mark.slow
 def test_tlx_only_draws_panel_c_alone(tmp_path):
     write_trials(tmp_path / "s")
     write_answers(tmp_path / "s", ueq=False)

@@ -50,6 +50,7 @@ def test_task_scenario_is_reproducible_and_matches_the_fast_path(task):
     assert first.seed == 3 and len(first.crossing_arc_um) == task.config.scenario.n_obstacles
 
 
+@pytest.mark.slow
 def test_scenarios_are_reproducible_and_differ_across_seeds(scenarios):
     """Same seed, same tracks; ten seeds, ten different sets of crossings (catches a
     seed that is ignored, e.g. a fixed generator)."""
@@ -82,6 +83,7 @@ def test_position_um_waits_moves_and_stops():
     np.testing.assert_allclose(s.position_um(100.0), [[7.0, 10.0]], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_tracks_cross_the_route_at_their_crossing_arc_and_time(task, scenarios):
     """For 50 seeds x 4 obstacles: the obstacle is at the route point of its crossing
     arc at its crossing time (1e-6 um; float64 arithmetic); catches a track offset from
@@ -136,6 +138,7 @@ def test_tracks_stay_clear_of_the_walls(task, scenarios):
     assert distance.min() < clearance + 1.0  # the check is exercised: tracks do run close to walls
 
 
+@pytest.mark.slow
 def test_crossing_times_follow_progress_plus_jitter(task):
     """The timing law, with a jitter small enough that no crossing is clamped or thinned
     (the default 15 s, a calibration, thins early crossings whose tracks cannot start

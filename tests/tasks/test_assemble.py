@@ -25,6 +25,7 @@ def test_registered_with_its_gym_id():
     assert isinstance(tasks.load("assemble"), tasks.Task)
 
 
+@pytest.mark.slow
 def test_gymnasium_checker_passes_and_frame_renders():
     env = gym.make(ENV_ID, render_mode="rgb_array")
     check_env(env.unwrapped, skip_render_check=False)
