@@ -27,6 +27,8 @@ import time
 
 SCREEN = (1600, 1200, 24)
 """Width, height (larger than every otgym window) and depth of the virtual screen."""
+KEY_GAP_S = 0.02
+"""Wall time between one key's release and the next press (``XInput.key``)."""
 MISSING = "needs Xvfb for real windows (Debian: apt-get install xvfb); the other window tests use SDL's dummy driver"
 
 
@@ -158,12 +160,17 @@ class XInput:
         self.connection.sync()
 
     def key_up(self, name: str) -> None:
+        """Release ``name``, then wait ``KEY_GAP_S``: SDL takes a release followed within
+        2 ms by a press of the same key for auto-repeat and drops both (pygame then
+        sees one press for many)."""
         from Xlib.ext import xtest
 
         xtest.fake_input(self.connection, self._x.KeyRelease, self._keycode(name))
         self.connection.sync()
+        time.sleep(KEY_GAP_S)
 
     def key(self, name: str) -> None:
+        """Press and release ``name``."""
         self.key_down(name)
         self.key_up(name)
 
