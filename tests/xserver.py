@@ -105,8 +105,8 @@ class Xvfb:
 
 
 class XInput:
-    """Keyboard and mouse input sent through XTEST to the window named ``title`` on
-    ``display`` (found with ``wait_window``)."""
+    """Keyboard and mouse input sent through XTEST to ``display``: keys reach the window
+    ``wait_window`` found and focused, clicks are placed in its coordinates."""
 
     def __init__(self, display: str):
         from Xlib import X
@@ -126,11 +126,17 @@ class XInput:
     def wait_window(self, title: str, timeout_s: float, alive=lambda: True):
         """The mapped top-level window whose name starts with ``title``, waited for up
         to ``timeout_s`` (while ``alive()``); it gets the input focus."""
+        from Xlib.error import XError
+
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline and alive():
             for child in self.connection.screen().root.query_tree().children:
-                name = self._name(child)
-                if name.startswith(title) and child.get_attributes().map_state == self._x.IsViewable:
+                try:
+                    found = self._name(child).startswith(title)
+                    found = found and child.get_attributes().map_state == self._x.IsViewable
+                except XError:  # a window destroyed between the query and the look
+                    continue
+                if found:
                     self.window = child
                     child.set_input_focus(self._x.RevertToParent, self._x.CurrentTime)
                     self.connection.sync()
@@ -199,6 +205,7 @@ class WindowWatcher:
 
     def _watch(self) -> None:
         from Xlib import X
+        from Xlib.error import XError
 
         watcher = XInput(self.display)
         try:
@@ -207,7 +214,7 @@ class WindowWatcher:
                     try:
                         viewable = child.get_attributes().map_state == X.IsViewable
                         title = watcher._name(child) if viewable else ""
-                    except Exception:  # noqa: BLE001  a window destroyed between the query and the look
+                    except XError:  # a window destroyed between the query and the look
                         continue
                     if title and title not in self.titles:
                         self.titles.append(title)

@@ -40,6 +40,7 @@ def test_every_task_plays_one_second_in_an_x_window(xvfb, tmp_path, monkeypatch)
 
     for name, value in xvfb.env({}).items():
         monkeypatch.setenv(name, value)
+    monkeypatch.delenv("XAUTHORITY", raising=False)
     tasks = registry.names("tasks")
     assert {"speed-control", "cell-transport", "sort-cells", "assemble", "orient"} <= set(tasks)
     played = {}
