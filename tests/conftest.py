@@ -10,7 +10,7 @@
 - The slow tests run first (a stable reorder), so that xdist's workers share the long
   end-to-end runs at the start instead of one worker finishing them alone at the end.
 - Fixtures shared across packages: the ``paper`` preset's task parameters, Q-network
-  parameters with a fixed greedy action.
+  parameters with a fixed greedy action, a real X server (``xvfb``: ``tests.xserver``).
 """
 
 import os
@@ -44,6 +44,20 @@ def paper_params():
     from otgym.tasks.transport import speed_control as spc
 
     return spc.make_params("paper")
+
+
+@pytest.fixture(scope="session")
+def xvfb():
+    """One Xvfb for the test session (``tests.xserver.Xvfb``): its ``env()`` opens a child's
+    windows on it with SDL's x11 driver. Skips, saying why, where Xvfb is not installed;
+    stops only its own process at the end."""
+    from tests.xserver import MISSING, Xvfb, available
+
+    if not available():
+        pytest.skip(MISSING)
+    server = Xvfb().start()
+    yield server
+    server.stop()
 
 
 FIXED_POLICY_HIDDEN = (16,)

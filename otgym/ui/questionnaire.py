@@ -60,9 +60,11 @@ _HELP = {
 
 class QuestionnaireForm:
     """NASA-TLX (optionally weighted) then UEQ-S for one trial; ``done`` once every item
-    is answered and the last page is confirmed; then ``answers()`` gives the rows."""
+    is answered and the last page is confirmed; then ``answers()`` gives the rows.
+    ``size``: the surface it is laid out for until ``draw`` gives it another (clicks
+    are placed by the layout of the last surface drawn on, or this one before the first)."""
 
-    def __init__(self, weighted: bool = False):
+    def __init__(self, weighted: bool = False, size: tuple[int, int] = (960, 720)):
         self.weighted = weighted
         self.pages = [TLX_PAGE] + ([PAIRS_PAGE] if weighted else []) + [UEQ_PAGE]
         self.page = 0
@@ -72,7 +74,7 @@ class QuestionnaireForm:
         self.ratings: dict[str, int | None] = dict.fromkeys(TLX_SUBSCALES)
         self.choices: dict[tuple, str | None] = dict.fromkeys(TLX_PAIRS)
         self.ueq: dict[str, int | None] = dict.fromkeys(UEQ_ITEM_NAMES)
-        self._size = (960, 720)
+        self._size = tuple(size)
         self._dragging: str | None = None
         self._fonts: dict[int, pygame.font.Font] = {}
 
@@ -351,8 +353,9 @@ def run_questionnaire(
     """Show a ``QuestionnaireForm`` on ``screen`` until it is finished; return its rows
     with ``participant``, ``mode`` and ``trial`` (the keys of ``QUESTIONNAIRE_COLUMNS``,
     ready for ``append_answers``), or None if the window is closed or Esc is pressed
-    (nothing is saved here either way)."""
-    form = QuestionnaireForm(weighted=weighted)
+    (nothing is saved here either way). Laid out for ``screen`` from the start, so
+    clicks already queued before its first frame land where they were aimed."""
+    form = QuestionnaireForm(weighted=weighted, size=screen.get_size())
     while not form.done:
         for event in pygame.event.get():
             if event.type == pygame.QUIT or (event.type == pygame.KEYDOWN and event.key == pygame.K_ESCAPE):

@@ -1,6 +1,7 @@
-"""``otgym study run`` end to end, headless (SDL's dummy drivers): a 2-participant
-protocol of three modes with 2 s trials and scripted questionnaire answers, pressed
-into the window's form. The first participant's session process is killed (SIGKILL, by
+"""``otgym study run`` end to end in an X window on the ``xvfb`` fixture's server
+(where Xvfb is missing: ``--headless``, SDL's dummy drivers): a 2-participant protocol
+of three modes with 2 s trials and scripted questionnaire answers, pressed into the
+window's form (``--script``; ``tests/study/test_study_xvfb.py`` sends X events instead). The first participant's session process is killed (SIGKILL, by
 the pid this test started) while a trial runs, then resumed by the same command; the
 study folder is then analysed. Checked: the two orders are the Williams square's first
 two rows, every planned trial is in the data exactly once, the killed trial is marked
@@ -45,7 +46,18 @@ hold_keys = ["right"]
 """
 
 
-def command(tmp_path: Path, participant: str) -> list[str]:
+@pytest.fixture
+def display(request) -> tuple[dict, list[str]]:
+    """The environment and the arguments that open the kit's window: on Xvfb where it is
+    installed, else ``--headless``."""
+    from tests.xserver import available
+
+    if available():
+        return request.getfixturevalue("xvfb").env(), []
+    return dict(os.environ), ["--headless"]
+
+
+def command(tmp_path: Path, participant: str, display: tuple[dict, list[str]]) -> list[str]:
     return [
         sys.executable,
         "-m",
@@ -59,17 +71,17 @@ def command(tmp_path: Path, participant: str) -> list[str]:
         str(tmp_path / "study"),
         "--script",
         str(tmp_path / "answers.toml"),
-        "--headless",
+        *display[1],
     ]
 
 
-def run(tmp_path: Path, participant: str) -> subprocess.CompletedProcess:
+def run(tmp_path: Path, participant: str, display: tuple[dict, list[str]]) -> subprocess.CompletedProcess:
     return subprocess.run(
-        command(tmp_path, participant),
+        command(tmp_path, participant, display),
         capture_output=True,
         text=True,
         timeout=600,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        env={**display[0], "PYTHONPATH": str(ROOT)},
         cwd=ROOT,
     )
 
@@ -91,7 +103,7 @@ def rows(path: Path) -> list[dict]:
 
 
 @pytest.mark.slow
-def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path):
+def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path, display):
     (tmp_path / "protocol.toml").write_text(PROTOCOL)
     (tmp_path / "answers.toml").write_text(ANSWERS)
     study = tmp_path / "study"
@@ -99,11 +111,11 @@ def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path):
     # participant 1: killed once a trial of the modes' blocks is under way (the practice and
     # block 1's first trial finished: trial 3 has started)
     process = subprocess.Popen(
-        command(tmp_path, "lab-a"),
+        command(tmp_path, "lab-a", display),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT), "OTGYM_TEST_MARKER": marker},
+        env={**display[0], "PYTHONPATH": str(ROOT), "OTGYM_TEST_MARKER": marker},
         cwd=ROOT,
     )
     started = study / "S001" / "started.csv"
@@ -118,10 +130,10 @@ def test_two_participants_one_killed_mid_trial_resumed_and_analysed(tmp_path):
     assert wait_gone(marker) == []  # its session process saw it die and ended too
     finished = {int(row["trial"]) for row in rows(study / "S001" / "trials.csv")}
     assert 3 not in finished and finished == {2}  # trial 3 was cut: no row of it
-    resumed = run(tmp_path, "lab-a")
+    resumed = run(tmp_path, "lab-a", display)
     assert resumed.returncode == 0, resumed.stdout[-2000:] + resumed.stderr[-3000:]
     assert "cut and to run again: [3]" in resumed.stdout and "the session is complete" in resumed.stdout
-    second = run(tmp_path, "lab-b")
+    second = run(tmp_path, "lab-b", display)
     assert second.returncode == 0, second.stdout[-2000:] + second.stderr[-3000:]
 
     # the key is kept apart; the folders carry pseudonyms only

@@ -4,8 +4,9 @@ test's environment), and with that folder on ``PYTHONPATH`` fresh processes find
 task by its ``otgym.tasks`` entry point: ``otgym list tasks`` names it, ``gymnasium.make
 ("otgym/push-bead-v0")`` passes Gymnasium's ``check_env`` (and SB3's, where
 stable-baselines3 is installed), ``otgym train --task push-bead`` trains one chunk and
-``otgym play --task push-bead`` plays one second (under Xvfb where it is installed,
-else with SDL's dummy drivers) and draws the chip.
+``otgym play --task push-bead`` plays one second (in an X window on the ``xvfb``
+fixture's server where Xvfb is installed, else with SDL's dummy drivers) and draws the
+chip.
 
 Slow: the install and each process's JAX start and compile (read back from the
 persistent cache after the first run)."""
@@ -51,14 +52,12 @@ def site(tmp_path_factory) -> Path:
     return target
 
 
-def run(site: Path | None, argv: list[str], cwd: Path, wrap: list[str] = ()) -> subprocess.CompletedProcess:
+def run(site: Path | None, argv: list[str], cwd: Path, base_env: dict | None = None) -> subprocess.CompletedProcess:
     """``python ARGV`` in a fresh process, otgym from this repository and ``site`` (if
-    given) on its path."""
-    env = dict(os.environ)
+    given) on its path; ``base_env``: its environment before that (default: this one's)."""
+    env = dict(os.environ if base_env is None else base_env)
     env["PYTHONPATH"] = os.pathsep.join([*([str(site)] if site else []), str(REPO)])
-    return subprocess.run(
-        [*wrap, sys.executable, *argv], cwd=cwd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S
-    )
+    return subprocess.run([sys.executable, *argv], cwd=cwd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
 
 
 def test_otgym_list_tasks_shows_the_installed_task_and_only_then(site, tmp_path):
@@ -142,12 +141,13 @@ def test_otgym_train_trains_one_chunk(site, tmp_path):
     assert (tmp_path / "train" / "policy.npz").stat().st_size > 0
 
 
-def test_otgym_play_plays_one_second(site, tmp_path):
-    xvfb = shutil.which("xvfb-run")
-    wrap = [xvfb, "-a", "-s", "-screen 0 1024x768x24"] if xvfb else []
+def test_otgym_play_plays_one_second(site, tmp_path, request):
+    from tests.xserver import available
+
+    xvfb = request.getfixturevalue("xvfb") if available() else None  # a real X window where Xvfb is installed
     argv = ["-m", "otgym", "play", "--task", "push-bead", "--duration", "1", "--out", "play"]
     argv += ["--screenshot", "play/shot.png"] + ([] if xvfb else ["--headless"])
-    result = run(site, argv, tmp_path, wrap)
+    result = run(site, argv, tmp_path, xvfb.env() if xvfb else None)
     assert result.returncode == 0, result.stderr[-3000:]
     with open(tmp_path / "play" / "episodes.csv") as handle:
         rows = list(csv.DictReader(handle))

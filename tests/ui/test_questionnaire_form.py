@@ -139,6 +139,30 @@ def _post_keys(codes):
         pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=code))
 
 
+def test_clicks_queued_before_the_first_frame_land_on_the_screens_layout():
+    """Input already waiting when the form opens (a fast person, a script, X events) is
+    read before anything is drawn: it must meet the screen's layout, not a default one."""
+    pygame.init()
+    try:
+        screen, clock = pygame.display.set_mode(SIZE), pygame.time.Clock()
+        pygame.event.clear()
+        _post_keys([pygame.K_RIGHT, pygame.K_DOWN] * 6 + [pygame.K_RETURN])  # every TLX subscale 50
+        aimed = QuestionnaireForm(size=SIZE)
+        aimed.page = aimed.pages.index(UEQ_PAGE)  # where the clicks are aimed: the UEQ-S page, after Enter
+        for raw, item in enumerate(UEQ_ITEM_NAMES, start=1):
+            for kind in (pygame.MOUSEBUTTONDOWN, pygame.MOUSEBUTTONUP):
+                pygame.event.post(pygame.event.Event(kind, pos=aimed.radio_rect(item, min(raw, 7)).center, button=1))
+        for kind in (pygame.MOUSEBUTTONDOWN, pygame.MOUSEBUTTONUP):
+            pygame.event.post(pygame.event.Event(kind, pos=aimed.next_rect.center, button=1))
+        _post_keys([pygame.K_ESCAPE])  # left with Esc (None) where the clicks missed
+        rows = run_questionnaire(screen, clock, "P4", "manual", 2, fps=1000)
+        assert rows is not None
+        assert [row["value"] for row in rows if row["instrument"] == "ueq_s"] == [1, 2, 3, 4, 5, 6, 7, 7]
+    finally:
+        pygame.event.clear()
+        pygame.quit()
+
+
 def test_run_questionnaire_returns_full_rows_the_answer_file_accepts(tmp_path):
     pygame.init()
     try:
