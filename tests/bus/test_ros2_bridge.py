@@ -24,8 +24,11 @@ pytest.importorskip(
 pytest.importorskip(
     "visualization_msgs.msg", reason="ROS 2's visualization_msgs wheel (extra [ros2]) cannot be imported: no ROS 2 test"
 )
+SESSION_S = 8.0
+"""The play session's simulated seconds: the probe needs 10 PoseArrays of its first
+moments, and each simulated second costs every node of the session CPU."""
 PLAY_END_S = 420.0
-"""The bound on a 60 s play session's end after the probe: the session at a fraction of
+"""The bound on the play session's end after the probe: the session at a fraction of
 real time under load, then the sim's end, the recorder's drain and each node's stop
 (up to 10 s each before SIGKILL)."""
 PROBE_DEADLINE_S = 120.0
@@ -104,22 +107,24 @@ def test_a_bad_ros2_argument_is_one_error_line_before_the_bus_opens(ros_env, mon
 def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_path):
     """``otgym play --distributed --ros2`` (headless, the simulated stylus): a ROS 2 node
     of its own process receives the session's traps and markers while it runs; the
-    session then ends by its duration with exit code 0."""
+    session then ends by its duration with exit code 0. The probe starts with the
+    session, so that its discovery overlaps the nodes' start-up and a short session
+    suffices."""
     play = spawn(
         "-m", "otgym", "play", "--headless", "--distributed", "--ros2", "--device", "simulated",
-        "--no-questionnaire", "--mode", "manual", "--duration", "30", "--out", str(tmp_path),
+        "--no-questionnaire", "--mode", "manual", "--duration", str(SESSION_S), "--out", str(tmp_path),
     )  # fmt: skip
+    probe_deadline_s = STARTUP_S * 2 + PROBE_DEADLINE_S
+    probe = spawn(str(ROOT / "tests" / "bus" / "ros2_probe.py"), str(probe_deadline_s), "--listen-only")
     try:
-        wait_for_line(play, "nodes ready", STARTUP_S * 2)
-        probe = spawn(str(ROOT / "tests" / "bus" / "ros2_probe.py"), str(PROBE_DEADLINE_S), "--listen-only")
-        output, _ = probe.communicate(timeout=PROBE_DEADLINE_S + 60)
+        output, _ = probe.communicate(timeout=probe_deadline_s + 60)
         lines = [line for line in output.splitlines() if line.startswith("result: ")]
         assert probe.returncode == 0 and lines, output[-3000:]
         result = json.loads(lines[-1].removeprefix("result: "))
         assert "failed" not in result, result
         assert result["pose_arrays"] >= 10 and result["poses_per_array"] == [4], result
         assert {"walls", "robots", "traps"} <= set(result["marker_namespaces"])
-        try:  # the rest of the 30 s session (slower than real time under load), then the nodes' ends
+        try:  # the rest of the session (slower than real time under load), then the nodes' ends
             rest, _ = play.communicate(timeout=PLAY_END_S)
         except subprocess.TimeoutExpired:
             os.kill(play.pid, signal.SIGKILL)
@@ -128,7 +133,9 @@ def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_p
                 f"otgym play did not end within {PLAY_END_S} s of the probe:\n{rest[-3000:]}"
             ) from None
         assert play.returncode == 0, rest[-3000:]
+        assert "nodes ready" in rest, rest[-3000:]
     finally:
-        if play.poll() is None:
-            os.kill(play.pid, signal.SIGKILL)
-            play.wait()
+        for child in (probe, play):
+            if child.poll() is None:
+                os.kill(child.pid, signal.SIGKILL)
+                child.wait()
