@@ -17,6 +17,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from otgym.cli import options
 from otgym.experiments.demo import DEMO_EPISODES, DEMO_RUNS, DEMO_SPEED_UM_S, FULL_EPISODES, SIZE_RANGES, StudyConfig
+from otgym.experiments.whole_path import RECOMMENDED_AUTONOMY
 
 
 def _range(name: str) -> str:
@@ -46,14 +47,22 @@ def register(app: typer.Typer) -> None:
             DEMO_SPEED_UM_S,
             "--speed-um-s",
             **_bounds("speed_um_s"),
-            help=f"Constant speed of the whole path's route follower (the baseline beside the MPC), um/s, "
+            help=f"Constant speed of the whole path's route follower (the baseline beside the autonomy), um/s, "
             f"{_range('speed_um_s')}.",
         ),
         runs: int = typer.Option(
             DEMO_RUNS,
             "--runs",
             **_bounds("runs"),
-            help=f"Whole-path scenarios, each run by the route follower and the MPC in one batch, {_range('runs')}.",
+            help=f"Whole-path scenarios, each run by the route follower and the autonomy in one batch, {_range('runs')}.",
+        ),
+        autonomy: str = options.registered(
+            RECOMMENDED_AUTONOMY,
+            "--autonomy",
+            "navigators",
+            "trial-mode",
+            "The whole path's autonomy beside the route follower (rl: the learned speed; mpc: the MPC, "
+            "which steps aside but replans every 0.1 s).",
         ),
         seed: int = options.seed(1, "Random seed of the episodes, runs and study,"),
         study_participants: int = typer.Option(
@@ -84,8 +93,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Plan on the default chip (Table I), evaluate the pretrained speed controller
         against constant speeds (Table II, safety violins), carry the cell along the
-        whole path past moving obstacles with the MPC beside the constant-speed route
-        follower, run a small manual/autonomous/shared study (Fig. 8), and write
+        whole path past moving obstacles with the learned speed (or the MPC) beside the
+        constant-speed route follower, run a small manual/autonomous/shared study (Fig. 8), and write
         report.md beside the paper's numbers. Small samples, a few minutes on two
         cores; every size is printed with its result.
 
@@ -104,6 +113,7 @@ def register(app: typer.Typer) -> None:
             study_trials,
             study_time_limit_s,
             background_study=not sequential,
+            autonomy=autonomy,
         )
         console = Console(soft_wrap=True)
         columns = (

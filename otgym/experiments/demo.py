@@ -1,6 +1,6 @@
 """The main job, ``otgym demo``: the paper's pipeline end to end on the default chip,
-headless, at small sizes: a few minutes on two CPU cores, most of it the study and the
-whole path's MPC.
+headless, at small sizes (the time it takes on two CPU cores is in the README), most
+of it the study.
 
 1. ``plan/``: A* + B-spline on the chip image against a simulated manual path
    (Table I, ``otgym.planning``).
@@ -9,9 +9,9 @@ whole path's MPC.
    violins of Fig. 7, ``otgym.experiments.speed_control_eval``); the demo runs
    ``DEMO_EPISODES`` episodes per policy, ``otgym evaluate`` the full 256.
 3. ``whole_path/``: the cell carried from the chip's start to its goal past the
-   interactive task's moving obstacles by the autonomy otgym recommends (the MPC)
-   beside the constant-speed route follower, on the same seeded scenarios
-   (``otgym.experiments.whole_path``).
+   interactive task's moving obstacles by the autonomy otgym recommends (the learned
+   speed; ``--autonomy mpc``: the MPC) beside the constant-speed route follower, on the
+   same seeded scenarios (``otgym.experiments.whole_path``).
 4. ``shared_control/``: a small manual / autonomous / shared study with simulated
    participants (the paper's Fig. 8; ``otgym.experiments.shared_control``, whose full
    size is ``otgym experiment shared-control``), its trials cut at 90 s of simulated
@@ -50,10 +50,10 @@ minutes; with 16 the stage takes 15-20 s with warm caches and 20-45 s cold, most
 compiling."""
 
 DEMO_RUNS = 1
-"""Whole-path scenarios of the demo, each run by the route follower and by the MPC,
-all in one batch of 20 ms ticks until its slowest trial ends. One: the MPC replans
-every 0.1 s, 74 ms of CPU per environment (docs/mpc.md), about 35 s for one run's
-whole path, the demo's costliest part; ``--runs`` adds more."""
+"""Whole-path scenarios of the demo, each run by the route follower and by the
+autonomy, all in one batch of 20 ms ticks until its slowest trial ends. One shows the
+behaviour; ``--runs`` adds more (and the MPC, ``--autonomy mpc``, replans every 0.1 s
+at about 74 ms of CPU per environment, docs/mpc.md)."""
 
 DEMO_SPEED_UM_S = 5.0
 """The whole-path route follower's constant speed: the autonomous mode's pace
@@ -171,10 +171,12 @@ def demo_config(
     study_trials: int = StudyConfig.trials,
     study_time_limit_s: float = StudyConfig.time_limit_s,
     background_study: bool = True,
+    autonomy: str | None = None,
 ) -> DemoConfig:
     """The demo's configuration from the command line's values (study_participants 0
-    leaves the study out); every value checked against ``SIZE_RANGES`` first, so a bad
-    one is named with its valid range."""
+    leaves the study out; ``autonomy`` None: the whole path's recommended one); every
+    value checked against ``SIZE_RANGES`` first, so a bad one is named with its valid
+    range."""
     if policy != "pretrained" and Path(policy).is_dir():
         raise ValueError(f"--policy {policy} is a folder; give a policy file (policy.npz from otgym train)")
     check_range("--runs", runs, *SIZE_RANGES["runs"])
@@ -191,7 +193,9 @@ def demo_config(
         seed=seed,
         study=study,
         background_study=background_study,
-        whole_path=_whole_path(speed_um_s=float(speed_um_s), runs=runs, seed=seed),
+        whole_path=_whole_path(
+            speed_um_s=float(speed_um_s), runs=runs, seed=seed, **({} if autonomy is None else {"autonomy": autonomy})
+        ),
     )
 
 

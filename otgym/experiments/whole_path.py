@@ -10,8 +10,10 @@ both modes:
 * ``autonomous``: the route navigator at a constant cruise speed (the paper's
   autonomous mode; 5 um/s by default, the pace the scenarios' crossing times are drawn
   around), which ignores the obstacles;
-* ``RECOMMENDED_AUTONOMY`` (``mpc``): the model-predictive navigator
-  (``otgym.autonomy.mpc``), which predicts the obstacles and steps aside or waits.
+* ``autonomy``, by default ``RECOMMENDED_AUTONOMY`` (``rl``): the learned speed
+  (``otgym.autonomy.rl_navigator``), which slows or waits for the obstacles ahead; or
+  ``mpc``, the model-predictive navigator (``otgym.autonomy.mpc``), which predicts the
+  obstacles and steps aside or waits.
 
 A trial ends at the goal, at a lost trap or at ``time_limit_s``; an obstacle that
 touches the assembly does not end it (the task's rules), so the section counts the
@@ -35,11 +37,13 @@ import numpy as np
 from otgym import registry
 from otgym.experiments.seeds import SCENARIOS_PER_STUDY_SEED
 
-RECOMMENDED_AUTONOMY = "mpc"
-"""The autonomy the whole-path section shows: the MPC reached the goal in 128 of 128
-held-out scenarios and avoided 459 of 460 obstacles met (seed 13, docs/mpc.md); the
-learned speed (``rl``) also reaches the goal but avoided 66.5 % of the obstacles it met
-(report seed 7600, docs/rl-navigator.md), as it cannot step aside."""
+RECOMMENDED_AUTONOMY = "rl"
+"""The autonomy the whole-path section shows by default: the learned speed, the route
+follower whose speed a DQN chooses, which reaches the goal past the moving obstacles
+(docs/decisions/0052-demo-whole-path-learned-speed.md) at a fraction of the MPC's cost:
+no replans, one small network every 0.5 s. The MPC (``mpc``) passes more of the
+obstacles it meets (128 of 128 goals, 459 of 460 obstacles avoided on held-out seed 13,
+docs/mpc.md) and is one option away (``otgym demo --autonomy mpc``)."""
 
 BASELINE_MODE = "autonomous"
 """The constant-speed route follower of the paper's autonomous mode."""

@@ -57,6 +57,8 @@ TRIAL_MODES = MODES + registry.names("navigators", "trial-mode")
 """The arbitration modes, and the navigators tagged ``trial-mode``: autonomous (alpha 0)
 with that navigator's dP_r instead of the route navigator's (``mpc``: the
 model-predictive navigator; ``rl``: the learned-speed one)."""
+PEOPLE_MODES = ("manual", "shared")
+"""The arbitration modes in which a participant's dP_h counts (alpha > 0 at times)."""
 AUTONOMIES = registry.names("navigators", "shared")
 """Whose dP_r shared control may get: the navigators tagged ``shared``."""
 
@@ -198,8 +200,14 @@ def run_trials(
     )
     max_step = retarget.max_trap_speed_um_s * tick
     obs = state.observation
+    # a batch in which nobody's hands count (every trial autonomous: alpha 0) skips the simulated people,
+    # whose dP_h would be blended with weight 0: the same commands, bit for bit, for less work
+    people_act = bool(np.isin(arbitration_modes(modes), PEOPLE_MODES).any())
+    idle_hands = np.zeros((len(specs), task.n_traps, 2))
+    no_lapses = np.zeros(len(specs), bool)
     display = WindowDisplay(tick, display_latency_s)  # what the participants see: the window, late
-    display.show(obs, arbitration_modes(modes), mode_alpha(modes, obs.nearest_obstacle_gap_um, arbitration))
+    if people_act:
+        display.show(obs, arbitration_modes(modes), mode_alpha(modes, obs.nearest_obstacle_gap_um, arbitration))
     total_ticks = int(np.ceil(task.config.time_limit_s / tick))
     for index in range(total_ticks):
         robot = navigator.increments(obs)
@@ -211,17 +219,20 @@ def run_trials(
             obs,
             modes,
             robot,
-            lambda modes, alpha: people.intend(display.percept(), task.trap_robot)[:, task.trap_robot],
+            (lambda modes, alpha: people.intend(display.percept(), task.trap_robot)[:, task.trap_robot])
+            if people_act
+            else (lambda modes, alpha: idle_hands),
             arbitration,
             max_step,
         )
         key, step_key = jax.random.split(key)
         seen = obs
         obs = task.step(state, command.shared_um, step_key, command.alpha)
-        display.show(obs, command.modes, command.alpha)
-        people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
+        if people_act:
+            display.show(obs, command.modes, command.alpha)
+            people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
         if recorder is not None:
-            lapsed = people.motor.lapsed.reshape(len(specs), -1).any(axis=1)
+            lapsed = people.motor.lapsed.reshape(len(specs), -1).any(axis=1) if people_act else no_lapses
             recorder(TickView(seen, obs, command, robot, state, lapsed))
         if progress is not None and index % 50 == 0:
             progress(float(state.metrics.done.mean()))

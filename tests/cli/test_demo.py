@@ -3,6 +3,8 @@ policy against the constant speeds, carries a cell through the chip, runs a smal
 shared-control study and writes its files and report.md, one progress line per stage;
 bad input is one clear line before any work."""
 
+import contextlib
+import io
 import json
 import threading
 import time
@@ -13,8 +15,6 @@ import pytest
 
 from otgym.cli.app import main
 from otgym.experiments import demo as demo_module
-from otgym.experiments.whole_path import WholePathDemo
-from otgym.experiments.whole_path import run as run_whole_path
 from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
 from otgym.sim.chip import load_chip
 from otgym.study import wilson_interval
@@ -24,26 +24,66 @@ from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
 
 
+@pytest.fixture(scope="module")
+def demo_run(tmp_path_factory, fixed_action_q_params):
+    """The whole main job from the command line, run once for this module's two demo
+    tests, small: 4 episodes with a policy that always drives at the slowest level (its
+    Table II row equals G1's exactly in time), one whole-path scenario to its end (the
+    route follower and the learned speed), and a study of 2 participants x 1 trial x 3
+    modes cut at 30 s, long enough for the assembly to reach the obstacles' crossings
+    (the demo's 20 s cut once met none: its Fig. 8 said "avoided 0 of 0"). The study
+    runs in a thread beside the other stages, as by default. Returns the output folder
+    and what the command printed."""
+    folder = tmp_path_factory.mktemp("demo")
+    policy = save_policy(folder / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(HIDDEN)})
+    out = folder / "out"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed), pytest.raises(SystemExit) as exit_info:
+        main(
+            [
+                "demo",
+                "--out",
+                str(out),
+                "--policy",
+                str(policy),
+                "--episodes",
+                str(EPISODES),
+                "--runs",
+                "1",
+                "--study-participants",
+                "2",
+                "--study-trials",
+                "1",
+                "--study-time-limit-s",
+                "30",
+            ]
+        )
+    assert exit_info.value.code == 0, printed.getvalue()
+    return out, printed.getvalue()
+
+
 @pytest.mark.slow
-def test_the_whole_path_reaches_the_goal_past_the_obstacles_with_the_mpc(tmp_path):
-    """The demo's first whole-path scenario (seed 1: scenario 15000), run by the
-    route follower at 5 um/s and the MPC in one batch: the MPC carries the cell to the
+def test_the_whole_path_reaches_the_goal_past_the_obstacles_with_the_learned_speed(demo_run):
+    """The demo's whole path (seed 1: scenario 15000), run by the route follower at
+    5 um/s and the learned speed in one batch: the learned speed carries the cell to the
     goal without losing a trap, and the files hold what the summary says. Fails if the
-    MPC's run does not reach the goal."""
-    summary = run_whole_path(WholePathDemo(runs=1, seed=1), tmp_path)
-    follower, mpc = summary["modes"]
-    assert summary["scenarios"] == [15000] and (follower["mode"], mpc["mode"]) == ("autonomous", "mpc")
-    assert mpc["reached_goal"] == 1 and mpc["trap_losses"] == 0, summary
-    trials = pd.read_csv(tmp_path / "trials.csv")
-    assert list(trials["mode"]) == ["autonomous", "mpc"] and list(trials["scenario"]) == [15000, 15000]
+    learned speed's run does not reach the goal."""
+    out, _ = demo_run
+    folder = out / "whole_path"
+    summary = json.loads((folder / "summary.json").read_text())
+    follower, learned = summary["modes"]
+    assert summary["scenarios"] == [15000] and (follower["mode"], learned["mode"]) == ("autonomous", "rl")
+    assert learned["reached_goal"] == 1 and learned["trap_losses"] == 0, summary
+    trials = pd.read_csv(folder / "trials.csv")
+    assert list(trials["mode"]) == ["autonomous", "rl"] and list(trials["scenario"]) == [15000, 15000]
     assert list(trials["reached_goal"]) == [follower["reached_goal"] == 1, True]
-    cells = pd.read_csv(tmp_path / "cells.csv")
-    end = cells[cells["mode"] == "mpc"].iloc[-1]
+    cells = pd.read_csv(folder / "cells.csv")
+    end = cells[cells["mode"] == "rl"].iloc[-1]
     goal = np.array(load_chip("default").site_um(InteractiveConfig().goal_um))
     tolerance = InteractiveConfig().goal_tolerance_um
     assert np.linalg.norm([end["cell_x_um"] - goal[0], end["cell_y_um"] - goal[1]]) < tolerance + 0.5
-    assert (tmp_path / "whole_path.png").stat().st_size > 20_000
-    assert json.loads((tmp_path / "summary.json").read_text()) == summary
+    assert (folder / "whole_path.png").stat().st_size > 20_000
+    assert json.loads((out / "summary.json").read_text())["whole_path"] == summary
 
 
 @pytest.mark.parametrize(
@@ -109,51 +149,18 @@ def _recomputed_rows(trials: pd.DataFrame) -> dict:
 
 
 @pytest.mark.slow
-def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, capsys, monkeypatch, fixed_action_q_params):
-    """The whole main job from the command line, small: one whole-path scenario cut at
-    4 s of simulated time (the grip and the first replans of the MPC), 4 episodes with a policy that always drives at the slowest level (its Table II row
-    equals G1's exactly in time), and a study of 2 participants x 1 trial x 3 modes cut
-    at 30 s, long enough for the assembly to reach the obstacles' crossings (the demo's
-    20 s cut once met none: its Fig. 8 said "avoided 0 of 0"). One line per stage on a
-    stdout that is not a terminal; the report's numbers are the written files' (Fig. 8:
-    recomputed from trials.csv). The study runs in a thread beside the other stages, as
-    by default."""
-    policy = save_policy(tmp_path / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(HIDDEN)})
-    monkeypatch.setattr(
-        demo_module,
-        "_whole_path",
-        lambda **options: WholePathDemo(time_limit_s=4.0, **options),
-    )
-    out = tmp_path / "out"
-    with pytest.raises(SystemExit) as exit_info:
-        main(
-            [
-                "demo",
-                "--out",
-                str(out),
-                "--policy",
-                str(policy),
-                "--episodes",
-                str(EPISODES),
-                "--runs",
-                "1",
-                "--study-participants",
-                "2",
-                "--study-trials",
-                "1",
-                "--study-time-limit-s",
-                "30",
-            ]
-        )
-    assert exit_info.value.code == 0
-    printed = capsys.readouterr().out
+def test_demo_writes_tables_figures_and_a_report_beside_the_paper(demo_run):
+    """The demo's run (``demo_run``): one line per stage on a stdout that is not a
+    terminal; the report's numbers are the written files' (Fig. 8: recomputed from
+    trials.csv)."""
+    out, printed = demo_run
     stages = [line for line in printed.splitlines() if line.startswith("[")]
     assert [line[:5] for line in stages] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
     assert "planning" in stages[0] and "2 simulated participants" in stages[1] and "in the background" in stages[1]
     assert "3 modes in one batch, trials cut at 30 s" in stages[1]
     assert (
         f"{EPISODES} episodes each" in stages[2]
-        and "1 scenario, the MPC beside the route follower at 5 um/s" in stages[3]
+        and "1 scenario, the learned speed beside the route follower at 5 um/s" in stages[3]
     )
     for name in (
         "report.md",
@@ -184,11 +191,13 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(tmp_path, caps
     # the policy drives at G1, so it is never first against any constant speed as safe as it
     assert "The fastest constant speed at least as safe is G" in report and "RL is not significantly faster" in report
     assert f"the same {EPISODES} seeded episodes" in report and "--episodes 256" in report
-    follower, mpc = summary["whole_path"]["modes"]
-    assert mpc["reached_goal"] == follower["reached_goal"] == 0  # cut at 4 s, far from the goal
-    assert "| MPC | 1 | 0 of 1 [" in report and "| route follower at 5 um/s | 1 | 0 of 1 [" in report
+    follower, learned = summary["whole_path"]["modes"]
+    assert learned["reached_goal"] == 1
+    goals = f"{follower['reached_goal']} of 1 ["
+    assert "| learned speed | 1 | 1 of 1 [" in report and f"| route follower at 5 um/s | 1 | {goals}" in report
     assert "seeded scenario 10000" not in report and "scenario 15000 (seed 1" in report
-    assert "whole path past the moving obstacles" in printed and "MPC reached the goal in 0 of 1 runs" in printed
+    assert "whole path past the moving obstacles" in printed
+    assert "learned speed reached the goal in 1 of 1 runs" in printed
     assert summary["rl_asr"] == rows["RL"]["ASR"]
 
     trials = pd.read_csv(out / "shared_control" / "trials.csv")

@@ -24,7 +24,7 @@ def trial(mode: str, reached: bool, met: int, avoided: int, time_s: float, trap_
 
 
 def test_goals_untouched_are_counted_apart_and_the_section_names_its_sample():
-    demo = WholePathDemo(runs=3, seed=2)
+    demo = WholePathDemo(runs=3, seed=2, autonomy="mpc")
     rows = [
         trial("autonomous", True, 3, 1, 60.72),  # reached the goal, but touched twice
         trial("autonomous", True, 2, 2, 60.74),
@@ -35,7 +35,7 @@ def test_goals_untouched_are_counted_apart_and_the_section_names_its_sample():
     ]
     summary = summarize(demo, rows, 307.04)
     follower, mpc = summary["modes"]
-    assert (follower["mode"], mpc["mode"]) == ("autonomous", RECOMMENDED_AUTONOMY)
+    assert (follower["mode"], mpc["mode"]) == ("autonomous", "mpc") and RECOMMENDED_AUTONOMY == "rl"
     assert (follower["reached_goal"], follower["reached_goal_clean"], follower["collisions"]) == (2, 1, 3)
     assert (mpc["reached_goal"], mpc["reached_goal_clean"], mpc["obstacles_avoided"]) == (2, 1, 8)
     assert mpc["completion_times_s"] == [45.04, 50.0] and follower["trap_losses"] == 1
@@ -52,7 +52,7 @@ def test_goals_untouched_are_counted_apart_and_the_section_names_its_sample():
 
 
 def test_a_single_run_names_its_scenario_and_no_goal_shows_a_dash():
-    demo = WholePathDemo(runs=1, seed=1, speed_um_s=4.0)
+    demo = WholePathDemo(runs=1, seed=1, speed_um_s=4.0, autonomy="mpc")
     summary = summarize(demo, [trial("autonomous", False, 1, 0, 150.0), trial("mpc", False, 0, 0, 150.0)], 300.0)
     text = "\n".join(whole_path_section(summary))
     assert "1 seeded scenario 15000 (seed 1" in text and "at a constant 4 um/s" in text
