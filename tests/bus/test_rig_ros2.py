@@ -36,7 +36,7 @@ pytest.importorskip(
 pytest.importorskip(
     "geometry_msgs.msg", reason="ROS 2's geometry_msgs wheel (extra [ros2]) cannot be imported: no ROS 2 test"
 )
-TRIAL_END_S = 300.0
+TRIAL_END_S = 600.0
 """The bound on the first trial's end after the sim is ready: its 140 um of route at the
 autonomy's 5 um/s cruise take about 30 s of simulated time with the grip, longer where
 the traps wait for a rig that lags, and simulated time runs at a fraction of real time
