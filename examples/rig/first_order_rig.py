@@ -27,7 +27,9 @@ Run (ROS 2 traffic on this machine only, in a domain of its own)::
     export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=91
     python examples/rig/first_order_rig.py --ros-args -p time_constant_s:=0.02
 
-Ctrl-C ends it with its counts.
+Ctrl-C ends it with its counts and how late the trap commands reached it (the time
+each arrived less its header stamp, both UNIX time: the controller's, the bus's, the
+bridge's and this loop's delay together).
 """
 
 from __future__ import annotations
@@ -120,6 +122,7 @@ def main(argv: list[str]) -> int:
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     stream = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
     state = {"rig": None, "start": None, "starts": 0, "commands": 0, "published": 0}
+    delays_s: list[float] = []
 
     def xy_of(message) -> np.ndarray:
         return np.array([[pose.position.x, pose.position.y] for pose in message.poses], float).reshape(-1, 2)
@@ -144,6 +147,8 @@ def main(argv: list[str]) -> int:
             state["rig"].start(state["start"])
 
     def on_traps(message) -> None:
+        stamp = message.header.stamp
+        delays_s.append(time.time() - (stamp.sec + 1e-9 * stamp.nanosec))
         if state["rig"] is not None:
             state["rig"].command(xy_of(message))
             state["commands"] += 1
@@ -182,6 +187,13 @@ def main(argv: list[str]) -> int:
             f"rig: {state['starts']} starts, {state['commands']} trap commands, {state['published']} poses published",
             flush=True,
         )
+        if delays_s:
+            p50, p99 = np.percentile(delays_s, [50, 99]) * 1e3
+            print(
+                f"rig: trap commands arrived {p50:.0f} ms (median), {p99:.0f} ms (99th percentile), "
+                f"{max(delays_s) * 1e3:.0f} ms (most) after their stamp, n = {len(delays_s)}",
+                flush=True,
+            )
         node.destroy_node()
         rclpy.try_shutdown()
     return 0

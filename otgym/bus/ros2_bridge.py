@@ -27,6 +27,15 @@ and commands reliable, keep all; streams reliable, volatile, depth 1.
   bridge sends comes back to it. Each message from ROS 2 passes otgym's checks
   (``messages.decode_as``) before it is sent on; one that fails is dropped and counted.
 
+Back-pressure: a slow side never holds up the other. Each direction has its own
+``otgym.bus.handover.Handover``: the receiving callback (zenoh's, or rclpy's executor)
+only hands the message over and returns, and one thread per direction sends on. A
+stream (QoS keep last, depth 1: traps, bodies, alpha, feedback, twists, increments, a
+rig's poses) keeps only its latest message until that thread takes it, so a bridge
+starved of CPU sends fewer, newer messages instead of falling behind, and zenoh's links
+from the simulator never fill on its account; trial events, commands and latched
+topics are all sent, in order.
+
 The bridge declares otgym's liveliness token of each device in ``devices`` (and of an
 autonomy node with ``autonomy``): the simulator answers the devices' twists with
 feedback, and if the bridge goes away it takes their input as released (the traps
@@ -47,6 +56,7 @@ from collections.abc import Callable
 
 from otgym.bus import messages as msg
 from otgym.bus import ros2_markers, ros_graph, transport
+from otgym.bus.handover import Handover
 
 NODE_NAME = "otgym_ros2"
 PARAMETERS = {
@@ -98,6 +108,12 @@ def qos_profile(qos: ros_graph.Qos):
         if qos.durability == ros_graph.TRANSIENT_LOCAL
         else DurabilityPolicy.VOLATILE,
     )
+
+
+def _keep_all(topic: str) -> bool:
+    """Whether every message of ``topic`` crosses (events, commands, latched topics), not
+    only the latest (streams: ``transport.STREAM_QOS``, also ROS 2 topics of other names)."""
+    return transport.qos_of(topic) != transport.STREAM_QOS
 
 
 class Settings:
@@ -152,7 +168,8 @@ def open_ros_node(ros_args: list[str], namespace: str):
 
 class Bridge:
     """Carries messages between the otgym node ``bus`` and the rclpy node ``ros`` (see
-    the module's docstring); ``start`` declares everything, then the caller spins ``ros``."""
+    the module's docstring); ``start`` declares everything and starts the two sending
+    threads, then the caller spins ``ros``."""
 
     def __init__(self, bus: transport.Node, ros, settings: Settings, clock: Callable[[], float] = time.monotonic):
         self.bus, self.ros, self.settings, self.clock = bus, ros, settings, clock
@@ -163,9 +180,8 @@ class Bridge:
         self._publishers: dict[str, object] = {}
         self._lock = threading.Lock()
         self._send_lock = threading.Lock()
-        """Held while a message from the bus goes to ROS 2, and by ``close``: zenoh may
-        still run a callback after the bridge stopped, which must not touch rclpy's
-        publishers once they are being destroyed."""
+        """Held while a message from the bus goes to ROS 2, and by ``close``: nothing
+        touches rclpy's publishers once they are being destroyed."""
         self._closed = False
         self._markers = ros2_markers.MarkerTracker()
         self._markers_sent_s: float | None = None
@@ -178,6 +194,13 @@ class Bridge:
             self.inputs[msg.AUTONOMY] = msg.POSE_ARRAY
         if settings.rig:
             self.inputs[msg.RIG_POSES] = msg.POSE_ARRAY
+        self._out = Handover(self._send_to_ros, _keep_all, "otgym-ros2-to-ros")
+        self._in = Handover(self._send_to_otgym, _keep_all, "otgym-ros2-to-otgym")
+
+    @property
+    def superseded(self) -> int:
+        """Stream messages, both ways, replaced by a newer one before they were sent."""
+        return self._out.replaced + self._in.replaced
 
     def ros_topics(self) -> list[str]:
         """The ROS 2 topics of other names it carries to otgym, each with its type."""
@@ -200,6 +223,8 @@ class Bridge:
             ros2_markers.MARKERS_TOPIC.lstrip("/"),
             qos_profile(transport.STREAM_QOS),
         )
+        self._out.start()
+        self._in.start()
         liveliness = self.bus.session.liveliness()
         self._tokens = [liveliness.declare_token(f"otgym/node/device/{d}") for d in self.settings.devices]
         if self.settings.autonomy:
@@ -209,30 +234,37 @@ class Bridge:
     # --- ROS 2 -> otgym ----------------------------------------------------------------
     def _from_ros(self, topic: str, type_name: str, qos: ros_graph.Qos, otgym_topic: bool) -> None:
         def forward(data: bytes) -> None:
-            try:
-                msg.decode_as(type_name, data, topic)
-            except msg.MessageError:
-                with self._lock:
-                    self.dropped[topic] = self.dropped.get(topic, 0) + 1
-                return
-            if otgym_topic:
-                self.bus.publish(topic, data)
-            else:
-                self.bus.publish_ros(topic, type_name, data)
-            with self._lock:
-                self.to_otgym += 1
+            self._in.put(topic, (type_name, otgym_topic, data))
 
         # otgym's topics are relative to the namespace (as on the bus); a ROS 2 topic as given
         name = topic.lstrip("/") if otgym_topic else topic
         self.ros.create_subscription(message_class(type_name), name, forward, qos_profile(qos), raw=True)
 
+    def _send_to_otgym(self, topic: str, item) -> None:
+        type_name, otgym_topic, data = item
+        try:
+            msg.decode_as(type_name, data, topic)
+        except msg.MessageError:
+            with self._lock:
+                self.dropped[topic] = self.dropped.get(topic, 0) + 1
+            return
+        if otgym_topic:
+            self.bus.publish(topic, data)
+        else:
+            self.bus.publish_ros(topic, type_name, data)
+        with self._lock:
+            self.to_otgym += 1
+
     # --- otgym -> ROS 2 ----------------------------------------------------------------
     def _on_bus(self, topic: str, message, data: bytes) -> None:
         if topic in self.inputs:
             return  # sent by this bridge, or another otgym node's input the graph drives
+        self._out.put(topic, (message, data))
+
+    def _send_to_ros(self, topic: str, item) -> None:
         with self._send_lock:
             if not self._closed:
-                self._send(topic, message, data)
+                self._send(topic, *item)
 
     def _send(self, topic: str, message, data: bytes) -> None:
         publisher = self._publishers.get(topic) or self._declare(topic)
@@ -260,8 +292,10 @@ class Bridge:
             return self._publishers[topic]
 
     def close(self) -> None:
-        """Stop sending to ROS 2 (after this, rclpy's node may be destroyed) and withdraw
-        the devices' and autonomy's tokens."""
+        """Stop sending both ways (after this, rclpy's node may be destroyed; what is still
+        pending is not sent) and withdraw the devices' and autonomy's tokens."""
+        self._out.close()
+        self._in.close()
         with self._send_lock:
             self._closed = True
         for token in self._tokens:
@@ -303,4 +337,4 @@ def serve(
         executor.shutdown()
         ros.destroy_node()
         rclpy.try_shutdown(context=context)
-    return {"to_ros": bridge.to_ros, "to_otgym": bridge.to_otgym, "dropped": dropped}
+    return {"to_ros": bridge.to_ros, "to_otgym": bridge.to_otgym, "dropped": dropped, "superseded": bridge.superseded}

@@ -475,6 +475,6 @@ def ros2(
     counts = serve(stop, endpoints, extra, _ready)
     print(
         f"ros2: {counts['to_ros']} messages to ROS 2, {counts['to_otgym']} to otgym; "
-        f"{counts['dropped']} dropped by the checks",
+        f"{counts['dropped']} dropped by the checks; {counts['superseded']} stream messages superseded by newer ones",
         flush=True,
     )

@@ -5,10 +5,16 @@ limits), ``otgym node ros2 -p rig:=true`` (the bridge), ``otgym node recorder`` 
 that moves its bodies toward the commanded traps with a first-order law and publishes
 their centres. ROS 2 traffic stays on this machine: ``ROS_AUTOMATIC_DISCOVERY_RANGE=
 LOCALHOST`` and a ``ROS_DOMAIN_ID`` of the test's own. Where rclpy or the message
-wheels cannot be imported, the test is skipped and says so."""
+wheels cannot be imported, the test is skipped and says so.
+
+The route is the default chip's cut to its middle 140 um (``short_route_chip``: the same
+image and ports, the start and goal sites moved onto the default route at 80 um and
+220 um of its 307 um, from one branch through the central chamber into the other), so
+a trial is about 30 s of simulated time instead of about 65 s; the full route is the run in docs/ros2.md."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import signal
@@ -20,6 +26,7 @@ import pytest
 from otgym.bus import messages as msg
 from otgym.record.mcap_file import read_recording
 from otgym.record.replay import events
+from otgym.sim.chip import load_chip, save_chip
 from tests.bus.test_nodes import ROOT, STARTUP_S, children, free_endpoint, spawn, wait_for_line  # noqa: F401  (fixture)
 from tests.bus.test_ros2_bridge import ros_env  # noqa: F401  (fixture)
 
@@ -30,9 +37,24 @@ pytest.importorskip(
     "geometry_msgs.msg", reason="ROS 2's geometry_msgs wheel (extra [ros2]) cannot be imported: no ROS 2 test"
 )
 TRIAL_END_S = 600.0
-"""The bound on the first trial's end after the sim is ready: its 307 um of route at
-the autonomy's 5 um/s cruise take about 65 s of simulated time, longer where the traps
-wait for a rig that lags, and simulated time runs at a fraction of real time under load."""
+"""The bound on the first trial's end after the sim is ready: its 140 um of route at the
+autonomy's 5 um/s cruise take about 30 s of simulated time with the grip, longer where
+the traps wait for a rig that lags, and simulated time runs at a fraction of real time
+under load."""
+SHORT_ROUTE_SITES_UM = {"start": (92.7, 53.7), "goal": (204.8, 137.5)}
+"""Points of the default chip's route at 80 um and 220 um of arc (its start is at
+(15, 40) um, its goal at (285, 160) um)."""
+
+
+@pytest.fixture
+def short_route_chip(tmp_path):
+    """The default chip with the start and goal sites of ``SHORT_ROUTE_SITES_UM``, as a PNG
+    and its sidecar. Seed 3's scenarios of trials 1, 2, 4 and 5 fit its route (the third
+    finds open water for 3 of its 4 obstacle crossings): the test needs the first, and
+    the second, which starts while the test stops the sim."""
+    chip = load_chip("default")
+    short = dataclasses.replace(chip, name="default-middle", sites=tuple(SHORT_ROUTE_SITES_UM.items()))
+    return save_chip(short, tmp_path / "chip")
 
 
 def _stop(child: subprocess.Popen) -> str:
@@ -49,22 +71,23 @@ def _stop(child: subprocess.Popen) -> str:
 
 @pytest.mark.slow
 @pytest.mark.xfail(
-    run=False,  # a known failure that waits out its 600 s bound: run it with --runxfail
+    run=False,  # a known failure under heavy load that waits out its bounds: run it with --runxfail
     strict=False,
-    reason="open: on this 2-core machine at load average 10-16 the four processes are starved: the trap commands "
-    "reached the rig up to 33 s late (the bridge fell behind and back-pressured the sim) and the rig's answers arrived "
-    "at about 7 a second instead of 100; since decision 0051 no trap is lost, but the traps wait for the rig and "
-    "the first trial did not end within 600 s (1.4 um moved); in a cold full-suite run at load 3-10 it passed, "
-    "in 475 s; the same rig law in-process reaches the goal (tests/task/test_rig_plant.py)",
+    reason="open: passed 3 of 3 at this machine's load average 8-22 from other work (196 s, 204 s, 319 s; commands "
+    "a median 25-41 ms late), but with 4 busy loops added (load average 14-33) the simulator itself gets about 5 ticks a "
+    "second of CPU and the traps wait for the rig: 76 % of the route, no trap lost, in the 600 s bound; since "
+    "decision 0053 the commands reach the rig fresh at that load (a median 90 ms late instead of 3.9 s)",
 )
 def test_otgyms_autonomy_drives_an_rclpy_rig_to_the_goal_and_the_recorder_records_it(
     ros_env,  # noqa: F811
     children,  # noqa: F811
     tmp_path,
+    short_route_chip,
 ):
     endpoint = free_endpoint()
     sim = spawn(
         "-m", "otgym", "node", "sim", "--plant", "rig", "--mode", "autonomous", "--seed", "3", "--listen", endpoint,
+        "--chip", str(short_route_chip),
     )  # fmt: skip
     children.append(sim)
     bridge = spawn("-m", "otgym", "node", "ros2", "--connect", endpoint, "--ros-args", "-p", "rig:=true")
@@ -103,4 +126,6 @@ def test_otgyms_autonomy_drives_an_rclpy_rig_to_the_goal_and_the_recorder_record
     counted = re.search(r"rig: (\d+) starts, (\d+) trap commands, (\d+) poses published", rig_rest)
     assert counted, rig_rest[-500:]
     starts, commands, published = (int(n) for n in counted.groups())
-    assert starts >= 1 and commands > 1000 and published > 1000, counted.group(0)
+    # the trial's 1500 ticks or more each command the traps, the bridge passing on the latest it has of them
+    assert starts >= 1 and commands > 500 and published > 1000, counted.group(0)
+    print(rig_rest[-400:], bridge_rest[-300:])  # the counts and the commands' delay, for the log (pytest -s)
