@@ -3,6 +3,11 @@
 - JAX's persistent compilation cache, shared by every xdist worker and every process a
   test starts (through ``JAX_COMPILATION_CACHE_DIR``), so a program compiled once in a
   run is read back instead of compiled again.
+- Python's bytecode cache likewise, where the environment turns it off
+  (``PYTHONDONTWRITEBYTECODE``): the suite starts a hundred-odd Python processes (nodes,
+  windows, commands), and each would otherwise compile otgym's modules from source
+  again, and each xdist worker rewrite every test module's asserts again (about 1 CPU-s
+  a process, and 8 a worker, here). The caches are ``__pycache__`` folders, gitignored.
 - Hypothesis profiles: ``ci`` (the default: derandomised, so every run draws the same
   cases; no deadline, since a loaded machine is no failure) and ``dev``
   (``HYPOTHESIS_PROFILE=dev``: fresh random cases each run). A failure prints the
@@ -14,7 +19,11 @@
 """
 
 import os
+import sys
 from pathlib import Path
+
+if os.environ.pop("PYTHONDONTWRITEBYTECODE", None) is not None:
+    sys.dont_write_bytecode = False
 
 _CACHE = Path(os.environ.get("OTGYM_JAX_CACHE", Path.home() / ".cache" / "otgym" / "jax"))
 _CACHE.mkdir(parents=True, exist_ok=True)

@@ -104,7 +104,8 @@ def test_a_bad_message_from_ros2_is_dropped_and_counted(bridged):
     sim, ros, bridge = bridged
     ros.subscriptions["otgym/device/device0/twist"](twist_bytes(math.nan))
     ros.subscriptions["otgym/command"](msg.string('{"command": "explode"}'))
-    assert bridge.dropped == {"/otgym/device/device0/twist": 1, "/otgym/command": 1}
+    expected = {"/otgym/device/device0/twist": 1, "/otgym/command": 1}
+    assert poll_until(lambda: bridge.dropped == expected, 10.0), bridge.dropped  # checked on the sending thread
     assert bridge.to_otgym == 0
 
 
