@@ -33,6 +33,7 @@ def test_speed_control_rejects_actions_outside_the_space():
             env.step(bad)
 
 
+@pytest.mark.slow
 def test_cell_transport_rejects_nan_wrong_shape_and_out_of_bounds():
     env = gym.make("otgym/CellTransport-v0").unwrapped
     env.reset(seed=2)

@@ -149,6 +149,7 @@ def test_cell_transport_step_shapes_and_reproducibility(cell_env):
         np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.slow
 def test_render_gives_one_frame_per_environment(speed_env):
     assert speed_env.render() is None  # no render_mode
     env = TaskVectorEnv(N, "speed-control", render_mode="rgb_array")
@@ -161,6 +162,7 @@ def test_render_gives_one_frame_per_environment(speed_env):
     env.close()
 
 
+@pytest.mark.slow
 def test_speed_control_rejects_bad_actions(speed_env):
     speed_env.reset(seed=1)
     for bad, match in (

@@ -147,6 +147,7 @@ def test_ppo_trains_on_cell_transport_and_predicts_in_space():
     eval_env.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_seeded_vec_envs_reproduce_and_differ_between_workers(env_id):
     from stable_baselines3.common.env_util import make_vec_env

@@ -42,6 +42,7 @@ def test_mean_lag_is_gamma_v_over_k(law):
     assert not lost.any()
 
 
+@pytest.mark.slow
 def test_trap_loses_bead_just_above_escape_speed_and_holds_it_just_below():
     law = ph.TrapLaw("gaussian", 100.0, waist_um=0.6)
     escape_speed = law.max_force_pn / GAMMA  # 2,170 um/s

@@ -168,6 +168,7 @@ def test_a_silent_or_broken_device_holds_the_traps_in_manual_mode(task, scenario
     assert device.stops == 1 and not device.running
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("robots", [(0,), (0, 1)], ids=["one robot", "formation"])
 def test_replayed_constant_velocity_moves_the_traps_by_tau_v_dt(task, scenario, tmp_path, robots):
     """A replayed stylus at (2, 1, 3) mm/s (device frame: x right, y up, z toward the
@@ -246,6 +247,7 @@ def lead_and_force(task, history, device_index, robots):
     return np.array(lead), np.array(law_force), np.array(device_force)
 
 
+@pytest.mark.slow
 def test_feedback_opposes_the_lead_with_the_trap_laws_force(task, dragged):
     """Device A, default scale s = newtons_per_pn_for(law) (0.066 N/pN): the traps lead
     their handles along +x by about 0.07 um summed over the two handles (the robot's
@@ -318,6 +320,7 @@ def test_autonomous_mode_carries_the_cell_along_the_route(task, autonomous):
     assert speed == pytest.approx(5.0, rel=0.15)
 
 
+@pytest.mark.slow
 def test_sensed_forces_agree_with_the_trap_law_at_the_true_offsets(task, autonomous):
     """Over 125 ticks x 4 handles of the autonomous carry (the cell pressed into the
     grippers, the chip's walls in the background), every handle is found, within the

@@ -59,6 +59,7 @@ def _measure(seed, **kwargs):
     return reading, sensor_errors(reading, handles, truth)
 
 
+@pytest.mark.slow
 def test_sensor_accuracy_over_1000_random_frames():
     """2000 handles (1000 frames at 0.1 um pixels). Requirement: mean position error
     <= 20 nm and mean relative force error <= 5 %. The per-handle errors measured are

@@ -117,6 +117,7 @@ def test_tracks_cross_the_route_at_their_crossing_arc_and_time(task, scenarios):
             assert np.linalg.norm(end - point) <= config.run_out_um + 1e-9
 
 
+@pytest.mark.slow
 def test_tracks_stay_clear_of_the_walls(task, scenarios):
     """Each track, sampled every 0.1 um from start to end, keeps the obstacle's radius
     plus wall_margin_um from the walls (the chip's own distance field). The generator
