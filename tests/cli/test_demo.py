@@ -63,6 +63,7 @@ def demo_run(tmp_path_factory, fixed_action_q_params):
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("demo_run")  # one worker runs the module's demo once for both
 def test_the_whole_path_reaches_the_goal_past_the_obstacles_with_the_learned_speed(demo_run):
     """The demo's whole path (seed 1: scenario 15000), run by the route follower at
     5 um/s and the learned speed in one batch: the learned speed carries the cell to the
@@ -149,6 +150,7 @@ def _recomputed_rows(trials: pd.DataFrame) -> dict:
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("demo_run")  # one worker runs the module's demo once for both
 def test_demo_writes_tables_figures_and_a_report_beside_the_paper(demo_run):
     """The demo's run (``demo_run``): one line per stage on a stdout that is not a
     terminal; the report's numbers are the written files' (Fig. 8: recomputed from
