@@ -20,9 +20,17 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy import signal
 
 from otgym.human.params import HumanParams
+
+
+def _scipy_signal():
+    """scipy.signal, imported on first use: it takes seconds to import, and most
+    importers of this module (the CLI, the tests' collection) build no filter."""
+    from scipy import signal
+
+    return signal
+
 
 TREMOR_WARMUP_S = 3.0  # about 15 decay times of the 8-12 Hz band-pass's slowest pole
 _TREMOR_FILTER_ORDER = 4
@@ -298,7 +306,7 @@ class HumanMotor:
         for bank, input_sd, states in zip(self._offset_sos, self._offset_input_sd, self._offset_state):
             white = self._rng.standard_normal((ticks, self.batch, 2))
             for i, sos in enumerate(bank):
-                filtered, states[i] = signal.sosfilt(sos, white[:, i] * input_sd[i], axis=0, zi=states[i])
+                filtered, states[i] = _scipy_signal().sosfilt(sos, white[:, i] * input_sd[i], axis=0, zi=states[i])
                 offset[:, i] += filtered
         return offset
 
@@ -323,10 +331,10 @@ def _tremor_filter(band_hz: tuple[float, float], rate_hz: float) -> tuple[np.nda
     """Band-pass second-order sections and their noise gain (output variance for unit
     white input: the sum of the squared impulse response, which has decayed to nothing
     within ``TREMOR_WARMUP_S``)."""
-    sos = signal.butter(_TREMOR_FILTER_ORDER, band_hz, btype="bandpass", fs=rate_hz, output="sos")
+    sos = _scipy_signal().butter(_TREMOR_FILTER_ORDER, band_hz, btype="bandpass", fs=rate_hz, output="sos")
     impulse = np.zeros(int(math.ceil(4 * TREMOR_WARMUP_S * rate_hz)))
     impulse[0] = 1.0
-    gain = float(np.sum(signal.sosfilt(sos, impulse) ** 2))
+    gain = float(np.sum(_scipy_signal().sosfilt(sos, impulse) ** 2))
     return sos, gain
 
 
@@ -335,8 +343,8 @@ def _drift_filter(cutoff_hz: float, rate_hz: float) -> tuple[np.ndarray, float]:
     """The drift's low-pass second-order sections and their noise gain (as ``_tremor_filter``)."""
     if not 0 < cutoff_hz < rate_hz / 2:
         raise ValueError(f"drift_cutoff_hz {cutoff_hz:g} must lie below half the tick rate {rate_hz:g} Hz")
-    sos = signal.butter(_DRIFT_FILTER_ORDER, cutoff_hz, btype="lowpass", fs=rate_hz, output="sos")
+    sos = _scipy_signal().butter(_DRIFT_FILTER_ORDER, cutoff_hz, btype="lowpass", fs=rate_hz, output="sos")
     impulse = np.zeros(int(math.ceil(4 * TREMOR_WARMUP_S * rate_hz)))
     impulse[0] = 1.0
-    gain = float(np.sum(signal.sosfilt(sos, impulse) ** 2))
+    gain = float(np.sum(_scipy_signal().sosfilt(sos, impulse) ** 2))
     return sos, gain

@@ -36,12 +36,20 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import signal
 
 from otgym.teleop.device import saturate_force
 from otgym.teleop.retarget import PLANES, chip_to_device
 from otgym.teleop.streaming_filter import sos_step
 from otgym.teleop.touch import TOUCH_CAPS
+
+
+def _scipy_signal():
+    """scipy.signal, imported on first use: it takes seconds to import, and most
+    importers of this module (the CLI, the tests' collection) build no filter."""
+    from scipy import signal
+
+    return signal
+
 
 if TYPE_CHECKING:
     from otgym.physics.traps import TrapLaw
@@ -151,7 +159,7 @@ class FeedbackLaw:
             )
         self.config = config
         self.bend_distance_um = float(trap_law.escape_distance)
-        self._sos = signal.butter(FILTER_ORDER, config.cutoff_hz, fs=tick_rate_hz, output="sos")
+        self._sos = _scipy_signal().butter(FILTER_ORDER, config.cutoff_hz, fs=tick_rate_hz, output="sos")
         self.reset()
 
     def reset(self) -> None:

@@ -39,10 +39,18 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy import signal
 
 from otgym.teleop.device import Sample
 from otgym.teleop.streaming_filter import sos_step
+
+
+def _scipy_signal():
+    """scipy.signal, imported on first use: it takes seconds to import, and most
+    importers of this module (the CLI, the tests' collection) build no filter."""
+    from scipy import signal
+
+    return signal
+
 
 PLANES = ("xy", "xz")
 
@@ -96,13 +104,13 @@ def tremor_filter_sos(config: RetargetConfig, tick_rate_hz: float) -> np.ndarray
             f"tremor_cutoff_hz must be below the Nyquist frequency {tick_rate_hz / 2} Hz, "
             f"got {config.tremor_cutoff_hz!r}"
         )
-    return signal.butter(config.filter_order, config.tremor_cutoff_hz, fs=tick_rate_hz, output="sos")
+    return _scipy_signal().butter(config.filter_order, config.tremor_cutoff_hz, fs=tick_rate_hz, output="sos")
 
 
 def tremor_filter_gain_db(config: RetargetConfig, tick_rate_hz: float, freq_hz) -> np.ndarray:
     """The tremor filter's design gain in dB at ``freq_hz`` (scalar or array)."""
     freqs = np.atleast_1d(np.asarray(freq_hz, dtype=float))
-    _, response = signal.sosfreqz(tremor_filter_sos(config, tick_rate_hz), worN=freqs, fs=tick_rate_hz)
+    _, response = _scipy_signal().sosfreqz(tremor_filter_sos(config, tick_rate_hz), worN=freqs, fs=tick_rate_hz)
     gain = 20 * np.log10(np.maximum(np.abs(response), 1e-300))
     return gain if np.ndim(freq_hz) else float(gain[0])
 
@@ -187,7 +195,7 @@ class BatchRetargeter:
         device[..., 0] = velocity[..., 0]
         device[..., 1 if self.config.plane == "xy" else 2] = velocity[..., 1]
         chip = device_to_chip(device, self.config.plane)
-        filtered, self._zi = signal.sosfilt(self._sos, chip[None], axis=0, zi=self._zi)
+        filtered, self._zi = _scipy_signal().sosfilt(self._sos, chip[None], axis=0, zi=self._zi)
         filtered = filtered[0]
         speed = np.linalg.norm(filtered, axis=-1, keepdims=True)
         step = np.where(speed < self.config.dead_band_mm_s, 0.0, filtered * self._step_um)
