@@ -212,6 +212,7 @@ def test_a_smaller_tolerance_gives_a_longer_submovement():
     assert motor.submovement_duration_s(10.0, 2.0, max_speed_mm_s=1.0)[0] == pytest.approx(10.0)
 
 
+@pytest.mark.slow
 def test_planned_movements_carry_the_stated_extent_and_direction_errors():
     """2000 participants plan 10 mm along x: the executed displacement's extent factor
     has SD 0.1 and its direction SD 4 deg; both sample SDs in their 99.9 % chi-square

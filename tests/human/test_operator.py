@@ -20,6 +20,7 @@ def corridor_map():
     return build_occupancy(corridor_image(), 1.0, 2.0, 0.0).planning
 
 
+@pytest.mark.slow
 def test_reaches_the_goal_inside_free_space_reproducibly(corridor_map):
     params = OperatorParams()
     run = simulate_operator(corridor_map, 1.0, START, GOAL, params, seed=4)
@@ -39,6 +40,7 @@ def test_nothing_moves_before_the_reaction_delay(corridor_map):
     assert np.linalg.norm(run[steps + 5] - START) > 0
 
 
+@pytest.mark.slow
 def test_stylus_tremor_reaches_the_trap_through_the_motion_scale(corridor_map):
     """Without the robot's thermal motion, the 8-12 Hz jitter of the robot's path is the
     stylus tremor times the motion scale, filtered by the overdamped robot (corner

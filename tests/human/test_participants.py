@@ -140,6 +140,7 @@ def test_approach_closes_the_open_robot_onto_an_aligned_cell():
     assert np.abs(moved[1]).max() < 0.1 and abs(moved[0, 0]) < 0.1, moved
 
 
+@pytest.mark.slow
 def test_approach_closes_the_last_half_micrometre_slowly():
     """Robot 0 held 4 um out below a still, aligned cell: the participant closes it
     fast while far out but, once well within ``close_guard_um`` (1.5 um) of its grip
@@ -313,6 +314,7 @@ def test_participants_take_over_exactly_where_the_window_cue_shows(below):
         assert np.all(hands[0, :, 0] < -0.5), hands
 
 
+@pytest.mark.slow
 def test_shared_mode_at_the_cue_with_no_threat_keeps_the_pace_it_watched():
     """Shared mode, the autonomy at 5 um/s: for 3 s at alpha 0.1 (no cue) the hands rest
     and the robots carry the cell at 4.5 um/s; then at alpha 0.5 (the cue shown) with no

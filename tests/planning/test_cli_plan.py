@@ -50,6 +50,7 @@ def test_plan_on_the_default_chip_writes_table_and_figures(tmp_path, capsys):
     assert "B-spline" in output.out
 
 
+@pytest.mark.slow
 def test_plan_on_a_png_uses_the_recorded_manual_path(tmp_path, capsys):
     png = _corridor_png(tmp_path)
     manual = np.array([[8.0, 10.0], [40.0, 12.0], [70.0, 20.0], [70.0, 34.0]])

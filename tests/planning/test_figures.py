@@ -1,12 +1,14 @@
 """Figures are written as images of the expected kind."""
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from otgym.planning.figures import plot_paths, plot_spectrum
 from otgym.planning.occupancy import build_occupancy
 
 
+@pytest.mark.slow
 def test_paths_and_spectrum_figures(tmp_path, corridor):
     occupancy = build_occupancy(corridor, 1.0, 2.0)
     x = np.linspace(5.0, 70.0, 300)

@@ -300,6 +300,7 @@ def autonomous(task, scenario):
     return history
 
 
+@pytest.mark.slow
 def test_autonomous_mode_carries_the_cell_along_the_route(task, autonomous):
     """No device, alpha 0: the traps move by exactly the navigator's dP_r (capped at
     20 um/s), the robots grip the cell within 1 s and from t = 1 s to 2.5 s the cell's

@@ -38,6 +38,7 @@ def _writer(block: LatestBytes, stop, writes) -> None:
         writes.value = k
 
 
+@pytest.mark.slow
 def test_latest_bytes_never_hands_out_a_torn_write():
     """A writer process writes payloads of changing length and content without pause
     until the reader has seen 500 different writes (120 s at most, a bound against

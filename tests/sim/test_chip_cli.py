@@ -18,6 +18,7 @@ def _run(argv):
     return exit_info.value.code
 
 
+@pytest.mark.slow
 def test_show_a_chip_with_a_sidecar(tmp_path, capsys):
     from otgym.sim.chip import save_chip
 
@@ -30,6 +31,7 @@ def test_show_a_chip_with_a_sidecar(tmp_path, capsys):
     assert (tmp_path / "out" / "chip_duct.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_bare_png_needs_a_pixel_size(tmp_path, capsys):
     path = tmp_path / "bare.png"
     Image.fromarray((straight_duct().image * 255).astype(np.uint8)).save(path)

@@ -142,6 +142,7 @@ def test_scores_figure_and_summary_with_answers(tmp_path, monkeypatch):
     assert {"Raw\nTLX", "Weighted\nTLX"} <= {tick.get_text() for tick in tlx_ax.get_xticklabels()}
 
 
+@pytest.mark.slow
 def test_without_answers_only_panels_a_and_b(tmp_path):
     write_trials(tmp_path / "s")
     result = analyze([tmp_path / "s"], tmp_path / "out")

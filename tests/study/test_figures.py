@@ -89,6 +89,7 @@ def test_fig8_bars_dots_and_diamonds_are_the_trials_per_mode(modes):
     assert max(mode_bars(axes[1]).values()) < 200  # the missed goal's 999 s is in no bar
 
 
+@pytest.mark.slow
 def test_fig8_brackets_are_the_significant_pairs_of_the_stats_with_their_stars():
     """Computed stats: manual is slower than the others and autonomous avoids fewer, so
     some pairs are significant; the brackets are exactly those pairs with their stars.
@@ -128,6 +129,7 @@ def test_fig8_takes_stats_read_back_from_json_and_degenerate_data(tmp_path):
     assert mode_brackets(time_ax) == _significant(stats["time"]) != {}
 
 
+@pytest.mark.slow
 def test_fig8_png_is_written_drawn_and_of_sensible_size(tmp_path):
     """The file ``plot_fig8`` writes (its folder created): a PNG of sensible size, drawn
     (not blank), and the titles of the panels it drew."""

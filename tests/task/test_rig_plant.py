@@ -165,6 +165,7 @@ def test_the_rig_law_turns_and_moves_a_robot_onto_its_traps():
     np.testing.assert_array_equal(xy[3], [20, 20])
 
 
+@pytest.mark.slow
 def test_a_rig_that_stalls_holds_the_traps_and_loses_none():
     """The rig falls silent for half a second in the approach (the traps moving at the
     autonomy's 20 um/s): the traps hold from the timeout on, the handles' distance is

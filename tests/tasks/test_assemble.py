@@ -43,6 +43,7 @@ def test_gymnasium_checker_passes_and_frame_renders():
     env.close()
 
 
+@pytest.mark.slow
 def test_sb3_checker_passes_without_warnings():
     pytest.importorskip("stable_baselines3")
     from stable_baselines3.common.env_checker import check_env as sb3_check_env

@@ -55,6 +55,7 @@ def test_bad_configs_are_refused(change, match):
         OrientConfig(**fields)
 
 
+@pytest.mark.slow
 def test_bad_actions_raise():
     env = gym.make(ENV_ID).unwrapped
     env.reset(seed=3)

@@ -181,6 +181,7 @@ def test_velocity_estimator_is_exact_on_a_ramp_with_uneven_steps():
     np.testing.assert_array_equal(estimator(np.array([99.0, 0.0, 0.0]), t), velocity)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("priority", [50, None])
 def test_the_servo_loop_reports_the_scheduling_it_runs_under(priority):
     """Asked for SCHED_FIFO, the servo process runs under the policy its ``realtime``

@@ -109,6 +109,7 @@ def frames_until(app, condition, timeout_s: float = 120.0) -> None:
         time.sleep(0.01)
 
 
+@pytest.mark.slow
 def test_mode_keys_switch_the_loops_mode_and_alpha(session):
     app, simulation, _ = session
     run_frames(app, 3)
@@ -158,6 +159,7 @@ class SpyFont:
         return self.font.render(text, *args)
 
 
+@pytest.mark.slow
 def test_the_cue_panel_shows_the_trial_s_light_dose(session):
     """The panel writes the cell's light dose so far: the trial metric the session holds."""
     app, simulation, _ = session
