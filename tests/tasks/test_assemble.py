@@ -2,7 +2,6 @@
 configs rejected, the frame and the pointing-device action, the plan's assignment."""
 
 import math
-import warnings
 
 import gymnasium as gym
 import jax
@@ -15,6 +14,7 @@ import otgym  # noqa: F401  (registers the ids)
 from otgym import registry, tasks
 from otgym.tasks.assemble import plan
 from otgym.tasks.assemble.config import AssembleConfig, preset
+from tests.tasks import sb3_checker_warnings
 
 ENV_ID = "otgym/assemble-v0"
 
@@ -45,15 +45,7 @@ def test_gymnasium_checker_passes_and_frame_renders():
 
 @pytest.mark.slow
 def test_sb3_checker_passes_without_warnings():
-    pytest.importorskip("stable_baselines3")
-    from stable_baselines3.common.env_checker import check_env as sb3_check_env
-
-    env = gym.make(ENV_ID)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        sb3_check_env(env, warn=True)
-    assert [str(w.message) for w in caught if "stable_baselines3" in w.filename] == []
-    env.close()
+    assert sb3_checker_warnings(ENV_ID) == []
 
 
 def test_bad_actions_raise():

@@ -4,8 +4,6 @@ three scripted policies on the same seeded episodes (holding still keeps the ang
 the bang-bang baseline reaches the target without losing the grip; the fastest turn
 held throughout overshoots)."""
 
-import warnings
-
 import gymnasium as gym
 import jax.numpy as jnp
 import numpy as np
@@ -17,6 +15,7 @@ from otgym import tasks
 from otgym.physics import light_dose as ld
 from otgym.tasks.orient import baseline, default
 from otgym.tasks.orient.core import OBS_SIZE, OrientConfig
+from tests.tasks import sb3_checker_warnings
 
 ENV_ID = "otgym/orient-v0"
 
@@ -94,12 +93,7 @@ def test_gymnasium_checker_passes_and_renders():
 
 @pytest.mark.slow
 def test_sb3_checker_passes_without_warnings():
-    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    env = gym.make(ENV_ID)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        sb3_checker.check_env(env, warn=True)
-    assert [str(w.message) for w in caught if "stable_baselines3" in w.filename] == []
+    assert sb3_checker_warnings(ENV_ID) == []
 
 
 @pytest.mark.slow

@@ -5,7 +5,6 @@ robots'); both environment checkers; the batched API at 1 and 1024 environments;
 scripted baseline sorting better than random on a development seed."""
 
 import dataclasses
-import warnings
 
 import gymnasium as gym
 import jax
@@ -20,6 +19,7 @@ from otgym.physics import light_dose as ld
 from otgym.sim import scene as sc
 from otgym.tasks.sort_cells import PRESETS, baseline, core
 from otgym.tasks.sort_cells.config import SortConfig, manipulation
+from tests.tasks import sb3_checker_warnings
 
 ENV_ID = "otgym/sort-cells-v0"
 
@@ -131,12 +131,7 @@ def test_gymnasium_checker_passes_and_renders():
 
 @pytest.mark.slow
 def test_sb3_checker_passes_without_warnings():
-    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    env = gym.make(ENV_ID)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        sb3_checker.check_env(env, warn=True)
-    assert [str(w.message) for w in caught if "stable_baselines3" in w.filename] == []
+    assert sb3_checker_warnings(ENV_ID) == []
 
 
 @pytest.mark.slow
