@@ -51,7 +51,11 @@ devices' twists) may send theirs out of timestamp order (a distributed session l
 Congestion. A stream's publisher (every tick's messages, device twists) is express
 and drops a message that waits longer than ``WAIT_BEFORE_DROP_US`` (one tick) for room;
 trial events and commands (``NOT_TO_DROP``) and the latched topics block instead, so
-none of them is lost. A configuration file's own ``wait_before_drop`` is kept.
+none of them is lost. A configuration file's own ``wait_before_drop`` is kept. A
+subscriber stalled longer than zenoh's ``wait_before_close`` (5 s) has its link closed
+and loses what was queued on it; the trial events (``RECOVERED``) come back: their
+publisher keeps a cache and a heartbeat, and their subscribers ask it for what they
+missed once reconnected (zenoh's missed-sample recovery), delivered in order.
 
 QoS (what the tokens declare, as the publishers behave): latched topics reliable,
 transient local, depth 1; events and commands reliable, keep all (the publisher
@@ -91,6 +95,13 @@ message later than a tick is stale anyway."""
 NOT_TO_DROP = (msg.EVENTS, msg.COMMAND)
 """Topics whose every message matters (trial events carry the trials' rows, commands
 change the session): their publishers block when congested instead of dropping."""
+RECOVERED = (msg.EVENTS,)
+"""Topics whose subscribers recover a missed message from the publisher's cache (zenoh's
+missed-sample recovery): a subscriber stalled longer than zenoh's ``wait_before_close``
+(5 s) loses its link and what was queued on it, and gets it back once reconnected."""
+RECOVERY_CACHE_SAMPLES = 1024
+"""Messages a recovered topic's publisher keeps for subscribers that missed them (a
+session's events: a few per trial)."""
 ROLES = ("sim", "device", "autonomy", "recorder", "ui", "foxglove", "ros2")
 MISS_HEARTBEAT_S = 0.5
 """A latched publisher's sporadic heartbeat (rmw_zenoh's for reliable, transient-local
@@ -168,8 +179,11 @@ class _Publisher:
     rmw_zenoh's attachment with the next sequence number (numbered and sent under one
     lock, so that messages from several threads leave in the order of their numbers)."""
 
-    def __init__(self, publisher, token, gid: bytes):
+    def __init__(self, publisher, token, gid: bytes, matching=None):
         self.publisher, self.token, self.gid = publisher, token, gid
+        self.matching = matching or publisher
+        """A plain publisher on the same key, for zenoh's matching status (an advanced
+        publisher has none)."""
         self._sequence = itertools.count(1)
         self._lock = threading.Lock()
 
@@ -281,7 +295,7 @@ class Node:
             raise ValueError(f"{topic} is latched: a late subscriber gets its last message anyway")
         publisher = self._publishers.get(topic) or self._declare_publisher(topic)
         deadline = time.monotonic() + timeout_s
-        while not publisher.publisher.matching_status.matching:
+        while not publisher.matching.matching_status.matching:
             if time.monotonic() > deadline:
                 raise TimeoutError(f"no subscriber of {topic} within {timeout_s:g} s")
             time.sleep(0.005)
@@ -301,6 +315,14 @@ class Node:
                     publisher_detection=True,
                     sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=MISS_HEARTBEAT_S),
                 )
+            elif topic in RECOVERED:
+                publisher = zenoh.ext.declare_advanced_publisher(  # blocks when congested, resends what was missed
+                    self.session,
+                    key,
+                    congestion_control=zenoh.CongestionControl.BLOCK,
+                    cache=zenoh.ext.CacheConfig(RECOVERY_CACHE_SAMPLES),
+                    sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=MISS_HEARTBEAT_S),
+                )
             elif topic in NOT_TO_DROP:
                 publisher = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
             else:
@@ -311,7 +333,8 @@ class Node:
             token_key, token = self._declare_graph_token(
                 ros_graph.PUBLISHER, next(self._entity_ids), fqn, type_name, qos
             )
-            self._publishers[topic] = _Publisher(publisher, token, ros_graph.gid_of(token_key))
+            matching = self.session.declare_publisher(key) if topic in RECOVERED else None
+            self._publishers[topic] = _Publisher(publisher, token, ros_graph.gid_of(token_key), matching)
             self._published[fqn] = ((DDS_NAME[type_name], TYPE_HASH[type_name]), qos)
             remote = list(self._remote)
         for entity in remote:
@@ -338,17 +361,26 @@ class Node:
         intake = Intake(self.counts)
         if not pattern:
             key = f"{self.domain}/{self.fqn(topic_pattern).strip('/')}/*/*"
-            self._subscribe_key(key, intake, callback, history=topic_pattern in msg.LATCHED)
+            self._subscribe_key(
+                key, intake, callback, history=topic_pattern in msg.LATCHED, recovery=topic_pattern in RECOVERED
+            )
             return
         # the pattern's latched topics each through an advanced subscriber (their history),
         # the rest through a plain one: an advanced subscriber drops a plain publisher's
         # sample not newer (by zenoh's timestamp) than the last it passed from that session,
         # and a node's threads publishing at once send theirs out of timestamp order
         latched = [topic for topic in topics if topic in msg.LATCHED]
+        recovered = [topic for topic in topics if topic in RECOVERED]
         key = f"{self.domain}/{self.fqn(topic_pattern).strip('/')}"
-        self._subscribe_key(key, intake, callback, history=False, skip=frozenset(latched))
-        for topic in latched:
-            self._subscribe_key(f"{self.domain}/{self.fqn(topic).strip('/')}/*/*", intake, callback, history=True)
+        self._subscribe_key(key, intake, callback, history=False, skip=frozenset(latched + recovered))
+        for topic in latched + recovered:
+            self._subscribe_key(
+                f"{self.domain}/{self.fqn(topic).strip('/')}/*/*",
+                intake,
+                callback,
+                history=topic in latched,
+                recovery=topic in recovered,
+            )
 
     def subscribe_ros(
         self, topic: str, type_names: tuple[str, ...], callback: Callable[[str, object, bytes], None]
@@ -382,11 +414,20 @@ class Node:
             self._check_entity(entity)
 
     def _subscribe_key(
-        self, key: str, intake: Intake, callback, history: bool, topic: str | None = None, skip: frozenset = frozenset()
+        self,
+        key: str,
+        intake: Intake,
+        callback,
+        history: bool,
+        topic: str | None = None,
+        skip: frozenset = frozenset(),
+        recovery: bool = False,
     ) -> None:
         """``callback`` for each sample on ``key`` that passes ``intake``, except those of
         the topics in ``skip`` (another subscription takes them); ``history``: an
-        advanced subscriber that also asks the latched publishers' caches."""
+        advanced subscriber that also asks the latched publishers' caches; ``recovery``:
+        an advanced subscriber that asks a publisher's cache for what it missed (told by
+        the publisher's heartbeat or the next message's sequence number)."""
 
         def on_sample(sample: zenoh.Sample) -> None:
             parts = str(sample.key_expr).split("/")
@@ -406,6 +447,9 @@ class Node:
         if history:
             config = zenoh.ext.HistoryConfig(detect_late_publishers=True)
             self._handles.append(zenoh.ext.declare_advanced_subscriber(self.session, key, on_sample, history=config))
+        elif recovery:
+            config = zenoh.ext.RecoveryConfig(heartbeat=True)
+            self._handles.append(zenoh.ext.declare_advanced_subscriber(self.session, key, on_sample, recovery=config))
         else:
             self._handles.append(self.session.declare_subscriber(key, on_sample))
 

@@ -269,3 +269,73 @@ def _put_stamped(node: Node, topic: str, data: bytes, timestamp) -> None:
     with publisher._lock:
         attachment = ros_graph.attachment(next(publisher._sequence), time.time_ns(), publisher.gid)
         publisher.publisher.put(data, attachment=attachment, timestamp=timestamp)
+
+
+STALLED_SUBSCRIBER = """
+import sys, time
+from otgym.bus import messages as msg
+from otgym.bus.transport import Node
+with Node("recorder", "stalled", connect=[sys.argv[1]]) as node:
+    node.subscribe("/otgym/**", lambda topic, message, data: topic == msg.EVENTS
+                   and print(msg.event_fields(message)["n"], flush=True))
+    print("subscribed", flush=True)
+    time.sleep(float(sys.argv[2]))
+"""
+
+
+def test_events_sent_while_a_subscriber_was_stalled_reach_it_in_order_once_it_resumes(tmp_path):
+    """A recorder stopped (SIGSTOP) while the sim floods its link with large stream
+    messages: its link's queue stays full longer than zenoh's ``wait_before_close``
+    (0.3 s here, 5 s by default), zenoh closes the link and drops what was queued on it,
+    and the recorder reconnects once resumed. Every event sent meanwhile (40, between
+    the streams' messages) must still reach it, each once and in order: zenoh's
+    missed-sample recovery from the events publisher's cache. Without it, the events
+    queued on the closed link are lost (tried: 41 of 50 lost; a distributed session's
+    recording so lost its ``trial_end`` on a loaded CI machine)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    from tests.bus.test_nodes import spawn
+
+    endpoint, config = free_endpoint(), tmp_path / "zenoh.json5"
+    config.write_text(json.dumps({"transport": {"link": {"tx": {"queue": {"congestion_control": {
+        "block": {"wait_before_close": 300_000}}}}}}}))
+    large = msg.pose_array(np.zeros((msg.LIMITS.poses, 2)), 0.0)
+    with Node("sim", "sim", listen=[endpoint], config_file=str(config)) as sim:
+        child = spawn("-c", STALLED_SUBSCRIBER, endpoint, "60")
+        try:
+            assert child.stdout.readline().strip() == "subscribed"
+            sim.wait_for_subscribers(msg.EVENTS)
+            sent, stalled_s = 0, 0.0
+            for _ in range(5):
+                sim.publish(msg.EVENTS, msg.event("probe", n=sent))
+                sent += 1
+            os.kill(child.pid, signal.SIGSTOP)
+            for _ in range(40):
+                start = time.monotonic()
+                for _ in range(20):
+                    sim.publish(msg.TRAPS, large)
+                sim.publish(msg.EVENTS, msg.event("probe", n=sent))
+                sent += 1
+                stalled_s = max(stalled_s, time.monotonic() - start)
+            os.kill(child.pid, signal.SIGCONT)
+            assert stalled_s >= 0.3  # the queue stayed full: the link was closed under it
+            for _ in range(5):
+                sim.publish(msg.EVENTS, msg.event("probe", n=sent))
+                sent += 1
+                time.sleep(0.1)
+            received = []
+            deadline = time.monotonic() + 20.0
+            while len(received) < sent and time.monotonic() < deadline:
+                line = child.stdout.readline().strip()
+                if line.isdigit():
+                    received.append(int(line))
+            assert received == list(range(sent))
+        finally:
+            os.kill(child.pid, signal.SIGCONT)
+            child.kill()
+            child.wait()
