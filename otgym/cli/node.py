@@ -26,6 +26,7 @@ import functools
 import signal
 import sys
 import threading
+import time
 from pathlib import Path
 from typing import Annotated
 
@@ -34,6 +35,10 @@ import typer
 from otgym.cli import checks, options
 
 SESSION_END_RECORDED = "recorded: session_end"
+EVENT_RECOVERY_GRACE_S = 1.0
+"""How long the sim's bus stays open after its session, so that a subscriber that
+missed the last events (its link closed while it stalled) recovers them from the events
+publisher's cache (``otgym.bus.transport.RECOVERED``) before the cache is gone."""
 """The recorder node's line once the simulator's ``session_end`` event is in its file."""
 
 node_app = typer.Typer(
@@ -211,6 +216,7 @@ def sim(
             f"{sum(node.dropped.values())} malformed messages",
             flush=True,
         )
+        time.sleep(EVENT_RECOVERY_GRACE_S)
     sys.stdout.flush()
 
 
