@@ -116,7 +116,7 @@ class Orient(Task):
             advice = "turn right (clockwise)" if error_deg > 0 else "turn left (counter-clockwise)"
         legend = Label(
             (8, 8),
-            f"target: dashed arrow   grip now: solid   error {error_deg:+.1f} deg, {advice}",
+            f"target: dashed arrow   grip now: solid arrow   error {error_deg:+.1f} deg, {advice}",
             (235, 238, 242),
             at_px=True,
             box_rgb=(30, 32, 38),
@@ -127,7 +127,7 @@ class Orient(Task):
             None,
             size_px,
             region_um=tuple(float(v) for v in region),
-            under=[Line(grip_now, GRIP_RGB, width_px=2.0, arrow=True)],
+            under=[Line(grip_now, GRIP_RGB, width_px=3.0, arrow=True)],
             over=[Line(target, TARGET_RGB, width_px=3.0, dash_px=8.0, arrow=True), legend],
         )
 
