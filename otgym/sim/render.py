@@ -36,7 +36,9 @@ PATH_RGB = np.array([200, 40, 200], np.float32)
 ARROW_SPACING_PX = 24
 LINE_WIDTH_PX = 1.2
 LABEL_SIZE_PX = 15
-"""The height of a ``Label``'s font (Pillow's default font)."""
+"""The height of a ``Label``'s font (Pillow's default font) in a frame ``LABEL_FRAME_PX``
+wide; in proportion to the frame's width otherwise, 11 px at the least."""
+LABEL_FRAME_PX = 840
 
 
 @dataclasses.dataclass(frozen=True)
@@ -247,11 +249,11 @@ def _stroke(frame, points_px, colour, width_px, dash_px=None, arrow=False):
     frame[rows[inside], cols[inside]] = colour
 
 
-@functools.lru_cache(maxsize=1)
-def _label_font():
+@functools.lru_cache(maxsize=4)
+def _label_font(size_px: int):
     from PIL import ImageFont
 
-    return ImageFont.load_default(size=LABEL_SIZE_PX)
+    return ImageFont.load_default(size=size_px)
 
 
 def _draw_labels(image, renderer: SceneRenderer, labels) -> np.ndarray:
@@ -260,7 +262,7 @@ def _draw_labels(image, renderer: SceneRenderer, labels) -> np.ndarray:
 
     picture = Image.fromarray(image)
     draw = ImageDraw.Draw(picture)
-    font = _label_font()
+    font = _label_font(max(11, round(LABEL_SIZE_PX * image.shape[1] / LABEL_FRAME_PX)))
     for label in labels:
         xy = tuple(float(v) for v in (label.xy if label.at_px else renderer.to_px(np.asarray(label.xy, float))))
         if label.box_rgb is not None:

@@ -114,13 +114,13 @@ class Orient(Task):
             advice = "within the tolerance: hold"
         else:
             advice = "turn right (clockwise)" if error_deg > 0 else "turn left (counter-clockwise)"
-        legend = Label(
-            (8, 8),
-            f"target: dashed arrow   grip now: solid arrow   error {error_deg:+.1f} deg, {advice}",
-            (235, 238, 242),
-            at_px=True,
-            box_rgb=(30, 32, 38),
-        )
+        line_px = 20 * size_px[0] / 840
+        legend = [
+            Label((8, 8 + row * line_px), text, (235, 238, 242), at_px=True, box_rgb=(30, 32, 38))
+            for row, text in enumerate(
+                ["target: dashed arrow   grip now: solid arrow", f"error {error_deg:+.1f} deg: {advice}"]
+            )
+        ]
         return scene_frame(
             params.scene,
             state.scene.physics,
@@ -128,7 +128,7 @@ class Orient(Task):
             size_px,
             region_um=tuple(float(v) for v in region),
             under=[Line(grip_now, GRIP_RGB, width_px=3.0, arrow=True)],
-            over=[Line(target, TARGET_RGB, width_px=3.0, dash_px=8.0, arrow=True), legend],
+            over=[Line(target, TARGET_RGB, width_px=3.0, dash_px=8.0, arrow=True), *legend],
         )
 
     def scene(self, state, params: OrientParams) -> TaskScene:
