@@ -126,6 +126,10 @@ def test_the_frame_marks_each_outlet_in_its_kinds_colour_and_colours_the_cells_b
     for cell, kind in ((0, 1), (1, 0), (3, 0)):  # each cell's centre in its kind's colour
         np.testing.assert_allclose(pixel(frame, renderer, sort_state(0.0).xy_um[cell]), view.KIND_RGB[kind])
     assert view.KIND_RGB[0] != view.KIND_RGB[1]
+    labels = dict((text, xy) for xy, text in task.scene(sort_state(0.0), params).labels)  # the recording's
+    for name, words, outlet in zip(params.config.outlets, ("small", "large"), np.asarray(params.outlets_um)):
+        (text,) = [text for text in labels if text.startswith(f"{name}: {words} cells")]
+        np.testing.assert_allclose(labels[text], outlet)
 
 
 def test_the_robots_are_drawn_parked_on_their_way_and_gripping_the_held_cell(params):

@@ -134,6 +134,9 @@ def test_a_sort_cells_recording_shows_the_cells_the_robots_their_traps_and_the_p
         [[100.0, 70.0], np.asarray(params.junction_um), np.asarray(params.outlets_um[1])],
     )
     assert all(p.x < 5.0 for p in inlet.points)  # across the inlet's opening, on the chip's left edge
+    texts = {t.text: (t.pose.position.x, t.pose.position.y) for t in entities["targets"].texts}
+    assert texts.keys() == {"outlet_a: small cells (3 um)", "outlet_b: large cells (5 um)", "inlet: cells arrive"}
+    np.testing.assert_allclose(texts["outlet_b: large cells (5 um)"], np.asarray(params.outlets_um[1]))
     direct_scene = task.scene(sort_state(grip + 1.0), direct)
     assert (
         direct_scene.traps_um.tolist() == [[100.0, 70.0]] and "robot" not in direct_scene.kinds

@@ -34,6 +34,7 @@ KIND_RGB = ((90.0, 185.0, 100.0), (70.0, 140.0, 225.0))
 """The colour of each kind's cells and outlet: kind 0 (small) green, kind 1 (large) blue."""
 KIND_WORDS = ("small", "large")
 INLET_RGB = (120.0, 160.0, 215.0)
+INLET_TEXT = "inlet: cells arrive"
 LABEL_RGB = (235, 238, 242)
 OUTLET_OPACITY = 0.3
 DIRECT_RING_UM = 1.5
@@ -65,7 +66,7 @@ def frame(state, params, size_px=(600, 400)) -> np.ndarray:
         np.concatenate([np.zeros(n_cells, bool), robot_handles]),
         trap_xy,
         sphere_rgb=np.where((kinds == int(BodyKind.ROBOT))[:, None], BODY_RGB[BodyKind.ROBOT], rgb),
-        under=_port_marks(params),
+        under=_ports(params)[0],
         over=focus,
     )
 
@@ -74,8 +75,9 @@ def scene(state, params) -> TaskScene:
     """The cells (kind ``"cell"``; their radii tell the two kinds apart), then the robots'
     spheres in ``robots`` (kind ``"robot"``, where ``frame`` draws them), the traps
     (``traps``), the two outlets as targets of radius ``exit_distance_um`` (where a cell
-    leaves by one), and two lines: the target cell's route, from it through the junction
-    to its kind's outlet, and the inlet's opening."""
+    leaves by one), two lines: the target cell's route, from it through the junction
+    to its kind's outlet, and the inlet's opening; and the ports' labels at the ports
+    (``_ports``)."""
     from otgym.tasks.sort_cells import core
 
     state = jax.device_get(state)
@@ -84,7 +86,7 @@ def scene(state, params) -> TaskScene:
     xy = np.asarray(state.xy_um, float)
     robot_xy, robot_radii, _ = robots(state, params)
     first, present, _, _ = core._upstream_order(params, state)
-    lines = [_inlet_bar_um(params)]
+    lines = [_ports(params)[2]]
     if bool(present):
         outlet = np.asarray(params.outlets_um, float)[kind[int(first)]]
         lines.insert(0, np.stack([xy[int(first)], np.asarray(params.junction_um, float), outlet]))
@@ -96,6 +98,7 @@ def scene(state, params) -> TaskScene:
         targets_um=np.asarray(params.outlets_um, float),
         target_radius_um=params.config.exit_distance_um,
         lines_um=tuple(lines),
+        labels=_ports(params)[1],
     )
 
 
@@ -145,41 +148,51 @@ def traps(state, params) -> np.ndarray:
     return np.asarray(state.xy_um, float)[held][None]
 
 
-def _inlet_bar_um(params) -> np.ndarray:
-    """A line (2, 2) across the inlet's opening (the inlet channel's width)."""
-    chip = load_chip(params.config.chip)
-    inlet = np.asarray({p.name: p for p in chip.ports}[params.config.inlet].xy_um, float)
-    along = np.asarray(params.junction_um, float) - inlet
-    along /= np.linalg.norm(along)
-    across = np.array([-along[1], along[0]]) * (params.half_width_um + 0.5)
-    start = inlet + 2.0 * along
-    return np.stack([start - across, start + across])
+def _ports(params) -> tuple[list, tuple, np.ndarray]:
+    """The ports as the frame marks them (``_port_marks``), their labels (each outlet's
+    name and the kind it takes, at the outlet; the inlet's at the middle of its opening)
+    and the inlet's opening (a line (2, 2) across the inlet channel), read once per
+    config from the chip's sidecar through ``params``."""
+    config = params.config
+    if config not in _PORTS:
+        chip = load_chip(config.chip)
+        inlet = np.asarray({p.name: p for p in chip.ports}[config.inlet].xy_um, float)
+        along = np.asarray(params.junction_um, float) - inlet
+        along /= np.linalg.norm(along)
+        across = np.array([-along[1], along[0]]) * (params.half_width_um + 0.5)
+        start = inlet + 2.0 * along
+        bar = np.stack([start - across, start + across])
+        outlets = np.asarray(params.outlets_um, float)
+        labels = tuple(
+            ((float(x), float(y)), f"{name}: {KIND_WORDS[kind]} cells ({config.cell_radii_um[kind]:g} um)")
+            for kind, (name, (x, y)) in enumerate(zip(config.outlets, outlets))
+        ) + ((tuple(float(v) for v in bar.mean(axis=0)), INLET_TEXT),)
+        _PORTS[config] = (_port_marks(config, np.asarray(params.junction_um, float), outlets, labels, bar), labels, bar)
+    return _PORTS[config]
 
 
-def _port_marks(params) -> list:
+def _port_marks(config, junction, outlets, labels, bar) -> list:
     """The outlets (discs of the exit distance in their kind's colour, and labels) and
     the inlet (a bar across its opening, and a label), beneath the cells."""
-    config = params.config
     marks = []
-    junction = np.asarray(params.junction_um, float)
-    for kind, (name, outlet) in enumerate(zip(config.outlets, np.asarray(params.outlets_um, float))):
+    for kind, outlet in enumerate(outlets):
         rgb = KIND_RGB[kind]
+        toward = np.sign(junction[1] - outlet[1])  # the label on the junction's side of the outlet
+        spot = outlet + np.array([-2.0, toward * (config.exit_distance_um + 2.0)])
         marks += [
             Disc(tuple(outlet), config.exit_distance_um, rgb, opacity=OUTLET_OPACITY),
             Disc(tuple(outlet), config.exit_distance_um, rgb, ring_px=2.0),
+            Label(tuple(spot), labels[kind][1], tuple(int(v) for v in rgb), anchor="rt" if toward > 0 else "rb"),
         ]
-        toward = np.sign(junction[1] - outlet[1])  # the label on the junction's side of the outlet
-        spot = outlet + np.array([-2.0, toward * (config.exit_distance_um + 2.0)])
-        text = f"{name}: {KIND_WORDS[kind]} cells ({config.cell_radii_um[kind]:g} um)"
-        marks.append(Label(tuple(spot), text, tuple(int(v) for v in rgb), anchor="rt" if toward > 0 else "rb"))
-    bar = _inlet_bar_um(params)
-    marks += [
+    top = bar[np.argmin(bar[:, 1])]
+    return [
+        *marks,
         Line(bar, INLET_RGB, width_px=6.0),
-        Label(tuple(bar[np.argmin(bar[:, 1])] + np.array([0.0, -2.0])), "inlet: cells arrive", LABEL_RGB, anchor="lb"),
+        Label(tuple(top + [0.0, -2.0]), INLET_TEXT, LABEL_RGB, anchor="lb"),
     ]
-    return marks
 
 
+_PORTS: dict = {}
 _RENDERERS: dict = {}
 _GRIPS: dict = {}
 
