@@ -227,20 +227,31 @@ class InteractiveTask:
         self._step = jax.jit(functools.partial(_advance, config=config))
         self._measure_jit = jax.jit(functools.partial(_measure, config=config))
         self._distance_jit = jax.jit(lambda walls, points: walls.distance_and_normal(points)[0])
+        self._scenarios: dict[int, Scenario] = {}
 
     @property
     def n_traps(self) -> int:
         return self.scene.model.n_traps
 
     def scenario(self, seed: int) -> Scenario:
-        return make_scenario(
-            seed,
-            self.route_um,
-            self.route_arc_um,
-            self.wall_distance_um,
-            self.config.scene.obstacle_radius_um,
-            self.config.scenario,
-        )
+        """Scenario ``seed`` of this task (``make_scenario``), made once and kept: a batch
+        whose modes or samples share their scenarios (each one's search for open water
+        probes the walls about a hundred times) makes each only once. Its arrays are
+        read-only."""
+        seed = int(seed)
+        if seed not in self._scenarios:
+            scenario = make_scenario(
+                seed,
+                self.route_um,
+                self.route_arc_um,
+                self.wall_distance_um,
+                self.config.scene.obstacle_radius_um,
+                self.config.scenario,
+            )
+            for field in dataclasses.fields(scenario)[1:]:
+                getattr(scenario, field.name).setflags(write=False)
+            self._scenarios[seed] = scenario
+        return self._scenarios[seed]
 
     def wall_distance_um(self, points_um) -> np.ndarray:
         """Wall distance (n,) at points (n, 2) (what the microscope shows of the chip), padded to a power of two so that one
