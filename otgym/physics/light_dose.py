@@ -49,6 +49,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import jax
 import jax.numpy as jnp
 
 from otgym.physics.traps import TrapLaw
@@ -117,6 +118,12 @@ def cell_intensity_mw_per_um2(beam: TrapBeam, trap_xy_um, cell_xy_um, cell_radiu
     if active is not None:
         per_trap = jnp.where(jnp.asarray(active), per_trap, 0.0)
     return jnp.sum(per_trap, axis=-1)
+
+
+cell_intensity_jit = jax.jit(cell_intensity_mw_per_um2, static_argnums=0)
+"""``cell_intensity_mw_per_um2`` compiled as one program per beam and shapes: what a
+host loop calls each tick (called eagerly, its dozen primitives each dispatch and
+compile on their own)."""
 
 
 def dose_bound_ratio(surface_distance_um: float, n_traps: int, waist_um: float) -> float:

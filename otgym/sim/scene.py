@@ -204,22 +204,38 @@ def grip_geometry_um(config: SceneConfig) -> tuple[np.ndarray, np.ndarray]:
     trap positions (T, 2) on the robots' handles (without the grip squeeze) and the
     radii (S,) of the robots' spheres. For tasks that need the grip's geometry without
     simulating it (the light dose a carried cell gets, the assembly's drag)."""
-    traps, radii = _grip_geometry(dataclasses.replace(config, kind="transport", n_obstacles=0))
+    traps, _, radii, _, _ = _grip_geometry(dataclasses.replace(config, kind="transport", n_obstacles=0))
     return traps.copy(), radii.copy()
+
+
+def grip_robots_um(config: SceneConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The robots of the transport assembly about a cell at the origin, heading 0 (robot
+    a above the cell, at negative y; robot b below): each robot sphere's centre (S, 2),
+    radius (S,), robot (S,: 0 for a, 1 for b) and whether it is a handle (S,). For tasks
+    that draw the grip without simulating it."""
+    _, xy, radii, robot, handle = _grip_geometry(dataclasses.replace(config, kind="transport", n_obstacles=0))
+    return xy.copy(), radii.copy(), robot.copy(), handle.copy()
 
 
 @functools.lru_cache(maxsize=16)
 def _grip_geometry(transport: SceneConfig):
     model = ph.build_model(_bodies(transport), ph.PhysicsConfig(substeps=1))
-    trap_sphere = np.asarray(model.trap_sphere, int)
 
     @jax.jit
-    def traps_of(model):  # one program, not one per primitive
+    def spheres_of(model):  # one program, not one per primitive
         pose = _assembly_pose(model, transport, jnp.zeros(2), jnp.zeros(()))
-        return ph.sphere_positions_um(model, pose)[trap_sphere]
+        return ph.sphere_positions_um(model, pose)
 
+    xy = np.asarray(spheres_of(model), float)
     robot_spheres = [i for i, b in enumerate(model.sphere_body) if b < 2]
-    return np.asarray(traps_of(model), float), np.asarray(model.sphere_radius_um, float)[robot_spheres]
+    handle = np.isin(np.arange(len(model.sphere_body)), np.asarray(model.trap_sphere, int))
+    return (
+        xy[np.asarray(model.trap_sphere, int)],
+        xy[robot_spheres],
+        np.asarray(model.sphere_radius_um, float)[robot_spheres],
+        np.asarray(model.sphere_body, int)[robot_spheres],
+        handle[robot_spheres],
+    )
 
 
 def build_scene(config: SceneConfig = SceneConfig()) -> Scene:

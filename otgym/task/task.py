@@ -371,9 +371,7 @@ class InteractiveTask:
         )
         metrics.trap_losses += active & lost
         beam = ld.TrapBeam.of_trap_law(config.scene.trap_law)
-        intensity = np.asarray(
-            ld.cell_intensity_mw_per_um2(beam, obs.trap_xy_um, obs.cell_xy_um, config.scene.cell_radius_um)
-        )
+        intensity = np.asarray(ld.cell_intensity_jit(beam, obs.trap_xy_um, obs.cell_xy_um, config.scene.cell_radius_um))
         metrics.light_dose_mj_per_um2 += tick * np.where(active, intensity, 0.0)
         timeout = obs.time_s >= config.time_limit_s - 0.5 * tick  # time_s is float32
         finished = active & (at_goal | lost | timeout)

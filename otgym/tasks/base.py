@@ -47,8 +47,9 @@ class TaskScene:
     """What one environment shows, in the task's plane (um; x right, y down, as the
     chip frame): each sphere's centre, radius and kind (one of ``"robot"``, ``"cell"``,
     ``"obstacle"``, ``"bead"``: ``otgym.physics.bodies.BodyKind`` by value), each trap's
-    centre, the targets (discs of ``target_radius_um`` where something should end up)
-    and polylines (a planned path, a target direction)."""
+    centre, the targets (discs of ``target_radius_um`` where something should end up),
+    polylines (a planned path, a target direction) and text labels (``(x, y)`` um, text:
+    what a port takes)."""
 
     spheres_um: np.ndarray
     radii_um: np.ndarray
@@ -57,6 +58,7 @@ class TaskScene:
     targets_um: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))
     target_radius_um: float = 0.5
     lines_um: tuple[np.ndarray, ...] = ()
+    labels: tuple[tuple[tuple[float, float], str], ...] = ()
 
     def __post_init__(self):
         n = np.asarray(self.spheres_um).reshape(-1, 2).shape[0]

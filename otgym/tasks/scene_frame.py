@@ -29,8 +29,11 @@ def scene_frame(
     path_um=None,
     size_px: tuple[int, int] = (600, 400),
     region_um: tuple[float, float, float, float] | None = None,
+    under=(),
+    over=(),
 ) -> np.ndarray:
-    """RGB (H, W, 3) uint8 of one environment's ``physics_state`` in ``scene``."""
+    """RGB (H, W, 3) uint8 of one environment's ``physics_state`` in ``scene``, with the
+    task's marks ``under`` the bodies and ``over`` them (``otgym.sim.render``)."""
     chip = scene.config.chip
     if isinstance(chip, Chip):
         renderer = SceneRenderer(chip, size_px=size_px, region_um=region_um)
@@ -47,6 +50,8 @@ def scene_frame(
         handles,
         np.asarray(physics.trap_xy_um),
         None if path_um is None else np.asarray(path_um),
+        under=under,
+        over=over,
     )
 
 

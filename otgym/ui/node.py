@@ -187,9 +187,7 @@ class BusSession:
                 )
             self._obstacle_xy = obstacles
             traps, handles = self._traps, observation.handle_xy_um[0]
-            intensity = ld.cell_intensity_mw_per_um2(
-                layout.trap_beam, traps, observation.cell_xy_um[0], layout.cell_radius_um
-            )
+            intensity = ld.cell_intensity_jit(layout.trap_beam, traps, observation.cell_xy_um[0], layout.cell_radius_um)
             self._dose_mj_per_um2 += layout.tick_s * float(intensity)  # as TrialMetrics adds it, tick by tick
             n_robots, n_traps = len(layout.robots), layout.n_traps
             zeros = np.zeros((n_traps, 2))

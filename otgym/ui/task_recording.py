@@ -18,7 +18,7 @@ Topics (``otgym.bus.messages``):
 - ``/otgym/scene`` (``foxglove.SceneUpdate``, protobuf; needs foxglove-sdk) with each
   of those: entity ``bodies`` (the spheres, coloured by kind as the interactive
   task's scene), ``traps`` (a cross per trap) and ``targets`` (the targets as flat
-  discs, the task's lines as line strips).
+  discs, the task's lines as line strips, its labels as text facing the viewer).
 
 Stamps are the recording's clock (wall time by default): a played episode is recorded
 as it was played.
@@ -40,6 +40,9 @@ from otgym.tasks.base import Task, TaskScene
 
 TRAP_ARM_UM = 1.0
 """Half the size of a trap's cross in the scene."""
+LABEL_FONT_PX = 14.0
+"""A label's size on screen (scale-invariant text, facing the viewer)."""
+LABEL_COLOUR = (1.0, 1.0, 1.0, 1.0)
 
 
 def info_metrics(info: dict) -> dict:
@@ -167,6 +170,17 @@ def scene_update(scene: TaskScene, stamp_ns: int) -> bytes:
         )
         for line in scene.lines_um
     ]
+    texts = [
+        fm.TextPrimitive(
+            pose=pose(x, y),
+            billboard=True,
+            font_size=LABEL_FONT_PX,
+            scale_invariant=True,
+            color=colour(LABEL_COLOUR),
+            text=text,
+        )
+        for (x, y), text in scene.labels
+    ]
     trap_lines = [
         fm.LinePrimitive(type=fm.LinePrimitiveLineType.LineList, thickness=0.3, points=cross, color=colour(TRAP_COLOUR))
     ]
@@ -179,6 +193,6 @@ def scene_update(scene: TaskScene, stamp_ns: int) -> bytes:
             metadata=[fm.KeyValuePair(key="kinds", value=",".join(scene.kinds))],
         ),
         fm.SceneEntity(timestamp=stamp, frame_id="chip", id="traps", lines=trap_lines if cross else []),
-        fm.SceneEntity(timestamp=stamp, frame_id="chip", id="targets", cylinders=targets, lines=lines),
+        fm.SceneEntity(timestamp=stamp, frame_id="chip", id="targets", cylinders=targets, lines=lines, texts=texts),
     ]
     return fm.SceneUpdate(entities=entities).encode()

@@ -294,16 +294,21 @@ def test_events_sent_while_a_subscriber_was_stalled_reach_it_in_order_once_it_re
     recording so lost its ``trial_end`` on a loaded CI machine)."""
     import os
     import signal
-    import subprocess
-    import sys
 
     import numpy as np
 
     from tests.bus.test_nodes import spawn
 
     endpoint, config = free_endpoint(), tmp_path / "zenoh.json5"
-    config.write_text(json.dumps({"transport": {"link": {"tx": {"queue": {"congestion_control": {
-        "block": {"wait_before_close": 300_000}}}}}}}))
+    config.write_text(
+        json.dumps(
+            {
+                "transport": {
+                    "link": {"tx": {"queue": {"congestion_control": {"block": {"wait_before_close": 300_000}}}}}
+                }
+            }
+        )
+    )
     large = msg.pose_array(np.zeros((msg.LIMITS.poses, 2)), 0.0)
     with Node("sim", "sim", listen=[endpoint], config_file=str(config)) as sim:
         child = spawn("-c", STALLED_SUBSCRIBER, endpoint, "60")

@@ -66,3 +66,24 @@ def test_without_a_chip_a_plain_field_and_unknown_kinds_in_grey():
     assert np.allclose(at(xy[2]), HANDLE_RGB, atol=2)  # a handle stays a handle whatever its kind
     with pytest.raises(ValueError, match="region_um"):
         SceneRenderer(None, (200, 100))
+
+
+def test_marks_dashed_lines_discs_labels_beneath_or_above_the_bodies():
+    from otgym.sim.render import Disc, Label, Line
+
+    renderer = SceneRenderer(None, (200, 100), region_um=(0.0, 0.0, 200.0, 100.0))  # 1 px per um
+    cell = (np.array([[100.0, 50.0]]), np.array([10.0]), np.array([BodyKind.CELL]), np.array([False]), np.zeros((0, 2)))
+    line = Line(np.array([[10.0, 20.0], [190.0, 20.0]]), (200, 0, 0), width_px=3.0, dash_px=10.0)
+    across = Line(np.array([[80.0, 50.0], [120.0, 50.0]]), (0, 0, 200), width_px=3.0)
+    frame = renderer.render(
+        *cell,
+        under=[across, Disc((30.0, 70.0), 8.0, (0, 200, 0), opacity=0.5)],
+        over=[line, Label((150, 80), "x", (0, 0, 0))],
+    )
+    drawn = np.all(frame[20, 10:190] == (200, 0, 0), axis=-1)
+    assert 0.4 < drawn.mean() < 0.6 and np.all(frame[19:22, 12] == (200, 0, 0))  # dashed, 3 px wide
+    assert np.allclose(frame[50, 100], KIND_RGB[BodyKind.CELL], atol=1) and np.all(frame[50, 85] == (0, 0, 200))
+    assert np.allclose(frame[70, 30], CHANNEL_RGB + 0.5 * ((0, 200, 0) - CHANNEL_RGB), atol=1)  # half blended
+    assert frame[75:95, 145:165].astype(int).sum(axis=-1).min() < 200  # the label's dark text
+    with pytest.raises(TypeError, match="a mark is a Line, a Disc or a Label"):
+        renderer.render(*cell, over=["text"])

@@ -1,8 +1,9 @@
 """The ``orient`` task: both environment checkers, bad actions and configs, the
-pointing-device mapping, the scripted baseline's decisions, and known outcomes of
-three scripted policies on the same seeded episodes (holding still keeps the angle;
-the bang-bang baseline reaches the target without losing the grip; the fastest turn
-held throughout overshoots)."""
+pointing-device mapping, the target angle in the frame and the recorded scene (from a
+state built by hand: nothing compiled), the scripted baseline's decisions, and known
+outcomes of three scripted policies on the same seeded episodes (holding still keeps
+the angle; the bang-bang baseline reaches the target without losing the grip; the
+fastest turn held throughout overshoots)."""
 
 import gymnasium as gym
 import jax.numpy as jnp
@@ -69,6 +70,79 @@ def test_pointing_device_horizontal_component_picks_the_direction(params):
     assert task.device_action(np.array([2.0, -5.0]), params) == hold + 1  # right: clockwise on screen
     assert task.device_action(np.array([-0.1, 3.0]), params) == hold - 1
     assert task.device_action(np.array([0.0, 9.0]), params) == hold
+
+
+def held_state(params, target_deg: float):
+    """An orient state built by hand: the gripped cell where ``make_params`` placed it
+    (the scene's reset already done there, so nothing new is compiled), the wanted turn
+    ``target_deg`` and no turn yet."""
+    import jax
+
+    from otgym.sim import scene as sc
+    from otgym.tasks.orient.core import OrientState
+
+    centre = np.asarray(params.scene.start_candidates_um[0])
+    scene = jax.device_get(sc.reset_at(params.scene, jax.random.PRNGKey(0), centre, 0.0))
+    a, b = params.scene.robots
+    axis = np.asarray(scene.physics.pose[b, :2] - scene.physics.pose[a, :2], float)
+    target = np.deg2rad(target_deg)
+    zero = np.float32(0.0)
+    return OrientState(
+        scene=scene,
+        centre_um=centre,
+        heading_rad=zero,
+        grip_start_rad=np.float32(np.arctan2(axis[1], axis[0])),
+        target_rad=np.float32(target),
+        command_rad=zero,
+        turn_rad_s=zero,
+        error_rad=np.float32(target),
+        contact_force_pn=np.zeros(2, np.float32),
+        within_steps=np.int32(0),
+        steps=np.int32(0),
+        light_dose_mj_per_um2=zero,
+    )
+
+
+def test_the_frame_draws_the_target_angle_where_it_points(params):
+    from otgym.tasks.orient import TARGET_LINE_HALF_UM, TARGET_RGB, VIEW_WIDTH_UM
+
+    task = tasks.load("orient")
+    size = (600, 400)
+    scale = size[0] / VIEW_WIDTH_UM  # the frame shows VIEW_WIDTH_UM of chip about the formation's centre
+    frames, directions = {}, {}
+    for target_deg in (60.0, -60.0):
+        state = held_state(params, target_deg)
+        frames[target_deg] = task.frame(state, params, size)
+        angle = float(state.grip_start_rad + state.target_rad)
+        directions[target_deg] = np.array([np.cos(angle), np.sin(angle)])
+
+    def target_fraction(frame, direction):
+        """The share of the pixels along ``direction`` (both ways), beyond the robots'
+        reach (9.5 um) and short of the line's end, drawn in the target's colour."""
+        distance = np.linspace(9.5, TARGET_LINE_HALF_UM - 1.0, 40)
+        ends = np.concatenate([distance, -distance])[:, None] * direction * scale + np.array(size) / 2
+        col, row = np.floor(ends).astype(int).T
+        return np.mean(np.all(frame[row, col] == np.asarray(TARGET_RGB, np.uint8), axis=-1))
+
+    for drawn, other in ((60.0, -60.0), (-60.0, 60.0)):
+        assert target_fraction(frames[drawn], directions[drawn]) > 0.3  # a dashed line: about half its length
+        assert target_fraction(frames[drawn], directions[other]) == 0.0
+
+
+def test_the_recorded_target_line_has_its_arrowhead_at_robot_bs_end(params):
+    from otgym.tasks.orient import ARROW_HEAD_UM
+
+    state = held_state(params, 30.0)
+    (line,) = tasks.load("orient").scene(state, params).lines_um
+    start, tip, wing, back, other_wing = line
+    np.testing.assert_allclose(back, tip)
+    along = (tip - start) / np.linalg.norm(tip - start)
+    angle = float(state.grip_start_rad + state.target_rad)
+    np.testing.assert_allclose(along, [np.cos(angle), np.sin(angle)], atol=1e-6)
+    for end in (wing, other_wing):  # behind the tip, either side of the line
+        assert np.dot(tip - end, along) == pytest.approx(ARROW_HEAD_UM[0])
+    side = np.array([-along[1], along[0]])
+    assert np.dot(side, wing - tip) * np.dot(side, other_wing - tip) < 0
 
 
 def test_baseline_turns_fast_far_off_slowly_near_and_holds_within_half_the_tolerance():

@@ -1,5 +1,8 @@
 """The ``sort-cells`` task: the chip's sidecar read (ports, junction), bad configs and
-actions refused, the pointing-device mapping and the baseline's decisions; the light a
+actions refused, the pointing-device mapping and the baseline's decisions; what its
+frame and scene show (the outlets in their kind's colour at the sidecar's places, the
+cells coloured by kind, the robots parked, on their way and gripping, the direct trap,
+from states built by hand: nothing compiled); the light a
 held cell gets (linear in power and in the time held; the direct trap's far above the
 robots'); both environment checkers; the batched API at 1 and 1024 environments; the
 scripted baseline sorting better than random on a development seed."""
@@ -16,10 +19,11 @@ from gymnasium.utils.env_checker import check_env
 import otgym  # noqa: F401  (registers the Gymnasium ids)
 from otgym import tasks
 from otgym.physics import light_dose as ld
+from otgym.physics.bodies import BodyKind
 from otgym.sim import scene as sc
 from otgym.tasks.sort_cells import PRESETS, baseline, core
 from otgym.tasks.sort_cells.config import SortConfig, manipulation
-from tests.tasks import sb3_checker_warnings
+from tests.tasks import sb3_checker_warnings, sort_state
 
 ENV_ID = "otgym/sort-cells-v0"
 
@@ -97,6 +101,88 @@ def test_light_on_a_held_cell_is_linear_in_power_and_far_higher_in_the_trap():
         gap = float(np.min(np.linalg.norm(traps, axis=1))) - radius
         ratio = low_d["intensity_mw_per_um2"][kind] / low_r["intensity_mw_per_um2"][kind]
         assert ratio >= ld.dose_bound_ratio(gap, len(traps), robots.waist_um) > 10
+
+
+FRAME_PX = (840, 560)
+
+
+def pixel(frame, renderer, xy_um) -> np.ndarray:
+    col, row = np.floor(renderer.to_px(np.asarray(xy_um, float))).astype(int)
+    return frame[row, col].astype(float)
+
+
+def test_the_frame_marks_each_outlet_in_its_kinds_colour_and_colours_the_cells_by_kind(params):
+    from otgym.sim.render import CHANNEL_RGB
+    from otgym.tasks.sort_cells import view
+
+    task = tasks.load("sort-cells")
+    frame = task.frame(sort_state(10.0), params, FRAME_PX)
+    renderer = view._renderer(params.config.chip, FRAME_PX)
+    exit_um = params.config.exit_distance_um
+    for kind, outlet in enumerate(np.asarray(params.outlets_um, float)):
+        tint = CHANNEL_RGB + view.OUTLET_OPACITY * (np.asarray(view.KIND_RGB[kind]) - CHANNEL_RGB)
+        np.testing.assert_allclose(pixel(frame, renderer, outlet - [exit_um / 2, 0.0]), tint, atol=2)
+        np.testing.assert_allclose(pixel(frame, renderer, outlet - [exit_um + 3.0, 0.0]), CHANNEL_RGB, atol=2)
+    for cell, kind in ((0, 1), (1, 0), (3, 0)):  # each cell's centre in its kind's colour
+        np.testing.assert_allclose(pixel(frame, renderer, sort_state(0.0).xy_um[cell]), view.KIND_RGB[kind])
+    assert view.KIND_RGB[0] != view.KIND_RGB[1]
+    labels = dict((text, xy) for xy, text in task.scene(sort_state(0.0), params).labels)  # the recording's
+    for name, words, outlet in zip(params.config.outlets, ("small", "large"), np.asarray(params.outlets_um)):
+        (text,) = [text for text in labels if text.startswith(f"{name}: {words} cells")]
+        np.testing.assert_allclose(labels[text], outlet)
+
+
+def test_the_robots_are_drawn_parked_on_their_way_and_gripping_the_held_cell(params):
+    from otgym.sim.render import HANDLE_RGB
+    from otgym.sim.render import KIND_RGB as BODY_RGB
+    from otgym.tasks.sort_cells import view
+
+    task = tasks.load("sort-cells")
+    renderer = view._renderer(params.config.chip, FRAME_PX)
+    robot_rgb = BODY_RGB[BodyKind.ROBOT]
+    grip = params.config.grip_time
+    cell = np.array([60.0, 60.0])  # the held cell away from where the robots park
+    held = sort_state(grip + 1.0)
+    held = held.replace(xy_um=np.concatenate([cell[None], held.xy_um[1:]]).astype(np.float32))
+    gripping = task.frame(held, params, FRAME_PX)
+    xy, _, _, handle = sc.grip_robots_um(sc.SceneConfig(cell_radius_um=params.config.cell_radii_um[1]))
+    for sphere, is_handle in zip(xy + cell, handle):  # the transport scene's grip about the held (large) cell
+        np.testing.assert_allclose(pixel(gripping, renderer, sphere), HANDLE_RGB if is_handle else robot_rgb)
+    np.testing.assert_allclose(task.scene(held, params).traps_um, (xy + cell)[handle], atol=1e-4)
+
+    def robot_pixels(frame, centre_um, half_um=8.0):
+        (c0, r0), (c1, r1) = np.floor(
+            renderer.to_px(np.array([centre_um]) + [[-half_um, -half_um], [half_um, half_um]])
+        )
+        window = frame[int(r0) : int(r1), int(c0) : int(c1)]
+        return int(np.all(window == robot_rgb.astype(np.uint8), axis=-1).sum())
+
+    parked = task.frame(sort_state(0.0, held=-1), params, FRAME_PX)
+    junction = np.asarray(params.junction_um, float)
+    for side in np.asarray(params.side_sign, float):  # against each wall, upstream of the junction
+        place = junction + [-view.PARK_UPSTREAM_UM, side * (params.half_width_um - 2.0)]
+        assert robot_pixels(parked, place) > 50 and robot_pixels(gripping, place) == 0
+    assert robot_pixels(parked, cell) == 0 and robot_pixels(gripping, cell) > 100
+    halfway = task.scene(sort_state(grip / 2), params).spheres_um[3:]
+    rest, held = task.scene(sort_state(0.0, held=-1), params), task.scene(sort_state(grip + 1.0), params)
+    np.testing.assert_allclose(halfway, (rest.spheres_um[3:] + held.spheres_um[3:]) / 2, atol=1e-4)
+
+
+def test_direct_trapping_draws_its_trap_in_the_held_cell_and_no_robots(params):
+    from otgym.sim.render import KIND_RGB as BODY_RGB
+    from otgym.sim.render import TRAP_RGB
+    from otgym.tasks.sort_cells import view
+
+    task = tasks.load("sort-cells")
+    direct = dataclasses.replace(params, config=dataclasses.replace(params.config, mode="direct"))
+    renderer = view._renderer(params.config.chip, FRAME_PX)
+    frames = {grip_s: task.frame(sort_state(grip_s), direct, FRAME_PX) for grip_s in (0.0, 1.0)}
+    robot_rgb = BODY_RGB[BodyKind.ROBOT].astype(np.uint8)
+    assert not any(np.all(frame == robot_rgb, axis=-1).any() for frame in frames.values())
+    ring = np.asarray(sort_state(0.0).xy_um[0], float) + [view.DIRECT_RING_UM, 0.0]
+    np.testing.assert_allclose(pixel(frames[1.0], renderer, ring), TRAP_RGB, atol=40)  # held: the trap's ring
+    np.testing.assert_allclose(pixel(frames[0.0], renderer, ring), view.KIND_RGB[1])  # not yet held: no light
+    assert "robot" not in task.scene(sort_state(1.0), direct).kinds
 
 
 @pytest.mark.slow

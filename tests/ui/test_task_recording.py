@@ -5,7 +5,8 @@ sphere per body where the state has it, ``traps`` a cross per trap and ``targets
 task's targets; the episode's end carries the task's metrics, which ``otgym replay``'s
 summary gives back. Only the tasks' resets are compiled (no step); the ``sort-cells``
 scene is recorded from a state built by hand (a held cell, one upstream of it, one past
-the junction, one slot empty), so nothing is compiled for it. The window's path
+the junction, one slot empty), so nothing is compiled for it: its cells, the robots
+gripping the held cell or on their way to it, their traps, the outlets and the inlet. The window's path
 (every step and episode recorded) is tested on a toy task in ``test_task_window``."""
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from otgym import tasks
 from otgym.record.mcap_file import read_recording
 from otgym.record.replay import summary
 from otgym.ui.task_recording import TaskRecording, info_metrics
+from tests.tasks import sort_state
 
 pytest.importorskip("foxglove")
 
@@ -93,36 +95,11 @@ def test_info_metrics_keeps_scalars_only():
     assert info_metrics(info) == {"success": False, "n": 3.0, "x": 0.5, "one": 1.0}
 
 
-def sort_state(held_grip_s: float):
-    """A ``sort-cells`` state: cell 0 (kind 1) upstream of the junction, held for
-    ``held_grip_s``; cell 1 (kind 0) behind it; slot 2 empty; cell 3 (kind 0) past the
-    junction (x > 130 um on the sorter chip)."""
-    from otgym.tasks.sort_cells import core
-
-    zeros = np.zeros(4, np.float32)
-    return core.SortState(
-        xy_um=np.array([[100.0, 70.0], [40.0, 58.0], [0.0, 0.0], [180.0, 40.0]], np.float32),
-        kind=np.array([1, 0, 0, 0], np.int32),
-        active=np.array([True, True, False, True]),
-        age_s=zeros,
-        dose_mj_per_um2=zeros,
-        held=np.int32(0),
-        grip_s=np.float32(held_grip_s),
-        next_arrival_s=np.float32(10.0),
-        time_s=np.float32(20.0),
-        steps=np.int32(40),
-        arrived=np.int32(3),
-        correct=np.int32(0),
-        wrong=np.int32(0),
-        lost=np.int32(0),
-        finished_dose_mj_per_um2=np.float32(0.0),
-        finished=np.int32(0),
-    )
-
-
 @pytest.mark.slow  # builds the task's params (the chip's fields): 3.1 s on the loaded 2-core machine
-def test_a_sort_cells_recording_shows_the_cells_the_held_cell_s_traps_and_the_outlets(tmp_path):
+def test_a_sort_cells_recording_shows_the_cells_the_robots_their_traps_and_the_ports(tmp_path):
     import dataclasses
+
+    from otgym.sim import scene as sc
 
     task = tasks.load("sort-cells")
     params = task.make_params(task.config())  # robots: four handle traps around a held cell
@@ -130,28 +107,39 @@ def test_a_sort_cells_recording_shows_the_cells_the_held_cell_s_traps_and_the_ou
     grip = params.config.grip_time
     recording = TaskRecording(tmp_path / "session.mcap", task, params, None, 0, 0.5, clock_s=lambda: STAMP_S)
     recording.episode_start(1, sort_state(grip + 1.0))
-    recording.state(sort_state(grip - 0.5))  # still taking hold: no trap yet
+    recording.state(sort_state(grip - 0.5))  # still taking hold: the robots on their way
     recording.close()
 
     (_, held), (_, taking) = recorded_scenes(tmp_path / "session.mcap")
     entities = {entity.id: entity for entity in held.entities}
-    centres = [(s.pose.position.x, s.pose.position.y) for s in entities["bodies"].spheres]
-    np.testing.assert_allclose(centres, [[100.0, 70.0], [40.0, 58.0], [180.0, 40.0]])  # the empty slot left out
+    centres = np.array([(s.pose.position.x, s.pose.position.y) for s in entities["bodies"].spheres])
+    np.testing.assert_allclose(centres[:3], [[100.0, 70.0], [40.0, 58.0], [180.0, 40.0]])  # the empty slot left out
+    robot_xy, robot_radii, _, _ = sc.grip_robots_um(sc.SceneConfig(cell_radius_um=params.config.cell_radii_um[1]))
+    np.testing.assert_allclose(centres[3:], robot_xy + [100.0, 70.0], atol=1e-4)  # gripping the held cell
     radii = np.asarray(params.radius_um, float)
-    assert [s.size.x for s in entities["bodies"].spheres] == pytest.approx(2 * radii[[1, 0, 0]])
-    assert entities["bodies"].metadata[0].value == "cell,cell,cell"
+    sizes = [s.size.x for s in entities["bodies"].spheres]
+    assert sizes == pytest.approx(np.concatenate([2 * radii[[1, 0, 0]], 2 * robot_radii]))
+    assert entities["bodies"].metadata[0].value == ",".join(["cell"] * 3 + ["robot"] * len(robot_xy))
     crosses = np.array([(p.x, p.y) for p in entities["traps"].lines[0].points]).reshape(-1, 4, 2)
     assert len(crosses) == 4  # one per handle of the two robots
     np.testing.assert_allclose(crosses.mean(axis=(0, 1)), [100.0, 70.0], atol=1e-4)  # around the held cell
-    assert {e.id: len(e.lines) for e in taking.entities}["traps"] == 0
+    moving = np.array([(p.x, p.y) for p in {e.id: e for e in taking.entities}["traps"].lines[0].points])
+    assert len(moving) == 16 and np.linalg.norm(moving.mean(axis=0) - [100.0, 70.0]) > 1.0  # not there yet
     outlets = [(c.pose.position.x, c.pose.position.y) for c in entities["targets"].cylinders]
     np.testing.assert_allclose(outlets, np.asarray(params.outlets_um, float))
     assert entities["targets"].cylinders[0].size.x == pytest.approx(2 * params.config.exit_distance_um)
-    (route,) = entities["targets"].lines  # the target (cell 0, kind 1) to the junction, then to kind 1's outlet
+    route, inlet = entities["targets"].lines  # the target (cell 0, kind 1) to the junction, then to kind 1's outlet
     np.testing.assert_allclose(
         [(p.x, p.y) for p in route.points],
         [[100.0, 70.0], np.asarray(params.junction_um), np.asarray(params.outlets_um[1])],
     )
-    assert task.scene(sort_state(grip + 1.0), direct).traps_um.tolist() == [[100.0, 70.0]]  # one trap in the cell
+    assert all(p.x < 5.0 for p in inlet.points)  # across the inlet's opening, on the chip's left edge
+    texts = {t.text: (t.pose.position.x, t.pose.position.y) for t in entities["targets"].texts}
+    assert texts.keys() == {"outlet_a: small cells (3 um)", "outlet_b: large cells (5 um)", "inlet: cells arrive"}
+    np.testing.assert_allclose(texts["outlet_b: large cells (5 um)"], np.asarray(params.outlets_um[1]))
+    direct_scene = task.scene(sort_state(grip + 1.0), direct)
+    assert (
+        direct_scene.traps_um.tolist() == [[100.0, 70.0]] and "robot" not in direct_scene.kinds
+    )  # one trap in the cell
     counts = summary(read_recording(tmp_path / "session.mcap"))["counts"]
     assert counts["/otgym/bodies"] == counts["/otgym/traps"] == 2

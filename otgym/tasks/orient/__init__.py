@@ -12,9 +12,11 @@ steps (2 s), 200 steps (40 s) per episode."""
 from __future__ import annotations
 
 import gymnasium as gym
+import jax
 import numpy as np
 
 from otgym import physics as ph
+from otgym.sim.render import PATH_RGB, Label, Line
 from otgym.sim.scene import SceneConfig
 from otgym.tasks.base import Task, TaskScene
 from otgym.tasks.orient import core
@@ -35,7 +37,20 @@ def default() -> OrientConfig:
 
 PRESETS = {"default": default}
 TARGET_LINE_HALF_UM = 12.0
-"""Half the length of the recorded scene's target line (about the robots' reach)."""
+"""Half the length of the target line, drawn and recorded (beyond the robots' reach)."""
+VIEW_WIDTH_UM = 64.0
+"""The width of chip the frame shows, centred on the formation (the robots, the cell and
+the channel's walls nearby)."""
+TARGET_RGB = tuple(float(v) for v in PATH_RGB)
+GRIP_RGB = (40.0, 44.0, 52.0)
+ARROW_HEAD_UM = (2.0, 1.0)
+"""The recorded target line's arrowhead: its length back along the line, its half width."""
+
+
+def _axis_um(centre, angle, half_um=TARGET_LINE_HALF_UM) -> np.ndarray:
+    """A line (2, 2) through ``centre`` at ``angle`` (chip frame), ``half_um`` each way."""
+    half = half_um * np.array([np.cos(angle), np.sin(angle)])
+    return np.stack([centre - half, centre + half])
 
 
 class Orient(Task):
@@ -77,15 +92,56 @@ class Orient(Task):
         return gym.spaces.Discrete(params.config.n_actions)
 
     def frame(self, state, params: OrientParams, size_px=(600, 400)) -> np.ndarray:
-        return scene_frame(params.scene, state.scene.physics, None, size_px)
+        """The formation close up (``VIEW_WIDTH_UM`` of chip about its centre): the
+        robots, the cell and the traps; the target, the grip axis (robot a to robot b)
+        turned by the target, as a dashed magenta arrow through the formation's centre
+        pointing where robot b should end up; the grip axis now, a solid dark arrow
+        through the robots' midpoint toward robot b (beneath the bodies); and a legend
+        with the angle error and the way to turn (right: clockwise on screen)."""
+        state = jax.device_get(state)
+        centre = np.asarray(state.centre_um, float)
+        width, height = size_px
+        half_x = VIEW_WIDTH_UM / 2
+        half_y = half_x * height / width
+        region = (centre[0] - half_x, centre[1] - half_y, centre[0] + half_x, centre[1] + half_y)
+        pose = np.asarray(state.scene.physics.pose, float)
+        a, b = params.scene.robots
+        axis = pose[b, :2] - pose[a, :2]
+        grip_now = _axis_um((pose[a, :2] + pose[b, :2]) / 2, np.arctan2(axis[1], axis[0]))
+        target = _axis_um(centre, float(state.grip_start_rad) + float(state.target_rad))
+        error_deg = float(np.rad2deg(state.error_rad))
+        if abs(error_deg) <= params.config.tolerance_deg:
+            advice = "within the tolerance: hold"
+        else:
+            advice = "turn right (clockwise)" if error_deg > 0 else "turn left (counter-clockwise)"
+        line_px = 20 * size_px[0] / 840
+        legend = [
+            Label((8, 8 + row * line_px), text, (235, 238, 242), at_px=True, box_rgb=(30, 32, 38))
+            for row, text in enumerate(
+                ["target: dashed arrow   grip now: solid arrow", f"error {error_deg:+.1f} deg: {advice}"]
+            )
+        ]
+        return scene_frame(
+            params.scene,
+            state.scene.physics,
+            None,
+            size_px,
+            region_um=tuple(float(v) for v in region),
+            under=[Line(grip_now, GRIP_RGB, width_px=3.0, arrow=True)],
+            over=[Line(target, TARGET_RGB, width_px=3.0, dash_px=8.0, arrow=True), *legend],
+        )
 
     def scene(self, state, params: OrientParams) -> TaskScene:
         """The robots, the cell and the traps, and the target: the grip axis (robot a to
-        robot b) turned by the target, a line through the formation's centre."""
+        robot b) turned by the target, a line through the formation's centre with an
+        arrowhead (``ARROW_HEAD_UM``) at robot b's end."""
         centre = np.asarray(state.centre_um, float)
         angle = float(state.grip_start_rad) + float(state.target_rad)
-        half = TARGET_LINE_HALF_UM * np.array([np.cos(angle), np.sin(angle)])
-        return scene_of(params.scene, state.scene.physics, lines_um=[np.stack([centre - half, centre + half])])
+        start, tip = _axis_um(centre, angle)
+        along = np.array([np.cos(angle), np.sin(angle)])
+        back, side = ARROW_HEAD_UM[0] * along, ARROW_HEAD_UM[1] * np.array([-along[1], along[0]])
+        line = np.stack([start, tip, tip - back + side, tip, tip - back - side])
+        return scene_of(params.scene, state.scene.physics, lines_um=[line])
 
     def device_action(self, velocity_um_s, params: OrientParams) -> np.ndarray:
         """The device's horizontal component picks the direction: right turns the cell

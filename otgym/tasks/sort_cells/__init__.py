@@ -1,8 +1,9 @@
 """Task ``sort-cells``: cells of two sizes arrive with the flow at a sorting chip's inlet,
 and a manipulator moves each across the flow into its size's outlet (issue 38; ``config``
 holds the config and the manipulation it implies, ``core`` the model, ``baseline`` the
-scripted controller). The chip, ``sorter`` (``otgym.sim.sorter_chip``), is a PNG with a
-sidecar naming its inlet, its two outlets and the junction.
+scripted controller, ``view`` what its frame and recorded scene show). The chip,
+``sorter`` (``otgym.sim.sorter_chip``), is a PNG with a sidecar naming its inlet, its
+two outlets and the junction.
 
 Presets: ``robots`` (default): two microrobots grip the cell, so it sees only the light
 of the handle traps that reaches it; ``direct``: one trap holds the cell in its focus,
@@ -14,15 +15,10 @@ from __future__ import annotations
 import dataclasses
 
 import gymnasium as gym
-import jax
 import numpy as np
 
-from otgym.physics.bodies import BodyKind
-from otgym.sim import scene as sc
-from otgym.sim.chip import load_chip
-from otgym.sim.render import SceneRenderer
 from otgym.tasks.base import Task, TaskScene
-from otgym.tasks.sort_cells import core
+from otgym.tasks.sort_cells import core, view
 from otgym.tasks.sort_cells.config import SortConfig
 
 
@@ -89,40 +85,17 @@ class SortCells(Task):
         return gym.spaces.Discrete(core.N_ACTIONS)
 
     def frame(self, state, params: core.SortParams, size_px=(600, 400)) -> np.ndarray:
-        """The chip, the cells in it (their sizes tell the kinds apart) and, on a held
-        cell, the traps: on the robots' handles (``robots``) or in the cell (``direct``)."""
-        state = jax.device_get(state)
-        renderer = _renderer(params.config.chip, tuple(size_px))
-        active = np.asarray(state.active, bool)
-        xy = np.asarray(state.xy_um)[active]
-        radii = np.asarray(params.radius_um)[np.asarray(state.kind)[active]]
-        traps = _held_traps(state, params)
-        kinds = np.full(len(xy), int(BodyKind.CELL))
-        return renderer.render(xy, radii, kinds, np.zeros(len(xy), bool), traps)
+        """The chip with its ports marked (each outlet in the colour of the kind it takes,
+        labelled; the inlet), the cells coloured and sized by kind, and the manipulator:
+        the two robots with their traps (``robots``) or the trap in the held cell
+        (``direct``); ``view`` says where the robots, which the task does not simulate,
+        are drawn."""
+        return view.frame(state, params, size_px)
 
     def scene(self, state, params: core.SortParams) -> TaskScene:
-        """The cells in the chip (kind ``"cell"``; their radii tell the two kinds apart,
-        as in ``frame``), the traps on a held cell (``_held_traps``), the two outlets as
-        targets of radius ``exit_distance_um`` (where a cell leaves by one), and the
-        target cell's route: from it through the junction to its kind's outlet."""
-        state = jax.device_get(state)
-        active = np.asarray(state.active, bool)
-        kind = np.asarray(state.kind)
-        xy = np.asarray(state.xy_um, float)
-        first, present, _, _ = core._upstream_order(params, state)
-        lines = ()
-        if bool(present):
-            outlet = np.asarray(params.outlets_um, float)[kind[int(first)]]
-            lines = (np.stack([xy[int(first)], np.asarray(params.junction_um, float), outlet]),)
-        return TaskScene(
-            spheres_um=xy[active],
-            radii_um=np.asarray(params.radius_um, float)[kind[active]],
-            kinds=("cell",) * int(active.sum()),
-            traps_um=_held_traps(state, params),
-            targets_um=np.asarray(params.outlets_um, float),
-            target_radius_um=params.config.exit_distance_um,
-            lines_um=lines,
-        )
+        """The cells, the robots' spheres (``robots``), the traps, the outlets as targets
+        and the target cell's route and the inlet's opening as lines (``view.scene``)."""
+        return view.scene(state, params)
 
     def device_action(self, velocity_um_s, params: core.SortParams) -> np.ndarray:
         """Up or down on screen moves the target toward the outlet on that side; a
@@ -133,37 +106,5 @@ class SortCells(Task):
         side = np.asarray(params.side_sign)
         return np.asarray(1 + int(np.argmax(side == np.sign(vy))), np.int32)
 
-
-def _held_traps(state, params: core.SortParams) -> np.ndarray:
-    """The traps (um, (T, 2)) of one environment once its cell is held (after the grip
-    time): on the robots' handles around it (``robots``) or one in it (``direct``);
-    none otherwise."""
-    held = int(state.held)
-    if held < 0 or float(state.grip_s) < params.config.grip_time or not bool(state.active[held]):
-        return np.zeros((0, 2))
-    centre = np.asarray(state.xy_um[held], float)
-    offsets = (
-        _grip_offsets(params.config, int(state.kind[held])) if params.config.mode == "robots" else np.zeros((1, 2))
-    )
-    return centre[None] + offsets
-
-
-def _renderer(chip: str, size_px) -> SceneRenderer:
-    return _RENDERERS.setdefault((chip, size_px), SceneRenderer(load_chip(chip), size_px=size_px))
-
-
-_RENDERERS: dict = {}
-
-
-def _grip_offsets(config: SortConfig, kind: int) -> np.ndarray:
-    key = (config.robot, config.cell_radii_um[kind])
-    if key not in _GRIPS:
-        _GRIPS[key] = sc.grip_geometry_um(
-            sc.SceneConfig(robot=config.robot, cell_radius_um=config.cell_radii_um[kind])
-        )[0]
-    return _GRIPS[key]
-
-
-_GRIPS: dict = {}
 
 __all__ = ["PRESETS", "SortCells", "SortConfig"]

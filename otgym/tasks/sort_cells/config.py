@@ -33,7 +33,6 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import jax
 import numpy as np
 
 from otgym import physics as ph
@@ -44,7 +43,6 @@ from otgym.sim import scene as sc
 
 MODES = ("robots", "direct")
 GRIP_TIME_S = {"robots": 3.0, "direct": 0.25}
-_cell_intensity = jax.jit(ld.cell_intensity_mw_per_um2, static_argnums=0)  # one program, not one per primitive
 
 
 @dataclasses.dataclass(frozen=True)
@@ -161,7 +159,7 @@ def manipulation(config: SortConfig) -> dict:
         else:
             traps, robot_radii = sc.grip_geometry_um(sc.SceneConfig(robot=config.robot, cell_radius_um=radius))
             n_traps, drag = len(traps), cell_drag + float(np.sum(config.stokes_drag_pn_s_per_um(robot_radii)))
-            intensity = float(_cell_intensity(beam, traps, np.zeros(2), radius))
+            intensity = float(ld.cell_intensity_jit(beam, traps, np.zeros(2), radius))
         speeds.append(config.speed_fraction * n_traps * escape_force / drag)
         intensities.append(intensity)
     return {"speed_um_s": np.asarray(speeds), "intensity_mw_per_um2": np.asarray(intensities), "n_traps": n_traps}
