@@ -1,4 +1,4 @@
-"""``otgym experiment assemble`` and ``otgym experiment orient``: a task's shipped
+"""``otgym experiment assemble``, ``orient`` and ``sort-cells``: a task's shipped
 learned policy against its scripted baseline on the held-out report seed
 (``otgym.experiments.task_report``; the plan in docs/tasks.md)."""
 
@@ -13,7 +13,7 @@ from otgym.experiments.seeds import REPORT_SEEDS, TASK_REPORTS
 
 
 def _register_one(experiment: typer.Typer, task_name: str) -> None:
-    from otgym.experiments.task_report import DEFAULT_EPISODES, PRESETS
+    from otgym.experiments.task_report import DEFAULT_EPISODES, PRESETS, SECONDARY
 
     @experiment.command(task_name)
     def command(
@@ -49,9 +49,10 @@ def _register_one(experiment: typer.Typer, task_name: str) -> None:
             f"{comparison['verdict']}; wrote {out / 'results.json'}, {out / 'summary.md'}"
         )
 
+    secondary = "time to success" if SECONDARY[task_name] is None else SECONDARY[task_name]
     command.__doc__ = f"""The {task_name} task ({PRESETS[task_name]}): the shipped learned policy against
         {TASK_REPORTS[task_name]["report_baseline"]} on the same episodes: success (McNemar, Wilson intervals),
-        time to success (Wilcoxon signed-rank), the task's own metrics (docs/tasks.md).
+        {secondary} (Wilcoxon signed-rank), the task's own metrics (docs/tasks.md).
 
         Example: otgym experiment {task_name} --episodes 256 --out results/{task_name}-report
         """

@@ -24,7 +24,7 @@ Seed spaces (what a number seeds; the same number in two spaces is two different
 - ``population``: the simulated participants (``sample_population(n, seed)``).
 - ``transport``: the demo's whole-path transport runs (``otgym demo --runs``).
 - one space per task with a report (a registry entry with ``report_seed``: assemble,
-  orient): its evaluation episodes, one batch from ``jax.random.PRNGKey(seed)``
+  orient, sort-cells): its evaluation episodes, one batch from ``jax.random.PRNGKey(seed)``
   (``otgym experiment NAME``; the same starts and step keys for every policy compared).
 
 ``TRAINING_SEEDS`` names the training seed (space ``training``) of each task's shipped
@@ -109,7 +109,7 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         "benchmarks/training.py's training seeds; pretrain's candidates 0-2 (seed 1 shipped, as the policy "
         "file's metadata says; seed 2 before it); "
         "otgym train's default 0; the reward variants of RewardWeights' docstring (seed 0, seed 1); "
-        "the development DQN runs of assemble (seed 1) and orient (seed 0) in docs/tasks.md",
+        "the development DQN runs of assemble (seed 1), orient (seed 0) and sort-cells (seed 1) in docs/tasks.md",
     ),
     SeedUse(
         "training", 10, 19, "issue 29's development of the speed front's family (reward and loss variants, seed 10)"
@@ -185,7 +185,7 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     ),
     # the demo's transport
     _one("transport", 1, "the demo's whole-path transport (otgym demo --runs 8 --seed 1)"),
-    # the assemble and orient tasks' evaluation episodes
+    # the assemble, orient and sort-cells tasks' evaluation episodes
     _one("assemble", 0, "the baseline's pace table in docs/tasks.md (64 episodes per pace, ring and ring-16)"),
     _one(
         "assemble",
@@ -198,6 +198,14 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         1,
         "the scripted policies and the development DQN in docs/tasks.md (64 episodes); otgym experiment "
         "orient's cost measured on 16 episodes before its report run",
+    ),
+    _one("sort-cells", 0, "the scripted, random and idle policies' table in docs/tasks.md (64 episodes per preset)"),
+    SeedUse("sort-cells", 5, 6, "the development DQN's actions against the baseline's (32 episodes from keys 5 and 6)"),
+    _one(
+        "sort-cells",
+        100,
+        "the development DQN runs against the baseline, random and idle (64 episodes); otgym experiment "
+        "sort-cells' cost measured on 16 episodes before its report run",
     ),
 )
 

@@ -21,8 +21,10 @@ comparison of its learned policy against its baseline (``otgym experiment NAME``
 ``otgym.experiments.task_report``) names ``report_seed`` and ``training_seed`` (seed
 registry: ``otgym.experiments.seeds``), ``report_preset``, ``report_policy`` (a file in
 ``otgym/data/policies/``), ``report_baseline`` (what the baseline is, in words),
-``report_metrics`` (its own metrics, comma-separated) and ``report_outcomes`` (the
-``"module:function"`` that runs both policies on paired episodes).
+``report_metrics`` (its own metrics, comma-separated), ``report_outcomes`` (the
+``"module:function"`` that runs both policies on paired episodes) and, optionally,
+``report_secondary`` (the plan's secondary outcome, a per-episode metric, higher is
+better; without it, the time to success).
 """
 
 from __future__ import annotations
@@ -89,7 +91,17 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.tasks.sort_cells:SortCells",
         "cells of two sizes arrive with the flow; robots (or a trap) move each into its outlet",
         (),
-        {"gym_id": "otgym/sort-cells-v0"},
+        {
+            "gym_id": "otgym/sort-cells-v0",
+            "report_seed": "77000",
+            "training_seed": "40",
+            "report_preset": "robots",
+            "report_policy": "sort_cells_robots.npz",
+            "report_baseline": "the scripted baseline (each cell moved 5 um past the inlet's axis on its side)",
+            "report_metrics": "purity,yield,cells_sorted,cells_missorted,cells_lost,light_dose_per_cell_mj_per_um2",
+            "report_secondary": "throughput_cells_per_min",
+            "report_outcomes": "otgym.experiments.sort_cells:report_outcomes",
+        },
     ),
     # robots
     (

@@ -27,7 +27,7 @@ def test_a_report_seed_is_not_flagged():
 
 
 def test_every_report_seed_is_absent_from_the_development_list():
-    spaces = {"evaluate": ["episodes"], "speed-front": ["episodes"], "assemble": ["assemble"], "orient": ["orient"]}
+    spaces = {"evaluate": ["episodes"], "speed-front": ["episodes"]} | {task: [task] for task in seeds.TASK_REPORTS}
     for command, seed in seeds.REPORT_SEEDS.items():
         for use in seeds.DEVELOPMENT:
             if use.space in spaces.get(command, ["study", "population"]):
@@ -66,11 +66,14 @@ def test_the_issue_s_development_seeds_are_listed():
 def test_the_tasks_development_seeds_are_flagged_and_their_training_seeds_unused():
     assert seeds.is_development("assemble", 0) and seeds.is_development("assemble", 100)
     assert seeds.is_development("orient", 1)
+    assert seeds.is_development("sort-cells", 0) and seeds.is_development("sort-cells", 100)
+    assert seeds.seed_status("sort-cells", seeds.REPORT_SEEDS["sort-cells"]) == "report seed"
     assert seeds.seed_status("orient", seeds.REPORT_SEEDS["orient"]) == "report seed"
     assert not seeds.is_development("assemble", 1)  # a different space from orient's seed 1
     for task, seed in seeds.TRAINING_SEEDS.items():
         uses = [u for u in seeds.DEVELOPMENT if u.space == "training" and u.first <= seed <= u.last]
         assert not uses, (task, uses)
+    assert len(set(seeds.TRAINING_SEEDS.values())) == len(seeds.TRAINING_SEEDS)  # one shipped policy per seed
 
 
 def test_unknown_command_and_bad_sizes_are_refused():

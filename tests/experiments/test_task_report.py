@@ -71,3 +71,20 @@ def test_the_median_interval_is_the_binomial_order_statistics():
     assert binom.cdf(k - 1, N, 0.5) <= 0.025 < binom.cdf(k, N, 0.5)  # the widest k that keeps 95 %
     assert high == N - k
     assert tr.median_interval(np.arange(5.0)) is None  # 2 x 0.5**5 > 0.05: no interval
+
+
+def test_a_higher_secondary_metric_at_equal_success_beats_and_a_lower_one_misses():
+    """sort-cells' plan: the secondary outcome is a per-episode metric on all episodes,
+    higher is better (its throughput), its direction that of the signed ranks."""
+    rng = np.random.default_rng(1)
+    base = outcome(np.ones(N), np.full(N, 120.0)) | {"throughput": rng.integers(8, 12, N) / 2.0}
+    more = base["throughput"] + np.where(rng.random(N) < 0.3, 0.5, 0.0)  # one more cell in 30 % of episodes
+    result = tr.compare(base, outcome(np.ones(N), np.full(N, 120.0)) | {"throughput": more}, "throughput")
+    assert result["secondary"] == "throughput" and result["signed_rank_direction"] == 1
+    assert result["median_difference"] == 0.0 and result["wilcoxon_p"] < 1e-10  # the median alone can't tell
+    assert result["verdict"] == "beats: same success (McNemar p >= 0.05) and higher throughput (Wilcoxon p < 0.05)"
+    fewer = base["throughput"] - np.where(rng.random(N) < 0.3, 0.5, 0.0)
+    result = tr.compare(base, outcome(np.ones(N), np.full(N, 120.0)) | {"throughput": fewer}, "throughput")
+    assert result["signed_rank_direction"] == -1 and result["verdict"].startswith("miss: same success")
+    same = tr.compare(base, base, "throughput")
+    assert same["wilcoxon_p"] == 1.0 and same["verdict"].startswith("miss: no difference")
