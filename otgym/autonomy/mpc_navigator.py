@@ -104,6 +104,12 @@ class MPCNavigator:
         self.segment_valid = np.zeros(n_env, bool)
         self.steps_since_sampling = np.zeros(n_env, int)
 
+    @classmethod
+    def for_task(cls, task: InteractiveTask, max_speed_um_s: float = 20.0) -> MPCNavigator:
+        """The navigator on ``task`` with the default configuration and costs (what every
+        registered navigator offers)."""
+        return cls(task, max_speed_um_s=max_speed_um_s)
+
     def warm_up(self) -> None:
         """Compile the replan and the plan-following functions for one environment, then
         reset: the first replan compiles for tens of seconds on 2 cores, which a live

@@ -94,6 +94,19 @@ class RouteNavigator:
         self.carry_gain_per_s = carry_gain_per_s
         self.commanded_arc_um = np.zeros(0)
 
+    @classmethod
+    def for_task(cls, task, max_speed_um_s: float = 20.0, cruise_speed_um_s: float = 5.0) -> RouteNavigator:
+        """The navigator on ``task``'s route, formation and tick (what every registered
+        navigator offers: ``otgym node autonomy`` and ``otgym play`` build them so)."""
+        return cls(
+            task.route_um,
+            task.route_arc_um,
+            task.offsets_um,
+            task.config.tick_s,
+            cruise_speed_um_s,
+            max_speed_um_s=max_speed_um_s,
+        )
+
     def reset(self, n_env: int):
         self.commanded_arc_um = np.zeros(n_env)
 

@@ -349,6 +349,8 @@ def autonomy(
 
     Example: otgym node autonomy --navigator route
     """
+    from otgym import registry
+    from otgym.autonomy.by_name import navigator_for
     from otgym.bus.nodes import run_autonomy_node
     from otgym.bus.sim_node import build_task
     from otgym.bus.transport import Node
@@ -357,21 +359,9 @@ def autonomy(
     stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
     print("building the task ...", flush=True)
     task = build_task(chip)
-    planner = None
-    if navigator == "mpc":
-        from otgym.autonomy.mpc_navigator import MPCNavigator
-
-        print(
-            "building the model-predictive navigator (its model, grip calibration and first compile take about "
-            "a minute on 2 cores) ...",
-            flush=True,
-        )
-        planner = MPCNavigator(task)
-        planner.warm_up()
-    elif navigator == "rl":
-        from otgym.autonomy.rl_navigator import RLNavigator
-
-        planner = RLNavigator.for_task(task)
+    note = registry.entry("navigators", navigator).extras.get("start_note")
+    print(f"building the {navigator} navigator{f' ({note})' if note else ''} ...", flush=True)
+    planner = navigator_for(navigator, task)
     with Node("autonomy", "autonomy", **endpoints) as node:
         _ready(f"autonomy ({navigator} navigator)")
         answered = run_autonomy_node(node, task, stop, navigator=planner)

@@ -81,11 +81,14 @@ def register(app: typer.Typer) -> None:
         if screenshot is not None and screenshot.suffix.lower() != ".png":
             raise ValueError(f"--screenshot must name a .png file, got {screenshot}")
         participant = checks.check_participant(participant)
+        from otgym import registry
+
         checks.check_navigator(navigator)
-        if navigator == "mpc" and not distributed:
+        found = registry.entry("navigators", navigator)
+        if "in-process" not in found.tags and not distributed:
             raise ValueError(
-                "--navigator mpc needs --distributed: its replans (about 74 ms each) run in the "
-                "autonomy node's own process, not in the simulation's"
+                f"--navigator {navigator} needs --distributed: it answers from the autonomy node's own process, "
+                f"not the simulation's ({found.extras.get('start_note') or 'not tagged in-process'})"
             )
         if ros2 and not distributed:
             raise ValueError("--ros2 needs --distributed: the ROS 2 bridge is a node on the session's bus")
@@ -361,6 +364,7 @@ def run_distributed(
     as local processes on a loopback port; this process is the ui node (the window).
     All stop when the window closes or when one of them fails (one ``error:`` line,
     exit code 1)."""
+    from otgym import registry
     from otgym.bus.sim_node import build_task
     from otgym.cli.launch import NodeProcesses, free_loopback_endpoint
     from otgym.experiments.output_folder import check_out_dir
@@ -400,8 +404,9 @@ def run_distributed(
     app = None
     autonomy = ["autonomy", "--chip", chip, "--navigator", navigator, "--connect", endpoint]
     try:
-        if remote_autonomy and navigator == "mpc":  # ready before the sim starts its first trial
-            print("starting the model-predictive autonomy node first (it compiles for about a minute) ...", flush=True)
+        note = registry.entry("navigators", navigator).extras.get("start_note")
+        if remote_autonomy and note:  # ready before the sim starts its first trial
+            print(f"starting the {navigator} autonomy node first ({note}) ...", flush=True)
             nodes.start("autonomy", autonomy)
             try:
                 nodes.wait_ready(900.0)

@@ -6,10 +6,16 @@ Tags say what a part is usable for. Devices: ``play`` (``otgym play --device``),
 ``node`` (``otgym node device --device``), ``window`` (the window node's own input),
 ``driver`` (a ``Device`` that ``otgym.teleop.device.open_device`` builds by name);
 extra ``play_binding``: how it drives the two robots (``otgym.ui.bindings.PlayBinding``).
-Navigators: ``trial-mode`` (also a mode of the batched trials, beside manual, shared
-and autonomous), ``shared`` (the autonomy that shared control blends with); extras
-``label`` (its short name in reports), ``about`` (what it does, in a report's words) and
-``measured`` (its measured full-size result on the shared-control study, with where).
+Navigators (each a class with ``for_task(task, max_speed_um_s=...)``, and optionally
+``warm_up()``, which the autonomy node calls before its first answer): ``trial-mode``
+(also a mode of the batched trials, beside manual, shared and autonomous), ``shared``
+(the autonomy that shared control blends with), ``in-process`` (cheap enough to answer
+in the simulation's own process: ``otgym play`` runs it without ``--distributed``),
+``session-default`` (the one a session runs itself when no other is named); extras
+``label`` (its short name in reports), ``about`` (what it does, in a report's words),
+``measured`` (its measured full-size result on the shared-control study, with where)
+and ``start_note`` (for one that takes long to start: what it does meanwhile; the
+autonomy node says so and ``otgym play --distributed`` starts it first and waits).
 Plants (what moves the interactive task's bodies under the controller's trap
 commands: ``otgym node sim --plant``): a callable ``(task, measured, send_start)`` that
 returns what ``InteractiveLoop`` steps (``otgym.task.rig``); tag ``measured``: its
@@ -183,7 +189,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "route",
         "otgym.autonomy.navigator:RouteNavigator",
         "the formation follows the planned route at a cruise speed (the paper's autonomy)",
-        ("shared",),
+        ("shared", "in-process", "session-default"),
         {"label": "route follower"},
     ),
     (
@@ -194,6 +200,8 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         ("trial-mode", "shared"),
         {
             "label": "MPC",
+            "start_note": "its model, grip calibration and first compile take about a minute on 2 cores; "
+            "its replans, about 74 ms each, need a process of their own",
             "about": "the MPC (model-predictive navigation: it predicts the obstacles and steps aside or waits)",
             "measured": "the MPC's measured rate is 128 of 128 goals and 459 of 460 obstacles avoided on 128 "
             "held-out scenarios (`otgym experiment shared-control --modes mpc`, seed 13; docs/mpc.md)",
@@ -204,7 +212,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "rl",
         "otgym.autonomy.rl_navigator:RLNavigator",
         "the route navigator with a learned speed (a DQN trained on the interactive task)",
-        ("trial-mode", "shared"),
+        ("trial-mode", "shared", "in-process"),
         {
             "label": "learned speed",
             "about": "the learned speed (the route follower whose speed a DQN chooses: it slows or waits for "

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from otgym import registry
 from otgym.runtime.worker import WorkerParts
 
 
@@ -42,9 +43,10 @@ def play_setup(
         recording.path.unlink(missing_ok=True)
 
     autonomy = None
-    if navigator == "rl":  # the learned speed: one forward pass per 0.5 s, cheap enough for the sim's process
-        from otgym.autonomy.rl_navigator import RLNavigator, TrialAutonomy
+    if "session-default" not in registry.entry("navigators", navigator).tags:  # answers in this process
+        from otgym.autonomy.by_name import navigator_for
+        from otgym.autonomy.rl_navigator import TrialAutonomy
         from otgym.runtime.trials import TASK_RETARGET
 
-        autonomy = TrialAutonomy(RLNavigator.for_task(task, max_speed_um_s=TASK_RETARGET.max_trap_speed_um_s))
+        autonomy = TrialAutonomy(navigator_for(navigator, task, TASK_RETARGET.max_trap_speed_um_s))
     return WorkerParts(task, bindings, sink=recording, autonomy=autonomy, on_failure=discard)
