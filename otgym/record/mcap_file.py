@@ -169,14 +169,17 @@ class RecordedMessage:
 @dataclasses.dataclass(frozen=True)
 class Recording:
     """The messages of an MCAP file in file order; ``complete`` False when the file
-    ends early (its writer died): then ``messages`` are those of its whole chunks."""
+    ends early (its writer died): then ``messages`` are those of its whole chunks.
+    ``other_counts``: messages per topic of the channels in other encodings than CDR
+    (the Foxglove scene's protobuf), counted, not read."""
 
     messages: list[RecordedMessage]
     complete: bool
+    other_counts: dict[str, int] = dataclasses.field(default_factory=dict)
 
     def counts(self) -> dict[str, int]:
-        """Messages per topic."""
-        counts: dict[str, int] = {}
+        """Messages per topic, those of other encodings (``other_counts``) included."""
+        counts: dict[str, int] = dict(self.other_counts)
         for message in self.messages:
             counts[message.topic] = counts.get(message.topic, 0) + 1
         return counts
@@ -199,10 +202,11 @@ def check_mcap(path) -> None:
 def read_recording(path) -> Recording:
     """Every ROS 2 (CDR) message of the MCAP file ``path`` (read sequentially, so a file
     without its summary reads too; channels of other encodings, such as the Foxglove
-    scene, are skipped); ValueError for a file that is not MCAP."""
+    scene, are counted only); ValueError for a file that is not MCAP."""
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     messages: list[RecordedMessage] = []
+    other_counts: dict[str, int] = {}
     complete = False
     with open(path, "rb") as stream:
         reader = StreamReader(stream)
@@ -218,6 +222,7 @@ def read_recording(path) -> Recording:
                     if schema is None:
                         raise ValueError(f"{path}: a message refers to an unknown channel or schema")
                     if channel.message_encoding != "cdr":
+                        other_counts[channel.topic] = other_counts.get(channel.topic, 0) + 1
                         continue
                     messages.append(
                         RecordedMessage(
@@ -234,4 +239,4 @@ def read_recording(path) -> Recording:
             raise ValueError(f"{path} is not an MCAP file") from None
         except (McapError, struct.error, zstandard.ZstdError):  # a record cut short by the writer's death
             pass
-    return Recording(messages, complete)
+    return Recording(messages, complete, other_counts)

@@ -71,6 +71,19 @@ def test_recording_reads_back_with_the_mcap_reader_per_topic_and_byte_for_byte(t
     assert read_recording(path).complete
 
 
+def test_a_channel_of_another_encoding_is_counted_not_read(tmp_path):
+    """The Foxglove scene (protobuf) beside the CDR topics: ``read_recording`` reads the
+    CDR messages only and counts the others per topic, so ``otgym replay`` lists them."""
+    path = tmp_path / "s.mcap"
+    with McapRecorder(path) as recorder:
+        sent = session(recorder, 3)
+        for t_ns in (1, 2):
+            recorder.write_encoded("/otgym/scene", ("foxglove.SceneUpdate", "protobuf", b"x"), "protobuf", b"", t_ns)
+    recording = read_recording(path)
+    assert {message.topic for message in recording.messages} == set(sent)
+    assert recording.counts() == {**{topic: len(data) for topic, data in sent.items()}, "/otgym/scene": 2}
+
+
 def test_chunks_reach_the_file_once_a_second_has_passed(tmp_path):
     """Messages within the flush period stay in the open chunk; the first message a
     period after the last flush writes them all out (a fake monotonic clock)."""
