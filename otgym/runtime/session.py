@@ -147,7 +147,11 @@ class Session:
 
     def _warm_up(self) -> None:
         """Two ticks of a throwaway loop on trial 1's scenario: the jitted step and the
-        loop's helpers compile here, not in the first seconds of the trial."""
+        loop's helpers compile here, not in the first seconds of the trial. Not for a
+        plant whose ``warm_up_in_session`` is False (a rig: its reset tells the rig where
+        a trial starts, and a throwaway loop is no trial)."""
+        if not getattr(self.task, "warm_up_in_session", True):
+            return
         loop = InteractiveLoop(
             self.task, self.bindings, self.task.scenario(self._scenario_seed(self.trial + 1)), self.mode, seed=0
         )

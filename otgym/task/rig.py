@@ -116,6 +116,10 @@ class RigPlant:
     tells it where a trial starts every sphere. Everything but ``reset``, ``dispatch``
     and ``complete`` is the task's (chip, route, bodies, configuration)."""
 
+    warm_up_in_session = False
+    """A session runs no throwaway warm-up loop on a rig: each ``reset`` sends the rig a
+    trial's start, and the rig would get one for a trial that never runs."""
+
     def __init__(
         self,
         task: InteractiveTask,

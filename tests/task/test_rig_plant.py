@@ -251,3 +251,18 @@ def test_teleoperation_moves_the_rigs_robot_and_feeds_back_a_force():
     assert moved[robot0, 0].min() > 1.0 and np.abs(moved[robot1]).max() < 0.1, moved[:, 0]
     assert loop.state.metrics.rows()[0]["trap_losses"] == 0
     assert stylus.forces and np.all(np.isfinite(stylus.forces))
+
+
+def test_a_session_on_a_rig_sends_one_start_per_trial():
+    """``Session.start`` on a rig plant: the rig hears trial 1's start once (a session's
+    warm-up loop on the plant sent it a start of its own before, for a throwaway loop)."""
+    from otgym.runtime.session import Session
+
+    starts = []
+    plant = RigPlant(shared_task(), MeasuredPoses(), lambda xy, stamp_s: starts.append(np.array(xy)))
+    session = Session(plant, [], "P1", "autonomous", 3)
+    session.start()
+    try:
+        assert len(starts) == 1 and session.trial == 1
+    finally:
+        session.close()
