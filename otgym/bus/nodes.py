@@ -225,14 +225,7 @@ def run_autonomy_node(
     from otgym.task.layout import layout_of, observation_from_spheres
 
     if navigator is None:
-        navigator = RouteNavigator(
-            task.route_um,
-            task.route_arc_um,
-            task.offsets_um,
-            task.config.tick_s,
-            cruise_speed_um_s,
-            max_speed_um_s=max_speed_um_s,
-        )
+        navigator = RouteNavigator.for_task(task, max_speed_um_s, cruise_speed_um_s)
     layout = layout_of(task)
     latest: dict[str, object] = {}
     fresh = threading.Condition()
