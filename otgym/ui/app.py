@@ -113,8 +113,8 @@ class PlayApp:
         self.step = step
         self.fps = fps
         self.dirty_rects = dirty_rects
+        pygame.display.set_caption("otgym play")  # before the window: it opens with its title
         self.screen = screen if screen is not None else pygame.display.set_mode(WINDOW_SIZE)
-        pygame.display.set_caption("otgym play")
         self.clock = pygame.time.Clock()
         self.type = fonts()
         layout = session.layout

@@ -172,8 +172,8 @@ def run_study(folder: ParticipantFolder, answers: dict | None = None) -> dict:
     pygame.font.init()
     windowed = []
     try:
+        pygame.display.set_caption(f"otgym study: {protocol.name}")  # before the window: it opens with its title
         screen = pygame.display.set_mode(WINDOW_SIZE)
-        pygame.display.set_caption(f"otgym study: {protocol.name}")
         clock = pygame.time.Clock()
         fresh = not folder.finished_trials()
         if fresh:

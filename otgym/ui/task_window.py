@@ -301,8 +301,8 @@ def play_task(
     pygame.display.init()
     pygame.font.init()
     try:
+        pygame.display.set_caption(f"otgym play --task {task_name}")  # before the window: it opens with its title
         screen = pygame.display.set_mode(WINDOW_SIZE)
-        pygame.display.set_caption(f"otgym play --task {task_name}")
         title = f"otgym play: task {task_name!r}, device {device}"
         status = StartupStatus("building the task and compiling its step")
         draw_startup(screen, fonts(), title, status.text, 0.0)

@@ -33,6 +33,8 @@ PLAY_END_S = 420.0
 """The bound on the play session's end after the probe: the session at a fraction of
 real time under load, then the sim's end, the recorder's drain and each node's stop
 (up to 10 s each before SIGKILL)."""
+NODES_READY_S = 900.0
+"""How long ``otgym play --distributed`` waits for its nodes to be ready."""
 PROBE_DEADLINE_S = 120.0
 """The probe's bound on all its waits together (discovery, 10 PoseArrays, the traps moving)."""
 
@@ -134,13 +136,23 @@ def test_play_distributed_with_ros2_records_its_trial_shows_it_on_the_graph_and_
 
     marker = uuid.uuid4().hex
     play = launch(tmp_path, marker, "--ros2", "--duration", str(SESSION_S), "--mode", "shared")
-    probe_deadline_s = STARTUP_S * 2 + PROBE_DEADLINE_S
+    # the probe waits as long as the launcher waits for its nodes, a guard against a hang
+    # only (with STARTUP_S * 2 + PROBE_DEADLINE_S, 300 s, it gave up once in a cold run of
+    # the whole suite on the loaded 2 cores; what otgym play printed was not kept then)
+    probe_deadline_s = NODES_READY_S + PROBE_DEADLINE_S
     probe = spawn(str(ROOT / "tests" / "bus" / "ros2_probe.py"), str(probe_deadline_s), "--listen-only")
     try:
         output, _ = probe.communicate(timeout=probe_deadline_s + 60)
         lines = [line for line in output.splitlines() if line.startswith("result: ")]
         assert probe.returncode == 0 and lines, output[-3000:]
         result = json.loads(lines[-1].removeprefix("result: "))
+        if "failed" in result:  # what the session printed tells how far it came
+            if play.poll() is None:
+                os.kill(play.pid, signal.SIGKILL)
+            rest, errors = play.communicate()
+            raise AssertionError(
+                f"{result}; otgym play (exit code {play.returncode}) printed:\n{(rest + errors)[-3000:]}"
+            )
         assert "failed" not in result, result
         assert result["pose_arrays"] >= 10 and result["poses_per_array"] == [4], result
         assert {"walls", "robots", "traps"} <= set(result["marker_namespaces"])
