@@ -74,6 +74,7 @@ def _stop(child: subprocess.Popen) -> str:
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("ros2_sessions")  # never beside the ROS 2 play test: real-time sessions of their own
 def test_otgyms_autonomy_drives_an_rclpy_rig_to_the_goal_and_the_recorder_records_it(
     ros_env,  # noqa: F811
     children,  # noqa: F811

@@ -1,9 +1,10 @@
 """``otgym play --distributed``: the sim, device, recorder and autonomy nodes as local
-processes and the window as the ui node, headless. A node killed mid-session stops
-them all with one error line, and no process it started is left: every one of them
-carries a marker in its environment, looked for in /proc afterwards. A session that
-ends by itself, with its trials.csv and the recorder's session.mcap, is checked with
-the ROS 2 bridge beside it (``tests/bus/test_ros2_bridge.py``: one session serves both)."""
+processes and the window as the ui node, headless. A short session ends by itself and
+leaves trials.csv and the recorder's session.mcap; a node killed mid-session stops
+them all with one error line. Either way no process it started is left: every one of
+them carries a marker in its environment, looked for in /proc afterwards. The short
+session's launcher runs in this process (``tests.otgym_cli``: its nodes are processes
+all the same); the other is a process, read line by line while it runs."""
 
 from __future__ import annotations
 
@@ -72,6 +73,53 @@ def wait_gone(marker: str, timeout_s: float = 60.0) -> list[int]:
     while marked(marker) and time.monotonic() < deadline:
         time.sleep(0.1)
     return marked(marker)
+
+
+@pytest.mark.slow
+def test_a_distributed_session_records_its_trial_and_leaves_nothing_running(tmp_path, monkeypatch):
+    """A 3 s shared-mode session: the window's trials.csv has the one trial's row (D1,
+    ended by its duration at 3.0 s of simulated time) and the recorder's session.mcap is
+    complete and tells the same trial: its events in order (one trial_start of trial 1,
+    D1, shared, the row's scenario; one trial_end whose every field is the row's;
+    session_end last, with the 150 ticks of 3 s), and the streams it recorded from the
+    bus: every tick's traps at most once (a stream may drop a message under load, never
+    duplicate one), in order of their stamps, and the stylus's twists and the autonomy's
+    increments present. Nothing it started is left running. Catches a recorder that misses
+    or repeats events, rows and events that disagree, or a session cut short."""
+    from otgym.bus import messages as msg
+    from otgym.record.mcap_file import read_recording
+    from otgym.record.replay import events, summary
+    from tests.otgym_cli import run_otgym
+
+    marker = uuid.uuid4().hex
+    monkeypatch.setenv("OTGYM_TEST_MARKER", marker)  # the nodes this process starts inherit it
+    run = run_otgym(play_arguments(tmp_path, "--duration", "3", "--mode", "shared"))
+    assert run.returncode == 0, run.stderr
+    assert wait_gone(marker) == []
+    with open(tmp_path / "trials.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 1 and rows[0]["participant"] == "D1" and rows[0]["ended_by"] == "duration"
+    assert float(rows[0]["completion_time_s"]) == pytest.approx(3.0, abs=0.011)
+    recording = read_recording(tmp_path / "session.mcap")
+    recorded = summary(recording)
+    assert recorded["complete"] and recorded["trials"] == 1 and recorded["ended_by"] == ["duration"]
+    trial_events = events(recording)
+    names = [event["event"] for event in trial_events]
+    assert names[0] == "trial_start" and names[-1] == "session_end" and names.count("trial_end") == 1, names
+    start, end = trial_events[0], trial_events[names.index("trial_end")]
+    assert (start["trial"], start["participant"], start["mode"]) == (1, "D1", "shared")
+    assert start["scenario"] == int(rows[0]["scenario"])
+    for column, value in rows[0].items():
+        assert column in end, column
+        if isinstance(end[column], float):
+            assert float(value) == pytest.approx(end[column], rel=1e-9), column
+        else:
+            assert value == ("" if end[column] is None else str(end[column])), column
+    assert trial_events[-1]["ticks"] == 150 and trial_events[-1]["trials"] == 1
+    traps = [msg.stamp_s(msg.decode(msg.TRAPS, message.data)) for message in recording.topic(msg.TRAPS)]
+    assert 0 < len(traps) <= 150 and all(b > a for a, b in zip(traps, traps[1:]))
+    counts = recorded["counts"]
+    assert counts["/otgym/device/device0/twist"] > 0 and counts["/otgym/autonomy/increments"] > 0
 
 
 @pytest.mark.slow
