@@ -42,12 +42,21 @@ def main(deadline_s: float, drive: bool = True) -> int:
     twist = node.create_publisher(TwistStamped, "/otgym/device/device0/twist", stream)
     buttons = node.create_publisher(Joy, "/otgym/device/device0/buttons", stream)
     result: dict = {}
-    deadline = time.monotonic() + deadline_s
+    started = time.monotonic()
+    deadline = started + deadline_s
 
     def spin_until(condition, what: str) -> bool:
         while not condition():
             if time.monotonic() > deadline:
                 result["failed"] = what
+                result["seen"] = {  # what it had, to tell a silent graph from a late one
+                    "pose_arrays": len(traps),
+                    "marker_arrays": len(markers),
+                    "traps_publishers": node.count_publishers("/otgym/traps"),
+                    "markers_publishers": node.count_publishers("/otgym/markers"),
+                    "nodes": sorted(node.get_node_names()),
+                    "waited_s": round(time.monotonic() - started, 1),
+                }
                 return False
             executor.spin_once(timeout_sec=0.05)
         return True

@@ -128,7 +128,10 @@ def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_p
         lines = [line for line in output.splitlines() if line.startswith("result: ")]
         assert probe.returncode == 0 and lines, output[-3000:]
         result = json.loads(lines[-1].removeprefix("result: "))
-        assert "failed" not in result, result
+        if "failed" in result:  # the session's side too, to tell a silent graph from a late session
+            play.send_signal(signal.SIGINT)
+            rest, _ = play.communicate(timeout=PLAY_END_S)
+            raise AssertionError(f"{result}\notgym play (exit {play.returncode}):\n{rest[-3000:]}")
         assert result["pose_arrays"] >= 10 and result["poses_per_array"] == [4], result
         assert {"walls", "robots", "traps"} <= set(result["marker_namespaces"])
         try:  # the rest of the session (slower than real time under load), then the nodes' ends
