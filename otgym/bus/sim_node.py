@@ -156,6 +156,7 @@ def run_sim_node(
     takeover: list[str] = (),
     participant: str = "P1",
     hold_between_trials: bool = False,
+    hold_first_trial: bool = False,
 ) -> int:
     """The sim node with its session ticking in this process, until ``stop`` is set, a
     ``quit`` command, or ``duration_s`` of simulated time spent; returns the ticks run.
@@ -178,6 +179,7 @@ def run_sim_node(
         sink=sink,
         autonomy=autonomy,
         hold_between_trials=hold_between_trials,
+        hold_first_trial=hold_first_trial,
     )
     follow_commands(node, session, stop.set)
     session.start()
@@ -235,6 +237,7 @@ def serve_sim_node(
     takeover: list[str] = (),
     participant: str = "P1",
     hold_between_trials: bool = False,
+    hold_first_trial: bool = False,
     plant: str = "simulator",
     on_ready: Callable[[], None] | None = None,
     on_status: Callable[[str], None] | None = None,
@@ -258,6 +261,7 @@ def serve_sim_node(
         forwarded_caps=tuple(r.caps for r in remotes),
         forwarded_haptics=True,
         hold_between_trials=hold_between_trials,
+        hold_first_trial=hold_first_trial,
         snapshots=False,
     )
 

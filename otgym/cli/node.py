@@ -134,6 +134,12 @@ def sim(
     hold: bool = typer.Option(
         False, "--hold", help="After each trial wait for a next_trial command (a ui node's questionnaires)."
     ),
+    wait_for_start: bool = typer.Option(
+        False,
+        "--wait-for-start",
+        help="Start the first trial on a next_trial command, not at once (otgym play sends it when every node "
+        "of its session is ready and the window is open).",
+    ),
     chip: Chip = "default",
     autonomy: str = options.name(
         "local",
@@ -188,7 +194,8 @@ def sim(
             f"sim for devices {', '.join(names)}"
             + (f", taken over by {', '.join(takeovers)}" if takeovers else "")
             + (" with a remote autonomy" if remote_autonomy else "")
-            + (f", plant {plant}" if plant != "simulator" else ""),
+            + (f", plant {plant}" if plant != "simulator" else "")
+            + ("; trial 1 waits for next_trial" if wait_for_start else ""),
         )
         try:
             stats = serve_sim_node(
@@ -203,6 +210,7 @@ def sim(
                 takeover=takeovers,
                 participant=participant,
                 hold_between_trials=hold,
+                hold_first_trial=wait_for_start,
                 plant=plant,
                 on_ready=ready,
                 on_status=lambda text: print(f"sim: {text} ...", flush=True),

@@ -332,7 +332,15 @@ def _window_over_nodes(
     with Node("ui", "ui", connect=[endpoint]) as node:
         try:
             app = run_window(
-                node, layout, window_kind, shown, out, questionnaire=questionnaire, screenshot=screenshot, stop=stop
+                node,
+                layout,
+                window_kind,
+                shown,
+                out,
+                questionnaire=questionnaire,
+                screenshot=screenshot,
+                stop=stop,
+                start_first_trial=True,
             )
         except DeviceError as error:  # e.g. no gamepad: the nodes stop all the same
             raise ValueError(str(error)) from None
@@ -398,6 +406,7 @@ def run_distributed(
         *sim_devices,
     ]
     sim += (["--duration", repr(duration_s)] if duration_s is not None else []) + (["--hold"] if questionnaire else [])
+    sim += ["--wait-for-start"]  # trial 1 once every node is ready and the window open (_window_over_nodes)
     sim += ["--autonomy", "remote"] if remote_autonomy else []
     nodes = NodeProcesses()
     failed: list[str] = []

@@ -35,7 +35,9 @@ the simulated time at which the trial ended, whatever ended it (``reached_goal``
 whether the goal was reached; the task alone leaves it empty unless DONE). With
 ``hold_between_trials`` (``otgym play``) the row waits in ``take_finished`` and no
 tick runs until ``next_trial`` is posted (the questionnaires come in between);
-without it the next trial starts at once. A reset (R) abandons the trial without a row
+without it the next trial starts at once. With ``hold_first_trial`` (the sim node of
+``otgym play --distributed``) trial 1 too waits for ``next_trial``: the session's other
+nodes, the window among them, are up before its clock starts. A reset (R) abandons the trial without a row
 and starts the next trial number.
 """
 
@@ -88,6 +90,7 @@ class Session:
         hold_between_trials: bool = True,
         forwarded: tuple[ForwardedDevice, ...] = (),
         first_trial: int = 1,
+        hold_first_trial: bool = False,
     ):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
@@ -103,6 +106,7 @@ class Session:
         self.sink = sink
         self.autonomy = autonomy
         self.hold_between_trials = hold_between_trials
+        self.hold_first_trial = hold_first_trial
         self.forwarded = tuple(forwarded)
         self.trial = first_trial - 1
         self.paused = False
@@ -116,6 +120,8 @@ class Session:
         self._commands: collections.deque = collections.deque()
         self._finished: collections.deque = collections.deque()
         self._waiting = False
+        self._held_start = False
+        """Before trial 1 under ``hold_first_trial``: waiting for ``next_trial``."""
         self._next_tick_wall_s = 0.0
         self._modes_used: list[str] = []
         self._autonomy_live = True
@@ -138,12 +144,16 @@ class Session:
 
     # --- lifetime -----------------------------------------------------------------
     def start(self) -> None:
-        """Start every device (none left running if one fails), then trial 1."""
+        """Start every device (none left running if one fails), then trial 1 (with
+        ``hold_first_trial``: once ``next_trial`` is posted)."""
         start_devices([binding.device for binding in self.bindings])
         self._warm_up()
         if self.sink is not None:
             self.sink.describe(self.task)  # the chip, route and spheres: a replay or a ui node draws the global view
-        self._new_trial()
+        if self.hold_first_trial:
+            self._waiting = self._held_start = True
+        else:
+            self._new_trial()
 
     def _warm_up(self) -> None:
         """Two ticks of a throwaway loop on trial 1's scenario: the jitted step and the
@@ -263,7 +273,7 @@ class Session:
     def advance(self, now_s: float | None = None) -> int:
         """Apply posted commands, then run the ticks due by the wall clock; returns how many ran."""
         self._apply_commands()
-        if self._waiting and not self.hold_between_trials and not self.over:
+        if self._waiting and not self.hold_between_trials and not self._held_start and not self.over:
             self._new_trial()
         if self.paused or self._waiting or self.over:
             return 0
@@ -377,7 +387,7 @@ class Session:
             autonomy=self.autonomy,
         )
         self._modes_used = [self.mode]
-        self._waiting = False
+        self._waiting = self._held_start = False
         self._next_tick_wall_s = self.clock()
         self._publish(None, None)
         if self.sink is not None:

@@ -104,6 +104,7 @@ class WorkerSpec:
     snapshots: bool = True
     threads: int = 1
     first_trial: int = 1
+    hold_first_trial: bool = False
 
 
 def thread_limits(threads: int) -> dict[str, str]:
@@ -202,6 +203,7 @@ def _worker_main(
             hold_between_trials=spec.hold_between_trials,
             forwarded=tuple(forwarded),
             first_trial=spec.first_trial,
+            hold_first_trial=spec.hold_first_trial,
         )
         send(("status", STATUS_COMPILING))
         session.start()

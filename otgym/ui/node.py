@@ -327,12 +327,16 @@ def run_window(
     screenshot=None,
     stop: threading.Event | None = None,
     start_timeout_s: float = 600.0,
+    start_first_trial: bool = False,
 ):
     """The window on the bus until Esc, the window closing, the sim's session ending or
     ``stop`` set: trials.csv (and questionnaires.csv) in ``out_dir`` from the sim's
     ``trial_end`` rows, ``screenshot`` saved at the end. The window devices of
     ``kind`` are opened here (a missing gamepad: ``DeviceError`` before the window).
-    Returns the ``PlayApp`` (frame times, trials written)."""
+    With ``start_first_trial`` (a sim started with ``--wait-for-start``) the window, once
+    open and subscribed, sends the ``next_trial`` that starts trial 1, after the sim's
+    command subscriber is matched (``Node.wait_for_subscribers``, at most
+    ``start_timeout_s``). Returns the ``PlayApp`` (frame times, trials written)."""
     import pygame
 
     from otgym.teleop.device import start_devices
@@ -361,6 +365,9 @@ def run_window(
         watcher = threading.Thread(target=watch, name="otgym-ui-watch", daemon=True)
         watcher.start()
         try:
+            if start_first_trial:
+                node.wait_for_subscribers(msg.COMMAND, start_timeout_s)
+                session.next_trial()
             app.run()
             if screenshot is not None:
                 app.save_screenshot(screenshot)

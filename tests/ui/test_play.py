@@ -87,6 +87,52 @@ def session(task, tmp_path):
     pygame.quit()
 
 
+class EventSink:
+    """A session's sink that keeps the names of its events and counts its ticks."""
+
+    def __init__(self):
+        self.events: list[str] = []
+        self.ticks = 0
+
+    def describe(self, task) -> None:
+        self.events.append("describe")
+
+    def tick(self, record, sphere_xy_um, mode) -> None:
+        self.ticks += 1
+
+    def event(self, name: str, **fields) -> None:
+        self.events.append(name)
+
+    def close(self) -> None:
+        pass
+
+
+def test_a_session_holding_its_first_trial_ticks_nothing_until_next_trial(task):
+    """``hold_first_trial`` (the sim of ``otgym play --distributed``, ``--wait-for-start``):
+    after ``start`` the chip is described but trial 1 does not start, and no tick runs
+    however much wall time passes, until ``next_trial`` is posted; then trial 1 runs
+    from its start and, without ``hold_between_trials``, trial 2 follows it at once."""
+    clock, sink = SteppedClock(), EventSink()
+    simulation = Session(
+        task, play_bindings([SpyStylus(), None], clutch=True), "H1", "manual", seed=3, clock=clock, sink=sink,
+        hold_between_trials=False, hold_first_trial=True,
+    )  # fmt: skip
+    simulation.start()
+    try:
+        for _ in range(5):
+            clock.advance(1.0)
+            assert simulation.advance() == 0
+        assert (simulation.trial, simulation.ticks, sink.ticks, sink.events) == (0, 0, 0, ["describe"])
+        simulation.next_trial()
+        clock.advance(1.0)
+        assert simulation.advance() == 1 and simulation.trial == 1  # its first tick, at the command
+        clock.advance(0.04)
+        assert simulation.advance() == 2 and sink.ticks == 3
+        assert sink.events[:2] == ["describe", "trial_start"] and simulation.loop.time_s == pytest.approx(0.06)
+    finally:
+        simulation.close()
+
+
 def press(app, key, frames=1, step_s=0.06):
     pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=key, mod=0, unicode="", scancode=0))
     run_frames(app, frames, step_s)
