@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from otgym.cli import options
-from otgym.experiments.seeds import REPORT_SEEDS
+from otgym.experiments.common.seeds import REPORT_SEEDS
 
 
 def parse_speeds(text: str) -> list[float]:
@@ -32,7 +32,7 @@ def _check_speeds(value: str) -> str:
 
 
 def _check_modes(value: str) -> str:
-    from otgym.experiments.shared_control import parse_modes
+    from otgym.experiments.shared_control.config import parse_modes
 
     try:
         parse_modes(value)
@@ -42,7 +42,7 @@ def _check_modes(value: str) -> str:
 
 
 def _check_trace(value: str | None) -> str | None:
-    from otgym.experiments.trace_files import parse_trace
+    from otgym.experiments.shared_control.trace_files import parse_trace
 
     if value is not None:
         try:
@@ -120,21 +120,17 @@ def register(app: typer.Typer) -> None:
         Example: otgym experiment shared-control --participants 8 --trials 8 --out results/fig8
         """
         from otgym.autonomy.mpc import MPCConfig
-        from otgym.experiments.output_folder import check_out_dir
-        from otgym.experiments.shared_control import (
-            check_arguments,
-            mpc_summary,
-            parse_modes,
-            run_experiment,
-            write_experiment,
-        )
+        from otgym.experiments.common.output_folder import check_out_dir
+        from otgym.experiments.shared_control.config import check_arguments, parse_modes
+        from otgym.experiments.shared_control.report import mpc_summary, write_experiment
+        from otgym.experiments.shared_control.run import run_experiment
         from otgym.task.task import InteractiveConfig
 
         chosen = parse_modes(modes)
         check_arguments(participants, trials, seed)
         traced = None
         if trace is not None:
-            from otgym.experiments.trace_files import check_trace
+            from otgym.experiments.shared_control.trace_files import check_trace
 
             try:
                 traced = check_trace(trace, participants, trials)
@@ -147,7 +143,7 @@ def register(app: typer.Typer) -> None:
         except ValueError as error:
             raise ValueError(f"--mpc-rollouts/--mpc-plan-steps: {error}") from None
         check_out_dir(out)
-        from otgym.experiments.seeds import development_note, mark_report_files
+        from otgym.experiments.common.seeds import development_note, mark_report_files
 
         note = development_note("shared-control", seed, trials=trials)
         if note:
@@ -169,7 +165,11 @@ def register(app: typer.Typer) -> None:
         )
         bound, route_bound_s = "", None
         if "shared" in chosen and "autonomous" in chosen:
-            from otgym.experiments.route_bound import ROUTE_SPEED_UM_S, run_route_bound, write_route_bound
+            from otgym.experiments.shared_control.route_bound import (
+                ROUTE_SPEED_UM_S,
+                run_route_bound,
+                write_route_bound,
+            )
 
             print("route-keeping bound (the earliest passage on these scenarios, perfect foresight):", flush=True)
             summary = write_route_bound(
@@ -193,7 +193,7 @@ def register(app: typer.Typer) -> None:
         )
         mark_report_files("shared-control", seed, [out / "summary.md"], [out / "acceptance.json"], trials=trials)
         if traced is not None:
-            from otgym.experiments.trace_files import write_traces
+            from otgym.experiments.shared_control.trace_files import write_traces
 
             written = write_traces(traces, out, *traced)
             print(f"traced participant {traced[0]}'s trial {traced[1]}: " + ", ".join(p.name for p in written))
@@ -234,14 +234,14 @@ def register(app: typer.Typer) -> None:
 
         Example: otgym experiment route-bound --trials 8 --out results/route-bound
         """
-        from otgym.experiments.output_folder import check_out_dir
-        from otgym.experiments.route_bound import run_route_bound, write_route_bound
-        from otgym.experiments.shared_control import check_arguments
+        from otgym.experiments.common.output_folder import check_out_dir
+        from otgym.experiments.shared_control.config import check_arguments
+        from otgym.experiments.shared_control.route_bound import run_route_bound, write_route_bound
 
         speeds = parse_speeds(speeds_um_s)
         check_arguments(2, trials, seed)
         check_out_dir(out)
-        from otgym.experiments.seeds import development_note, mark_report_files
+        from otgym.experiments.common.seeds import development_note, mark_report_files
 
         note = development_note("route-bound", seed, trials=trials)
         if note:

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from otgym.experiments.human_sensitivity import (
+from otgym.experiments.human_sensitivity.run import (
     DUMMY,
     analyse,
     check_arguments,

@@ -1,4 +1,4 @@
-"""The learned speed policy's training (``otgym.experiments.train_interactive_speed``)
+"""The learned speed policy's training (``otgym.experiments.learned_speed.train``)
 and its navigator in the batched trials, tiny: one round of two environments cut at
 2 s; trials of 3 s."""
 
@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from otgym.autonomy.rl_navigator import N_FEATURES, SPEEDS_UM_S, load_speed_policy
-from otgym.experiments.train_interactive_speed import SpeedTrainingConfig, save_speed_policy, train
+from otgym.experiments.learned_speed.train import SpeedTrainingConfig, save_speed_policy, train
 from otgym.human.params import sample_population
 from otgym.runtime.trials import TrialSpec, run_trials
 from otgym.task.task import InteractiveConfig, InteractiveTask
 from tests.autonomy.test_rl_navigator import Fixed
 
-SCENARIO = 960_000  # a training scenario (otgym.experiments.seeds)
+SCENARIO = 960_000  # a training scenario (otgym.experiments.common.seeds)
 
 
 class Counting(Fixed):

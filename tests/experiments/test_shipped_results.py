@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from otgym.experiments import shipped_results as sr
+from otgym.experiments.demo import shipped_results as sr
 
 SUMMARY_HEADER = (
     "mode,trials,participants,success_mean,success_sd,obstacles_encountered,obstacles_avoided,avoided_rate,"
@@ -119,7 +119,7 @@ def test_a_folder_without_its_command_is_refused_by_name(tmp_path):
 def test_the_shipped_files_are_report_runs_on_held_out_seeds():
     """What the demo quotes: the front of the shipped policy (1,024 held-out episodes) and,
     where shipped, the Fig. 8 runs, each on a seed listed as a report seed."""
-    from otgym.experiments.seeds import DEVELOPMENT, REPORT_SEEDS
+    from otgym.experiments.common.seeds import DEVELOPMENT, REPORT_SEEDS
 
     front = sr.shipped_front()
     assert front is not None and front["seed_status"] == "held out" and front["episodes"] >= 1024
