@@ -57,6 +57,7 @@ def register(app: typer.Typer) -> None:
         help="The paper's experiments: Fig. 8 with simulated participants, Table II as a front.", no_args_is_help=True
     )
     app.add_typer(experiment, name="experiment")
+    from otgym.cli.baselines import register as register_baselines
     from otgym.cli.calibrate import register as register_calibrate
     from otgym.cli.distil_mpc import register as register_distil_mpc
     from otgym.cli.human_sensitivity import register as register_human_sensitivity
@@ -70,6 +71,7 @@ def register(app: typer.Typer) -> None:
     register_speed_policy(experiment)
     register_distil_mpc(experiment)
     register_task_experiments(experiment)
+    register_baselines(experiment)
 
     @experiment.command("shared-control")
     def shared_control(

@@ -10,15 +10,13 @@ whole of such a jump the pull on the bead grows as it lags (a rule of thumb, our
 records each episode's end: success, RMS placement error (um), time (s), beads lost,
 collisions.
 
-Run: python -m otgym.experiments.assemble.run [--preset ring ...] [--episodes 64]
-[--seed 0] [--pace baseline|all|INDEX] [--policy policy.npz]
+``baseline_table`` is ``otgym experiment assemble-baseline`` (presets, paces and a
+learned policy side by side on the same episodes).
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import jax
 import jax.numpy as jnp
@@ -119,7 +117,9 @@ def report_outcomes(policy_path, preset: str, episodes: int, seed: int) -> dict:
     return {name: episode_metrics(params, policy, episodes, seed) for name, policy in runs.items()}
 
 
-def _paces(choice: str, config: AssembleConfig) -> list[int]:
+def paces(choice: str, config: AssembleConfig) -> list[int]:
+    """The pace levels ``choice`` names on ``config``: ``baseline`` (``baseline_action``),
+    ``all``, or one level's index; ValueError otherwise."""
     if choice == "baseline":
         return [baseline_action(config)]
     if choice == "all":
@@ -129,46 +129,36 @@ def _paces(choice: str, config: AssembleConfig) -> list[int]:
     return [int(choice)]
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--preset", action="append", choices=list(PRESETS), help="repeatable; default ring")
-    parser.add_argument("--episodes", type=int, default=64)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--pace", default="baseline")
-    parser.add_argument("--policy", default=None, help="a policy.npz from otgym train --task assemble")
-    args = parser.parse_args(argv)
-    presets = args.preset or ["ring"]
-    try:
-        if args.episodes < 1:
-            raise ValueError("--episodes must be a positive integer")
-        for name in presets:
-            _paces(args.pace, PRESETS[name])
-    except ValueError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
+def check_policy(policy_path: str, presets: list[str]) -> None:
+    """ValueError (or OSError) unless ``policy_path`` is a policy file whose network fits
+    every preset of ``presets`` (its shapes traced, nothing compiled)."""
+    from otgym.rl.policy import load_policy
+
+    for name in presets:
+        load_policy(policy_path, core.OBS_SIZE, PRESETS[name].n_actions)
+
+
+def baseline_table(presets: list[str], episodes: int, seed: int, pace: str, policy: str | None) -> Iterator[str]:
+    """The markdown table of ``otgym experiment assemble-baseline``, a line at a time
+    (each row once its episodes ran): per preset, each pace of ``pace`` (and the greedy
+    Q-network of ``policy``, if given) on the same ``episodes`` from ``seed``: success
+    with its 95 % normal interval, RMS error and time of the successes, beads lost,
+    collisions; then, per preset, how often the plan's assignment is the Hungarian one."""
     task = tasks.load("assemble")
-    print("| preset | traps | stiffness pN/um | policy | success | RMS error um | time s | beads lost | collisions |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    yield "| preset | traps | stiffness pN/um | policy | success | RMS error um | time s | beads lost | collisions |"
+    yield "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
     for name in presets:
         params = task.make_params(task.config(name))
         config = params.config
-        runs = [(f"pace {config.pace_levels_um[a]} um/frame", constant(a)) for a in _paces(args.pace, config)]
-        if args.policy:
-            runs.append((f"greedy {args.policy}", greedy(args.policy, params)))
-        for label, policy in runs:
-            s = summary(episode_metrics(params, policy, args.episodes, args.seed))
-            print(
+        runs = [(f"pace {config.pace_levels_um[a]} um/frame", constant(a)) for a in paces(pace, config)]
+        if policy:
+            runs.append((f"greedy {policy}", greedy(policy, params)))
+        for label, run in runs:
+            s = summary(episode_metrics(params, run, episodes, seed))
+            yield (
                 f"| {name} | {config.n_traps} | {config.trap_stiffness_pn_per_um:g} | {label} | "
                 f"{s['success']:.3f} +- {s['success_ci95']:.3f} | {s['rms_error_um']:.3f} | {s['time_s']:.2f} | "
-                f"{s['beads_lost']} | {s['collisions']} |",
-                flush=True,
+                f"{s['beads_lost']} | {s['collisions']} |"
             )
-        equal, worst = assignment_gap(params, args.episodes, args.seed)
-        print(
-            f"<!-- {name}: plan's assignment = Hungarian optimum in {equal:.3f} of resets, worst excess {worst:.2e} -->"
-        )
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+        equal, worst = assignment_gap(params, episodes, seed)
+        yield f"<!-- {name}: plan's assignment = Hungarian optimum in {equal:.3f} of resets, worst excess {worst:.2e} -->"

@@ -1,7 +1,7 @@
 """The ``sort-cells`` scripted baseline against random and idle policies, and the
 trade-off between robots and direct trapping in one table.
 
-``python -m otgym.experiments.sort_cells.run --episodes 64 --seed 0`` prints, for each
+``otgym experiment sort-cells-baselines --episodes 64 --seed 0`` (``table``, ``markdown``) prints, for each
 preset (``robots``, ``direct``, and each manipulator at the other's flow and arrivals:
 ``robots-fast``, ``direct-slow``) and policy, the means over episodes (120 s each) of
 purity, yield, throughput, cells lost and the light dose per cell, with the purity's 95 %
@@ -16,7 +16,6 @@ under every policy."""
 
 from __future__ import annotations
 
-import argparse
 import functools
 
 import jax
@@ -166,20 +165,3 @@ def markdown(rows: list[dict]) -> str:
             f"{r['throughput_cells_per_min']:.2f} | {r['cells_lost']:.2f} | {r['light_dose_per_cell_mj_per_um2']:.3g} |"
         )
     return "\n".join(lines)
-
-
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=int, default=64)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--preset", action="append", choices=list(PRESETS))
-    parser.add_argument("--policy", action="append", choices=list(POLICIES))
-    args = parser.parse_args(argv)
-    if args.episodes < 2:
-        parser.error(f"--episodes must be at least 2, got {args.episodes}")
-    rows = table(args.episodes, args.seed, tuple(args.preset or PRESETS), tuple(args.policy or POLICIES))
-    print(markdown(rows))
-
-
-if __name__ == "__main__":
-    main()
