@@ -89,8 +89,8 @@ def register(app: typer.Typer) -> None:
             "--modes",
             metavar="MODES",
             callback=_check_modes,
-            help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive), "
-            "rl (autonomous with the learned speed).",
+            help="Comma-separated modes: manual, autonomous, shared, or a navigator registered as a trial mode "
+            "(otgym list navigators; built in: mpc, model-predictive; rl, autonomous with the learned speed).",
         ),
         seed: int = options.seed(
             REPORT_SEEDS["shared-control"],
@@ -151,6 +151,7 @@ def register(app: typer.Typer) -> None:
         if note:
             print(note, flush=True)
         stats, traces = {}, {}
+        navigator_config = {"mpc": {"config": mpc_config}}
         frame = run_experiment(
             participants,
             trials,
@@ -160,8 +161,8 @@ def register(app: typer.Typer) -> None:
             report=lambda line: print(line, flush=True),
             time_limit_s=time_limit_s,
             shared_autonomy=shared_autonomy,
-            mpc_config=mpc_config,
-            mpc_stats=stats,
+            navigator_config=navigator_config,
+            navigator_stats=stats,
             trace=traced,
             traces=traces,
         )
@@ -186,10 +187,11 @@ def register(app: typer.Typer) -> None:
             )
             bound = ", route_bound.csv/.json/.md"
             mark_report_files("route-bound", seed, [out / "route_bound.md"], trials=trials)
+        mpc = mpc_summary(stats, mpc_config, InteractiveConfig().tick_s)
         checks = write_experiment(
             frame,
             out,
-            mpc_summary(stats, mpc_config, InteractiveConfig().tick_s) if stats else None,
+            mpc,
             route_bound_s=route_bound_s,
             shared_autonomy=shared_autonomy,
         )
@@ -206,7 +208,7 @@ def register(app: typer.Typer) -> None:
             print(note)
         print(
             f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
-            + (", mpc.json" if stats else "")
+            + (", mpc.json" if mpc else "")
             + bound
         )
 

@@ -38,7 +38,12 @@ def test_training_saves_a_policy_and_the_trials_give_rl_and_shared_the_learned_s
     counting = Counting(len(SPEEDS_UM_S) - 1)
     specs = [TrialSpec(0, mode, 0, SCENARIO) for mode in ("autonomous", "rl", "shared")]
     rows = run_trials(
-        task, specs, dict(enumerate(sample_population(1, 97))), seed=97, shared_autonomy="rl", speed_policy=counting
+        task,
+        specs,
+        dict(enumerate(sample_population(1, 97))),
+        seed=97,
+        shared_autonomy="rl",
+        navigator_config={"rl": {"policy": counting}},
     )
     assert [row["autonomy"] for row in rows] == ["route", "rl", "rl"]
     decisions = int(np.ceil(3.0 / 0.5))

@@ -19,7 +19,6 @@ after every round (rounds use scenarios first, first + scenarios, ...).
 from __future__ import annotations
 
 import dataclasses
-import functools
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -46,7 +45,8 @@ def _task(time_limit_s: float = 300.0) -> InteractiveTask:
 
 
 def _trials(task, scenarios, seed, navigator, stats, pairs: Callable[[], int] | None = None):
-    """Run the scenarios as one batch in mode ``mpc``; progress at every tenth of the
+    """Run the scenarios as one batch in mode ``mpc`` (with ``navigator`` in the MPC's
+    place where given; ``stats`` receives the MPC's replan statistics); progress at every tenth of the
     trials done and at least once a minute of wall time (with ``pairs()``, the
     (features, action) pairs kept so far)."""
     people = dict(enumerate(sample_population(1, seed)))
@@ -61,12 +61,16 @@ def _trials(task, scenarios, seed, navigator, stats, pairs: Callable[[], int] | 
             kept = f", {pairs()} pairs kept" if pairs is not None else ""
             print(f"  {fraction:.0%} of trials done, wall {now - began:.0f} s{kept}", flush=True)
 
-    return run_trials(task, specs, people, seed=seed, progress=progress, mpc_stats=stats, mpc_navigator=navigator)
+    built = {} if navigator is None else {"mpc": navigator}
+    navigators = {}
+    rows = run_trials(task, specs, people, seed=seed, progress=progress, navigator_stats=navigators, navigators=built)
+    stats.update(navigators.get("mpc", {}))
+    return rows
 
 
-def _kept(holder: dict) -> int:
-    """Pairs kept so far by the recording navigator in ``holder`` (0 before it is built)."""
-    return sum(len(f) for f in holder["nav"].features) if "nav" in holder else 0
+def _kept(navigator) -> int:
+    """Pairs kept so far by the recording ``navigator``."""
+    return sum(len(f) for f in navigator.features)
 
 
 DEVELOPMENT_FIRST_SCENARIO = 900_000
@@ -115,21 +119,13 @@ def dagger_rounds(args: DaggerRun) -> None:
     def collect(policy, round_):
         first = args.first + round_ * args.scenarios
         beta = args.beta * args.decay**round_
-        holder = {}
-
-        def factory(*a, **k):
-            holder["nav"] = DAggerNavigator(*a, policy=policy, beta=beta, label_every=args.label_every, **k)
-            return holder["nav"]
-
+        nav = DAggerNavigator.for_task(task, policy=policy, beta=beta, label_every=args.label_every)
         began = time.perf_counter()
         print(
             f"round {round_ + 1}: the clone on scenarios {first}-{first + args.scenarios - 1} (beta {beta:g})",
             flush=True,
         )
-        rows = pd.DataFrame(
-            _trials(task, range(first, first + args.scenarios), 0, factory, {}, pairs=lambda: _kept(holder))
-        )
-        nav = holder["nav"]
+        rows = pd.DataFrame(_trials(task, range(first, first + args.scenarios), 0, nav, {}, pairs=lambda: _kept(nav)))
         taken = np.concatenate(nav.taken) if nav.taken else np.zeros(0, bool)
         share = taken.mean() if len(taken) else 0.0
         print(
@@ -159,14 +155,9 @@ def dagger_rounds(args: DaggerRun) -> None:
 
 def collect(out: Path, scenarios: int = 32, first: int = DEVELOPMENT_FIRST_SCENARIO) -> None:
     """Record the MPC's (features, action) pairs on ``scenarios`` development scenarios."""
-    holder = {}
-
-    def factory(*a, **k):
-        holder["nav"] = RecordingMPCNavigator(*a, **k)
-        return holder["nav"]
-
-    _trials(_task(), range(first, first + scenarios), 0, factory, {}, pairs=lambda: _kept(holder))
-    nav = holder["nav"]
+    task = _task()
+    nav = RecordingMPCNavigator.for_task(task)
+    _trials(task, range(first, first + scenarios), 0, nav, {}, pairs=lambda: _kept(nav))
     np.savez(out, features=np.concatenate(nav.features), actions=np.concatenate(nav.actions))
     print(f"{sum(len(f) for f in nav.features)} pairs -> {out}")
 
@@ -183,7 +174,7 @@ def evaluate(policy: Path, trials: int = 64, seed: int = 14, mpc: bool = False) 
     task = _task()
     scenarios = [seed * 10_000 + t for t in range(trials)]
     stats = {}
-    navigator = None if mpc else functools.partial(PolicyNavigator, policy=ClonedPolicy.load(policy))
+    navigator = None if mpc else PolicyNavigator.for_task(task, seed=seed, policy=ClonedPolicy.load(policy))
     began = time.perf_counter()
     rows = _trials(task, scenarios, seed, navigator, stats)
     frame = pd.DataFrame(rows)

@@ -1,17 +1,18 @@
 """What ``otgym experiment shared-control`` runs, checked before any work or any file:
-its modes (the arbitration modes and the registered navigators that are trial modes,
-``otgym.runtime.trials.TRIAL_MODES``) and its sizes."""
+its modes (the arbitration modes and the navigators registered as trial modes,
+``otgym.runtime.trials.trial_modes``) and its sizes."""
 
 from __future__ import annotations
 
-from otgym.runtime.trials import TRIAL_MODES
+from otgym.runtime.trials import trial_modes
 
 
 def parse_modes(text: str) -> list[str]:
     modes = [m.strip() for m in text.split(",") if m.strip()]
-    unknown = [m for m in modes if m not in TRIAL_MODES]
+    choices = trial_modes()
+    unknown = [m for m in modes if m not in choices]
     if unknown or not modes:
-        raise ValueError(f"unknown mode(s) {', '.join(unknown) or '(none)'}; choose from {', '.join(TRIAL_MODES)}")
+        raise ValueError(f"unknown mode(s) {', '.join(unknown) or '(none)'}; choose from {', '.join(choices)}")
     if len(set(modes)) != len(modes):
         raise ValueError(f"--modes lists a mode twice: {text}")
     return modes

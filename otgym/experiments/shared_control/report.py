@@ -102,8 +102,13 @@ def _holm_p(comparison: dict, a: str, b: str) -> float:
     return float("nan")
 
 
-def mpc_summary(stats: dict, config: MPCConfig, tick_s: float) -> dict:
-    """mpc.json: the controller's size and its replans' wall time (per mode that used it)."""
+def mpc_summary(stats: dict, config: MPCConfig, tick_s: float) -> dict | None:
+    """mpc.json: the controller's size and its replans' wall time, per batch that used
+    the MPC (``stats``: per batch, per navigator, what ``run_experiment`` gathered);
+    None where no batch did."""
+    stats = {batch: navigators["mpc"] for batch, navigators in stats.items() if "mpc" in navigators}
+    if not stats:
+        return None
     summary = {
         "rollouts": config.n_rollouts,
         "horizon_s": config.horizon_s,

@@ -9,16 +9,15 @@ acceptance: ``otgym.experiments.shared_control.report``."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import pandas as pd
 
-from otgym.autonomy.mpc import MPCConfig
 from otgym.experiments.common.progress import tenths
 from otgym.experiments.shared_control.config import check_arguments
 from otgym.human.params import sample_population
 from otgym.runtime.trace import TraceRecorder
-from otgym.runtime.trials import AUTONOMIES, TRIAL_COLUMNS, TrialSpec, run_trials
+from otgym.runtime.trials import TRIAL_COLUMNS, TrialSpec, run_trials, shared_autonomies
 from otgym.task.task import InteractiveConfig, InteractiveTask
 
 
@@ -31,8 +30,8 @@ def run_experiment(
     report: Callable[[str], None] = print,
     time_limit_s: float = 300.0,
     shared_autonomy: str = "route",
-    mpc_config: MPCConfig = MPCConfig(),
-    mpc_stats: dict | None = None,
+    navigator_config: Mapping[str, Mapping] | None = None,
+    navigator_stats: dict | None = None,
     one_batch: bool = False,
     scenario_per_participant: bool = False,
     trace: tuple[int, int] | None = None,
@@ -47,13 +46,17 @@ def run_experiment(
     Trial t of every participant meets scenario ``seed * 10000 + t``, or with
     ``scenario_per_participant`` participant p's trial t meets ``seed * 10000 + p *
     trials + t``: every mode still meets the same scenarios, and a small study sees as
-    many scenarios as it has trials per mode. ``mpc_stats`` (a dict) receives, per batch
-    that used the MPC (keyed by its modes, joined by ``+``), its replan statistics.
+    many scenarios as it has trials per mode. Each mode's navigator is built by its
+    registry name with its own options from ``navigator_config`` (name -> keywords of
+    its ``for_task``: ``otgym.runtime.trials.run_trials``). ``navigator_stats`` (a dict)
+    receives, per batch (keyed by its modes, joined by ``+``), what its navigators said
+    of their work (the MPC: its replan statistics), where any did.
     ``trace`` (participant, trial) records that trial tick by tick in every mode
     (``otgym.runtime.trace``): ``traces`` (a dict) receives a DataFrame per mode."""
     check_arguments(participants, trials, seed)
-    if shared_autonomy not in AUTONOMIES:
-        raise ValueError(f"--shared-autonomy must be one of {', '.join(AUTONOMIES)}, got {shared_autonomy!r}")
+    autonomies = shared_autonomies()
+    if shared_autonomy not in autonomies:
+        raise ValueError(f"--shared-autonomy must be one of {', '.join(autonomies)}, got {shared_autonomy!r}")
     from otgym.task.task import interactive_scene
 
     task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip), time_limit_s=time_limit_s))
@@ -79,13 +82,13 @@ def run_experiment(
             seed=seed + index,
             progress=tenths(report, name),
             shared_autonomy=shared_autonomy,
-            mpc_config=mpc_config,
-            mpc_stats=stats,
+            navigator_config=navigator_config,
+            navigator_stats=stats,
             recorder=recorder,
         )
         if recorder is not None and traces is not None:
             traces.update({mode: pd.DataFrame(recorder.rows[env]) for env, mode in traced.items()})
-        if stats and mpc_stats is not None:
-            mpc_stats[name] = stats
+        if stats and navigator_stats is not None:
+            navigator_stats[name] = stats
     frame = pd.DataFrame(rows)
     return frame[TRIAL_COLUMNS + [c for c in frame.columns if c not in TRIAL_COLUMNS]]
