@@ -16,7 +16,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from otgym.cli import options
-from otgym.experiments.demo.run import (
+from otgym.experiments.demo.config import (
     DEMO_EPISODES,
     DEMO_RUNS,
     DEMO_SPEED_UM_S,
@@ -107,7 +107,8 @@ def register(app: typer.Typer) -> None:
 
         Example: otgym demo --out results
         """
-        from otgym.experiments.demo.run import demo_config, run_demo
+        from otgym.experiments.demo.config import demo_config
+        from otgym.experiments.demo.run import run_demo
 
         began = time.perf_counter()
         config = demo_config(

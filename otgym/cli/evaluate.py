@@ -48,7 +48,7 @@ def register(app: typer.Typer) -> None:
         from otgym.experiments.common.seeds import development_note, mark_report_files
         from otgym.experiments.demo.report import reference_verdict
         from otgym.experiments.speed_control.evaluate import evaluate as run
-        from otgym.experiments.speed_control.evaluate import write_results
+        from otgym.experiments.speed_control.report import write_results
         from otgym.rl.policy import load_policy, policy_meta, resolve_policy
         from otgym.tasks.transport import core as tr
         from otgym.tasks.transport import speed_control as spc

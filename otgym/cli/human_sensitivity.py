@@ -1,6 +1,6 @@
 """``otgym experiment human-sensitivity``: which assumed parameters of the simulated
 participants decide Fig. 8's (b) and (d), by Morris screening or Sobol indices
-(``otgym.experiments.human_sensitivity.run``)."""
+(``otgym.experiments.human_sensitivity``)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ sensitivity is a development tool, not a report."""
 
 
 def _check_parameters(value: str) -> str:
-    from otgym.experiments.human_sensitivity.run import parse_parameters
+    from otgym.experiments.human_sensitivity.config import parse_parameters
 
     try:
         parse_parameters(value)
@@ -28,7 +28,7 @@ def _check_parameters(value: str) -> str:
 
 
 def _check_method(value: str) -> str:
-    from otgym.experiments.human_sensitivity.run import METHODS
+    from otgym.experiments.human_sensitivity.config import METHODS
 
     if value not in METHODS:
         raise typer.BadParameter(f"must be one of {', '.join(METHODS)}, got {value!r}", param_hint="--method")
@@ -93,16 +93,9 @@ def register(experiment: typer.Typer) -> None:
         """
         from otgym.experiments.common.output_folder import check_out_dir
         from otgym.experiments.common.seeds import development_note
+        from otgym.experiments.human_sensitivity.config import check_arguments, parse_parameters, size_of
         from otgym.experiments.human_sensitivity.report import write_report
-        from otgym.experiments.human_sensitivity.run import (
-            analyse,
-            check_arguments,
-            design,
-            parse_parameters,
-            run_design,
-            sample_outputs,
-            size_of,
-        )
+        from otgym.experiments.human_sensitivity.run import analyse, design, run_design, sample_outputs
 
         labels = parse_parameters(parameters)
         size = trajectories if method == "morris" else samples

@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 from otgym.cli.app import main
+from otgym.experiments.demo import config as demo_config_module
 from otgym.experiments.demo import run as demo_module
 from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
 from otgym.sim.chip import load_chip
@@ -250,7 +251,7 @@ def test_a_failing_stage_stops_the_background_study_and_is_the_error_reported(tm
 
     monkeypatch.setattr(demo_module, "run_study", endless_study)
     monkeypatch.setattr(evaluation, "evaluate", broken_evaluation)
-    config = demo_module.demo_config(episodes=EPISODES, study_participants=2)
+    config = demo_config_module.demo_config(episodes=EPISODES, study_participants=2)
     with pytest.raises(RuntimeError, match="broken evaluation"):
         demo_module.run_demo(config, tmp_path / "out")
     assert ended == ["_Cancelled"]

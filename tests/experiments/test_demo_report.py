@@ -11,8 +11,9 @@ import pandas as pd
 import pytest
 
 from otgym.experiments.common.output_folder import check_out_dir
+from otgym.experiments.demo.config import DemoConfig, StudyConfig, demo_config, stage_names
 from otgym.experiments.demo.report import shared_control_section, speed_control_section
-from otgym.experiments.demo.run import DemoConfig, StudyConfig, demo_config, read_summary, stage_names
+from otgym.experiments.demo.run import read_summary
 from otgym.study import summarize
 from tests.study import make_trials
 

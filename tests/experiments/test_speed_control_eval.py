@@ -13,9 +13,8 @@ from otgym.experiments.speed_control.evaluate import (
     acceptance,
     evaluate,
     passes,
-    write_safety_figure,
-    write_table,
 )
+from otgym.experiments.speed_control.report import write_safety_figure, write_table
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 
 EPISODES = 4  # shared with the demo test, so both run one compiled rollout

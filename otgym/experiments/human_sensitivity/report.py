@@ -1,5 +1,5 @@
 """The files of ``otgym experiment human-sensitivity``
-(``otgym.experiments.human_sensitivity.run``): trials.csv (every trial, with its
+(``otgym.experiments.human_sensitivity``): trials.csv (every trial, with its
 ``sample``), samples.csv (each sample's parameter values, its modes' time and success,
 (b) and (d)), indices.csv (each parameter's Morris or Sobol indices per item),
 sensitivity.md (the tables, the run's command and sizes, the seed's status) and
@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from otgym.experiments.human_sensitivity.run import DUMMY, OUTPUTS, deciding, problem
+from otgym.experiments.human_sensitivity.config import DUMMY, OUTPUTS
+from otgym.experiments.human_sensitivity.run import deciding, problem
 
 ITEMS = {
     "b": "(b) manual / shared completion time",
