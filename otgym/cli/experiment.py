@@ -61,6 +61,7 @@ def register(app: typer.Typer) -> None:
     from otgym.cli.calibrate import register as register_calibrate
     from otgym.cli.distil_mpc import register as register_distil_mpc
     from otgym.cli.human_sensitivity import register as register_human_sensitivity
+    from otgym.cli.shipped import register as register_shipped
     from otgym.cli.speed_front import register as register_speed_front
     from otgym.cli.speed_policy import register as register_speed_policy
     from otgym.cli.task_experiment import register as register_task_experiments
@@ -72,6 +73,7 @@ def register(app: typer.Typer) -> None:
     register_distil_mpc(experiment)
     register_task_experiments(experiment)
     register_baselines(experiment)
+    register_shipped(experiment)
 
     @experiment.command("shared-control")
     def shared_control(

@@ -8,7 +8,7 @@ by ``otgym demo``'s report beside its own small runs:
   speed-front`` (Table II as a front), copied unchanged (docs/results-table2.md).
 - ``fig8.json``: the report runs of ``otgym experiment shared-control`` (Fig. 8 restated,
   one run per autonomy), collected from their output folders by
-  ``python -m otgym.experiments.demo.shipped_results fig8 OUT.json LABEL=DIR...``
+  ``otgym experiment fig8-json --out OUT.json LABEL=DIR...``
   (``collect_fig8_run``): each folder's ``summary.csv``, ``acceptance.json`` (with the
   route bound it judged item (c) against) and ``stats.json`` (the repeated-measures
   ANOVA and the Holm-corrected paired tests, p-values included), with the command read
@@ -22,7 +22,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import sys
 from pathlib import Path
 
 from otgym.study.summary import SUMMARY_COLUMNS
@@ -262,18 +261,3 @@ def fig8_lines(fig8: dict | None) -> list[str]:
             "",
         ]
     return lines
-
-
-def main(argv: list[str]) -> int:
-    """``fig8 OUT.json LABEL=DIR...``: collect shared-control run folders into OUT.json."""
-    if len(argv) < 3 or argv[0] != "fig8" or not all("=" in a for a in argv[2:]):
-        print("usage: python -m otgym.experiments.demo.shipped_results fig8 OUT.json LABEL=DIR...", file=sys.stderr)
-        return 2
-    runs = [collect_fig8_run(*arg.split("=", 1)) for arg in argv[2:]]
-    Path(argv[1]).write_text(json.dumps({"runs": runs}, indent=2) + "\n")
-    print(f"wrote {argv[1]}: {len(runs)} run(s)")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))

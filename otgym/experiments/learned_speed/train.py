@@ -21,8 +21,8 @@ trap (terminal). An episode ends (terminal, value 0) once the cell is past
 (``otgym.task.scenario``), so the rest of the route holds no decision worth learning;
 or at ``time_limit_s`` (truncated: its open transition is dropped).
 
-Run ``python -m otgym.experiments.learned_speed.train [OUT.npz]`` (default: the
-shipped ``otgym/data/policies/speed_interactive.npz``); training seed
+Run ``otgym experiment learned-speed [--out OUT.npz]`` (default: the shipped
+``otgym/data/policies/speed_interactive.npz``); training seed
 ``TRAINING_SEED`` and the scenarios are registered in ``otgym.experiments.common.seeds``.
 """
 
@@ -31,7 +31,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -41,7 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from otgym.autonomy.rl_navigator import DECISION_S, N_FEATURES, SPEED_POLICY, SPEEDS_UM_S, RLNavigator, SpeedPolicy
+from otgym.autonomy.rl_navigator import DECISION_S, N_FEATURES, SPEEDS_UM_S, RLNavigator, SpeedPolicy
 from otgym.rl.network import QNetwork
 from otgym.rl.policy import save_policy
 from otgym.task.task import InteractiveConfig, InteractiveTask
@@ -293,15 +292,3 @@ def save_speed_policy(path, policy: SpeedPolicy, config: SpeedTrainingConfig, se
         "wall_s": log.get("wall_s"),
     }
     return save_policy(path, policy.q_params, json.loads(json.dumps(meta)))
-
-
-def main(argv: list[str]) -> None:
-    out = Path(argv[0]) if argv else SPEED_POLICY
-    config = SpeedTrainingConfig()
-    policy, log = train(config, TRAINING_SEED, report=lambda line: print(line, flush=True))
-    save_speed_policy(out, policy, config, TRAINING_SEED, log)
-    print(f"trained in {log['wall_s']:.0f} s; wrote {out}")
-
-
-if __name__ == "__main__":
-    main(sys.argv[1:])
