@@ -21,7 +21,7 @@ route's frame so that they do not depend on where on the chip the route runs:
 
 The policy file (``otgym.rl.policy``'s format, ``__meta__`` with ``task:
 "interactive"``, the speeds, the decision period and the layer widths) is trained by
-``python -m otgym.experiments.learned_speed.train`` (double DQN on the batched
+``otgym experiment learned-speed`` (``otgym.experiments.learned_speed.train``: double DQN on the batched
 interactive task in autonomous mode; see that module). ``SPEED_POLICY`` is the one
 shipped with the package.
 """
