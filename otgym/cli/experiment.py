@@ -125,94 +125,42 @@ def register(app: typer.Typer) -> None:
         """
         from otgym.autonomy.mpc import MPCConfig
         from otgym.experiments.common.output_folder import check_out_dir
-        from otgym.experiments.shared_control.config import check_arguments, parse_modes
-        from otgym.experiments.shared_control.report import mpc_summary, write_experiment
-        from otgym.experiments.shared_control.run import run_experiment
-        from otgym.task.task import InteractiveConfig
+        from otgym.experiments.shared_control.config import SharedControlConfig, parse_modes
+        from otgym.experiments.shared_control.run import run_study
+        from otgym.experiments.shared_control.trace_files import check_trace
 
-        chosen = parse_modes(modes)
-        check_arguments(participants, trials, seed)
         traced = None
         if trace is not None:
-            from otgym.experiments.shared_control.trace_files import check_trace
-
             try:
                 traced = check_trace(trace, participants, trials)
             except ValueError as error:
                 raise typer.BadParameter(str(error), param_hint="--trace") from None
-        if not 0 < time_limit_s <= 3600:
-            raise ValueError(f"--time-limit-s must lie in (0, 3600], got {time_limit_s}")
         try:
             mpc_config = MPCConfig(n_rollouts=mpc_rollouts, plan_steps=mpc_plan_steps)
         except ValueError as error:
             raise ValueError(f"--mpc-rollouts/--mpc-plan-steps: {error}") from None
-        check_out_dir(out)
-        from otgym.experiments.common.seeds import development_note, mark_report_files
-
-        note = development_note("shared-control", seed, trials=trials)
-        if note:
-            print(note, flush=True)
-        stats, traces = {}, {}
-        navigator_config = {"mpc": {"config": mpc_config}}
-        frame = run_experiment(
+        config = SharedControlConfig(
             participants,
             trials,
-            chosen,
+            tuple(parse_modes(modes)),
             seed,
             chip,
-            report=lambda line: print(line, flush=True),
-            time_limit_s=time_limit_s,
-            shared_autonomy=shared_autonomy,
-            navigator_config=navigator_config,
-            navigator_stats=stats,
-            trace=traced,
-            traces=traces,
+            time_limit_s,
+            shared_autonomy,
+            {"mpc": {"config": mpc_config}},
+            traced,
         )
-        bound, route_bound_s = "", None
-        if "shared" in chosen and "autonomous" in chosen:
-            from otgym.experiments.shared_control.route_bound import (
-                ROUTE_SPEED_UM_S,
-                run_route_bound,
-                write_route_bound,
-            )
-
-            print("route-keeping bound (the earliest passage on these scenarios, perfect foresight):", flush=True)
-            summary = write_route_bound(
-                run_route_bound(trials, seed, [ROUTE_SPEED_UM_S], chip, report=lambda line: print(line, flush=True)),
-                out,
-            )
-            best = summary[f"{ROUTE_SPEED_UM_S:g}"]
-            route_bound_s = float(best["earliest_mean_s"])
-            print(
-                f"      at {ROUTE_SPEED_UM_S:g} um/s: {best['earliest_mean_s']:.1f} s on average, "
-                f"{best['earliest_over_free']:.3f}x the unobstructed route (see route_bound.md)"
-            )
-            bound = ", route_bound.csv/.json/.md"
-            mark_report_files("route-bound", seed, [out / "route_bound.md"], trials=trials)
-        mpc = mpc_summary(stats, mpc_config, InteractiveConfig().tick_s)
-        checks = write_experiment(
-            frame,
-            out,
-            mpc,
-            route_bound_s=route_bound_s,
-            shared_autonomy=shared_autonomy,
-        )
-        mark_report_files("shared-control", seed, [out / "summary.md"], [out / "acceptance.json"], trials=trials)
-        if traced is not None:
-            from otgym.experiments.shared_control.trace_files import write_traces
-
-            written = write_traces(traces, out, *traced)
-            print(f"traced participant {traced[0]}'s trial {traced[1]}: " + ", ".join(p.name for p in written))
+        check_out_dir(out)
+        result = run_study(config, out, report=lambda line: print(line, flush=True))
+        if result["traced"]:
+            names = ", ".join(p.name for p in result["traced"])
+            print(f"traced participant {traced[0]}'s trial {traced[1]}: {names}")
         print((out / "summary.md").read_text())
-        for name, passed in checks.items():
+        for name, passed in result["checks"].items():
             print(f"{'PASS' if passed else 'FAIL'}  {name}")
-        if note:
-            print(note)
-        print(
-            f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
-            + (", mpc.json" if mpc else "")
-            + bound
-        )
+        if result["note"]:
+            print(result["note"])
+        print(f"wrote {out}/" + ", ".join(result["written"]))
 
     @experiment.command("route-bound")
     def route_bound(
