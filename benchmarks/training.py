@@ -86,7 +86,7 @@ def adapter_seconds(total_steps: int, sample_steps: int = 1000) -> float:
 def constant_speed_evaluation(params, hidden, episodes: int, seed: int, repeats: int):
     """The constant speeds alone on the test episodes (the same for every training seed);
     the rollout's network is evaluated but not used by them."""
-    from otgym.experiments.speed_control_eval import evaluate
+    from otgym.experiments.speed_control.evaluate import evaluate
     from otgym.rl.network import QNetwork
     from otgym.tasks.transport import core as tr
 
@@ -97,7 +97,7 @@ def constant_speed_evaluation(params, hidden, episodes: int, seed: int, repeats:
 
 def with_rl(constant, rl):
     """One Evaluation holding RL's rows then the constant speeds' (same episodes)."""
-    from otgym.experiments.speed_control_eval import Evaluation
+    from otgym.experiments.speed_control.evaluate import Evaluation
 
     return Evaluation(
         rl.names + constant.names,
@@ -124,8 +124,8 @@ def main() -> None:
     )
     parser.add_argument("--sb3-sample", type=int, default=10_000, help="SB3 steps timed (then extrapolated)")
     args = parser.parse_args()
-    from otgym.experiments.speed_control import train
-    from otgym.experiments.speed_control_eval import acceptance, evaluate, passes
+    from otgym.experiments.speed_control.evaluate import acceptance, evaluate, passes
+    from otgym.experiments.speed_control.train import train
     from otgym.tasks.transport import speed_control as spc
     from otgym.tasks.transport.presets import paper
 

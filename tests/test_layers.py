@@ -58,7 +58,7 @@ def contract_kept(config: Path, contract_id: str) -> bool:
     return use_cases.lint_imports(str(config), limit_to_contracts=(contract_id,), cache_dir=None, no_logo=True)
 
 
-@pytest.mark.parametrize("contract_id", ["layers", "acyclic"])
+@pytest.mark.parametrize("contract_id", ["layers", "studies", "acyclic"])
 def test_the_layer_and_cycle_contracts_hold(contract_id):
     assert contract_kept(ROOT / "pyproject.toml", contract_id)
 

@@ -8,11 +8,13 @@ from __future__ import annotations
 from otgym import registry
 
 
-def navigator_for(name: str, task, max_speed_um_s: float = 20.0, warm_up: bool = True):
+def navigator_for(name: str, task, max_speed_um_s: float = 20.0, warm_up: bool = True, **config):
     """Navigator ``name`` on ``task`` (an ``InteractiveTask``), ready to answer;
-    ValueError naming the choices for an unknown name."""
+    ``config``: the navigator's own options, keywords of its ``for_task`` (the MPC's
+    ``config``, the learned speed's ``policy``, the route follower's
+    ``cruise_speed_um_s``); ValueError naming the choices for an unknown name."""
     found = registry.entry("navigators", registry.check("navigators", name))
-    navigator = found.load().for_task(task, max_speed_um_s=max_speed_um_s)
+    navigator = found.load().for_task(task, max_speed_um_s=max_speed_um_s, **config)
     if warm_up and hasattr(navigator, "warm_up"):
         navigator.warm_up()
     return navigator

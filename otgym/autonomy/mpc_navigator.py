@@ -105,10 +105,28 @@ class MPCNavigator:
         self.steps_since_sampling = np.zeros(n_env, int)
 
     @classmethod
-    def for_task(cls, task: InteractiveTask, max_speed_um_s: float = 20.0) -> MPCNavigator:
-        """The navigator on ``task`` with the default configuration and costs (what every
-        registered navigator offers)."""
-        return cls(task, max_speed_um_s=max_speed_um_s)
+    def for_task(
+        cls,
+        task: InteractiveTask,
+        max_speed_um_s: float = 20.0,
+        config: MPCConfig = MPCConfig(),
+        costs: MPCCosts = MPCCosts(),
+        seed: int = 0,
+        **options,
+    ) -> MPCNavigator:
+        """The navigator on ``task`` (what every registered navigator offers), with its own
+        configuration: ``config``, ``costs``, the ``seed`` of its sampled rollouts and
+        any other keyword of the constructor (``chunk_envs``, ``carry_gain_per_s``)."""
+        return cls(task, config, costs, seed=seed, max_speed_um_s=max_speed_um_s, **options)
+
+    def stats(self) -> dict:
+        """Its replans so far: ``replans`` (count), ``replan_seconds`` (the wall time of
+        each) and ``environments_planned`` (the environments of each)."""
+        return {
+            "replans": len(self.replan_seconds),
+            "replan_seconds": list(self.replan_seconds),
+            "environments_planned": list(self.replan_sizes),
+        }
 
     def warm_up(self) -> None:
         """Compile the replan and the plan-following functions for one environment, then

@@ -21,7 +21,7 @@ route's frame so that they do not depend on where on the chip the route runs:
 
 The policy file (``otgym.rl.policy``'s format, ``__meta__`` with ``task:
 "interactive"``, the speeds, the decision period and the layer widths) is trained by
-``python -m otgym.experiments.train_interactive_speed`` (double DQN on the batched
+``otgym experiment learned-speed`` (``otgym.experiments.learned_speed.train``: double DQN on the batched
 interactive task in autonomous mode; see that module). ``SPEED_POLICY`` is the one
 shipped with the package.
 """
@@ -63,7 +63,7 @@ TRACKER_WINDOW_S = 1.0
 FAR_OBSTACLE = (FEATURE_CLIP, FEATURE_CLIP, 0.0, FEATURE_CLIP, 0.0)
 """The features of an obstacle that is not there: far ahead, far off the route, still."""
 SPEED_POLICY = Path(__file__).resolve().parent.parent / "data" / "policies" / "speed_interactive.npz"
-"""The learned speed policy shipped with the package (``otgym.experiments.train_interactive_speed``)."""
+"""The learned speed policy shipped with the package (``otgym.experiments.learned_speed.train``)."""
 
 
 def route_tangents(route_um) -> np.ndarray:

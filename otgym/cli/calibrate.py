@@ -1,6 +1,6 @@
 """``otgym experiment calibrate-scenarios``: sweep one scenario parameter and measure
 the autonomous mode's obstacles avoided against the paper's 59 %
-(``otgym.experiments.calibrate_scenarios``)."""
+(``otgym.experiments.calibration.run``)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from otgym.cli import options
 
 
 def _check_values(value: str) -> str:
-    from otgym.experiments.calibrate_scenarios import parse_values
+    from otgym.experiments.calibration.run import parse_values
 
     try:
         parse_values(value)
@@ -23,7 +23,7 @@ def _check_values(value: str) -> str:
 
 
 def register(experiment: typer.Typer) -> None:
-    from otgym.experiments.calibrate_options import DEFAULT_SEED, SWEEPABLE  # light: no JAX at registration
+    from otgym.experiments.calibration.config import DEFAULT_SEED, SWEEPABLE  # light: no JAX at registration
 
     @experiment.command("calibrate-scenarios")
     def calibrate_scenarios(
@@ -53,8 +53,8 @@ def register(experiment: typer.Typer) -> None:
 
         Example: otgym experiment calibrate-scenarios --values timing_jitter_s=8,15,20 --trials 64 --out results/calibration
         """
-        from otgym.experiments.calibrate_scenarios import parse_values, run_calibration, seed_note, write_calibration
-        from otgym.experiments.output_folder import check_out_dir
+        from otgym.experiments.calibration.run import parse_values, run_calibration, seed_note, write_calibration
+        from otgym.experiments.common.output_folder import check_out_dir
 
         name, numbers = parse_values(values)
         check_out_dir(out)

@@ -16,8 +16,15 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from otgym.cli import options
-from otgym.experiments.demo import DEMO_EPISODES, DEMO_RUNS, DEMO_SPEED_UM_S, FULL_EPISODES, SIZE_RANGES, StudyConfig
-from otgym.experiments.whole_path import RECOMMENDED_AUTONOMY
+from otgym.experiments.demo.config import (
+    DEMO_EPISODES,
+    DEMO_RUNS,
+    DEMO_SPEED_UM_S,
+    FULL_EPISODES,
+    SIZE_RANGES,
+    StudyConfig,
+)
+from otgym.experiments.demo.whole_path import RECOMMENDED_AUTONOMY
 
 
 def _range(name: str) -> str:
@@ -100,7 +107,8 @@ def register(app: typer.Typer) -> None:
 
         Example: otgym demo --out results
         """
-        from otgym.experiments.demo import demo_config, run_demo
+        from otgym.experiments.demo.config import demo_config
+        from otgym.experiments.demo.run import run_demo
 
         began = time.perf_counter()
         config = demo_config(

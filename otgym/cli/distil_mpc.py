@@ -1,5 +1,5 @@
 """``otgym experiment distil-mpc collect|train|dagger|evaluate``: distil the MPC into a
-policy network (``otgym.experiments.distil_mpc`` runs each step; this module parses and
+policy network (``otgym.experiments.distil_mpc.run`` runs each step; this module parses and
 checks)."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ SCENARIO_MAX = 10**9
 
 
 def _development(value: int) -> int:
-    from otgym.experiments.distil_mpc import DEVELOPMENT_FIRST_SCENARIO
+    from otgym.experiments.distil_mpc.run import DEVELOPMENT_FIRST_SCENARIO
 
     if value < DEVELOPMENT_FIRST_SCENARIO:
         raise typer.BadParameter(
@@ -70,7 +70,7 @@ def register(experiment: typer.Typer) -> None:
 
         Example: otgym experiment distil-mpc collect results/bc8.npz --scenarios 8 --first 900000
         """
-        from otgym.experiments.distil_mpc import collect as run
+        from otgym.experiments.distil_mpc.run import collect as run
 
         run(_folder_of(out), scenarios, first)
 
@@ -84,7 +84,7 @@ def register(experiment: typer.Typer) -> None:
 
         Example: otgym experiment distil-mpc train results/bc8.npz results/bc8.policy.npz
         """
-        from otgym.experiments.distil_mpc import fit_file
+        from otgym.experiments.distil_mpc.run import fit_file
 
         fit_file(data, _folder_of(out), epochs)
 
@@ -116,7 +116,7 @@ def register(experiment: typer.Typer) -> None:
 
         Example: otgym experiment distil-mpc dagger results/bc8.npz results/bc8.policy.npz results/dagger --iterations 3 --beta 0.5 --decay 0 --time-limit-s 90
         """
-        from otgym.experiments.distil_mpc import DaggerRun, dagger_rounds
+        from otgym.experiments.distil_mpc.run import DaggerRun, dagger_rounds
 
         dagger_rounds(
             DaggerRun(data, policy, out, iterations, scenarios, first, beta, decay, label_every, epochs, time_limit_s)
@@ -133,6 +133,6 @@ def register(experiment: typer.Typer) -> None:
 
         Example: otgym experiment distil-mpc evaluate results/dagger/dagger3.policy.npz --trials 64 --seed 14
         """
-        from otgym.experiments.distil_mpc import evaluate as run
+        from otgym.experiments.distil_mpc.run import evaluate as run
 
         run(policy, trials, seed, mpc)

@@ -10,7 +10,7 @@ import typer
 from rich.console import Console
 
 from otgym.cli import options
-from otgym.experiments.seeds import REPORT_SEEDS
+from otgym.experiments.common.seeds import REPORT_SEEDS
 
 
 def register(app: typer.Typer) -> None:
@@ -42,13 +42,13 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--episodes must be at least 1, got {episodes}")
         if not 1 <= repeats <= 1000:
             raise ValueError(f"--repeats must be between 1 and 1000, got {repeats}")
-        from otgym.experiments.output_folder import check_out_dir
+        from otgym.experiments.common.output_folder import check_out_dir
 
         check_out_dir(out)
-        from otgym.experiments.report import reference_verdict
-        from otgym.experiments.seeds import development_note, mark_report_files
-        from otgym.experiments.speed_control_eval import evaluate as run
-        from otgym.experiments.speed_control_eval import write_results
+        from otgym.experiments.common.seeds import development_note, mark_report_files
+        from otgym.experiments.demo.report import reference_verdict
+        from otgym.experiments.speed_control.evaluate import evaluate as run
+        from otgym.experiments.speed_control.report import write_results
         from otgym.rl.policy import load_policy, policy_meta, resolve_policy
         from otgym.tasks.transport import core as tr
         from otgym.tasks.transport import speed_control as spc

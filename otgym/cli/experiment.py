@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from otgym.cli import options
-from otgym.experiments.seeds import REPORT_SEEDS
+from otgym.experiments.common.seeds import REPORT_SEEDS
 
 
 def parse_speeds(text: str) -> list[float]:
@@ -32,7 +32,7 @@ def _check_speeds(value: str) -> str:
 
 
 def _check_modes(value: str) -> str:
-    from otgym.experiments.shared_control import parse_modes
+    from otgym.experiments.shared_control.config import parse_modes
 
     try:
         parse_modes(value)
@@ -42,7 +42,7 @@ def _check_modes(value: str) -> str:
 
 
 def _check_trace(value: str | None) -> str | None:
-    from otgym.experiments.trace_files import parse_trace
+    from otgym.experiments.shared_control.trace_files import parse_trace
 
     if value is not None:
         try:
@@ -57,9 +57,11 @@ def register(app: typer.Typer) -> None:
         help="The paper's experiments: Fig. 8 with simulated participants, Table II as a front.", no_args_is_help=True
     )
     app.add_typer(experiment, name="experiment")
+    from otgym.cli.baselines import register as register_baselines
     from otgym.cli.calibrate import register as register_calibrate
     from otgym.cli.distil_mpc import register as register_distil_mpc
     from otgym.cli.human_sensitivity import register as register_human_sensitivity
+    from otgym.cli.shipped import register as register_shipped
     from otgym.cli.speed_front import register as register_speed_front
     from otgym.cli.speed_policy import register as register_speed_policy
     from otgym.cli.task_experiment import register as register_task_experiments
@@ -70,6 +72,8 @@ def register(app: typer.Typer) -> None:
     register_speed_policy(experiment)
     register_distil_mpc(experiment)
     register_task_experiments(experiment)
+    register_baselines(experiment)
+    register_shipped(experiment)
 
     @experiment.command("shared-control")
     def shared_control(
@@ -87,8 +91,8 @@ def register(app: typer.Typer) -> None:
             "--modes",
             metavar="MODES",
             callback=_check_modes,
-            help="Comma-separated modes: manual, autonomous, shared, mpc (model-predictive), "
-            "rl (autonomous with the learned speed).",
+            help="Comma-separated modes: manual, autonomous, shared, or a navigator registered as a trial mode "
+            "(otgym list navigators; built in: mpc, model-predictive; rl, autonomous with the learned speed).",
         ),
         seed: int = options.seed(
             REPORT_SEEDS["shared-control"],
@@ -120,93 +124,43 @@ def register(app: typer.Typer) -> None:
         Example: otgym experiment shared-control --participants 8 --trials 8 --out results/fig8
         """
         from otgym.autonomy.mpc import MPCConfig
-        from otgym.experiments.output_folder import check_out_dir
-        from otgym.experiments.shared_control import (
-            check_arguments,
-            mpc_summary,
-            parse_modes,
-            run_experiment,
-            write_experiment,
-        )
-        from otgym.task.task import InteractiveConfig
+        from otgym.experiments.common.output_folder import check_out_dir
+        from otgym.experiments.shared_control.config import SharedControlConfig, parse_modes
+        from otgym.experiments.shared_control.run import run_study
+        from otgym.experiments.shared_control.trace_files import check_trace
 
-        chosen = parse_modes(modes)
-        check_arguments(participants, trials, seed)
         traced = None
         if trace is not None:
-            from otgym.experiments.trace_files import check_trace
-
             try:
                 traced = check_trace(trace, participants, trials)
             except ValueError as error:
                 raise typer.BadParameter(str(error), param_hint="--trace") from None
-        if not 0 < time_limit_s <= 3600:
-            raise ValueError(f"--time-limit-s must lie in (0, 3600], got {time_limit_s}")
         try:
             mpc_config = MPCConfig(n_rollouts=mpc_rollouts, plan_steps=mpc_plan_steps)
         except ValueError as error:
             raise ValueError(f"--mpc-rollouts/--mpc-plan-steps: {error}") from None
-        check_out_dir(out)
-        from otgym.experiments.seeds import development_note, mark_report_files
-
-        note = development_note("shared-control", seed, trials=trials)
-        if note:
-            print(note, flush=True)
-        stats, traces = {}, {}
-        frame = run_experiment(
+        config = SharedControlConfig(
             participants,
             trials,
-            chosen,
+            tuple(parse_modes(modes)),
             seed,
             chip,
-            report=lambda line: print(line, flush=True),
-            time_limit_s=time_limit_s,
-            shared_autonomy=shared_autonomy,
-            mpc_config=mpc_config,
-            mpc_stats=stats,
-            trace=traced,
-            traces=traces,
+            time_limit_s,
+            shared_autonomy,
+            {"mpc": {"config": mpc_config}},
+            traced,
         )
-        bound, route_bound_s = "", None
-        if "shared" in chosen and "autonomous" in chosen:
-            from otgym.experiments.route_bound import ROUTE_SPEED_UM_S, run_route_bound, write_route_bound
-
-            print("route-keeping bound (the earliest passage on these scenarios, perfect foresight):", flush=True)
-            summary = write_route_bound(
-                run_route_bound(trials, seed, [ROUTE_SPEED_UM_S], chip, report=lambda line: print(line, flush=True)),
-                out,
-            )
-            best = summary[f"{ROUTE_SPEED_UM_S:g}"]
-            route_bound_s = float(best["earliest_mean_s"])
-            print(
-                f"      at {ROUTE_SPEED_UM_S:g} um/s: {best['earliest_mean_s']:.1f} s on average, "
-                f"{best['earliest_over_free']:.3f}x the unobstructed route (see route_bound.md)"
-            )
-            bound = ", route_bound.csv/.json/.md"
-            mark_report_files("route-bound", seed, [out / "route_bound.md"], trials=trials)
-        checks = write_experiment(
-            frame,
-            out,
-            mpc_summary(stats, mpc_config, InteractiveConfig().tick_s) if stats else None,
-            route_bound_s=route_bound_s,
-            shared_autonomy=shared_autonomy,
-        )
-        mark_report_files("shared-control", seed, [out / "summary.md"], [out / "acceptance.json"], trials=trials)
-        if traced is not None:
-            from otgym.experiments.trace_files import write_traces
-
-            written = write_traces(traces, out, *traced)
-            print(f"traced participant {traced[0]}'s trial {traced[1]}: " + ", ".join(p.name for p in written))
+        check_out_dir(out)
+        result = run_study(config, out, report=lambda line: print(line, flush=True))
+        if result["traced"]:
+            names = ", ".join(p.name for p in result["traced"])
+            print(f"traced participant {traced[0]}'s trial {traced[1]}: {names}")
         print((out / "summary.md").read_text())
-        for name, passed in checks.items():
+        for name, passed in result["checks"].items():
             print(f"{'PASS' if passed else 'FAIL'}  {name}")
-        if note:
-            print(note)
-        print(
-            f"wrote {out}/trials.csv, summary.csv, summary.md, stats.json, fig8.png, acceptance.json"
-            + (", mpc.json" if stats else "")
-            + bound
-        )
+        if result["note"]:
+            print(result["note"])
+        print(f"wrote {out}/" + ", ".join(result["written"]))
 
     @experiment.command("route-bound")
     def route_bound(
@@ -234,14 +188,14 @@ def register(app: typer.Typer) -> None:
 
         Example: otgym experiment route-bound --trials 8 --out results/route-bound
         """
-        from otgym.experiments.output_folder import check_out_dir
-        from otgym.experiments.route_bound import run_route_bound, write_route_bound
-        from otgym.experiments.shared_control import check_arguments
+        from otgym.experiments.common.output_folder import check_out_dir
+        from otgym.experiments.shared_control.config import check_arguments
+        from otgym.experiments.shared_control.route_bound import run_route_bound, write_route_bound
 
         speeds = parse_speeds(speeds_um_s)
         check_arguments(2, trials, seed)
         check_out_dir(out)
-        from otgym.experiments.seeds import development_note, mark_report_files
+        from otgym.experiments.common.seeds import development_note, mark_report_files
 
         note = development_note("route-bound", seed, trials=trials)
         if note:

@@ -13,12 +13,12 @@ import typer
 from otgym.cli import options
 
 DEVELOPMENT_SEED = 90
-"""The default: a development study seed (``otgym.experiments.seeds.DEVELOPMENT``);
+"""The default: a development study seed (``otgym.experiments.common.seeds.DEVELOPMENT``);
 sensitivity is a development tool, not a report."""
 
 
 def _check_parameters(value: str) -> str:
-    from otgym.experiments.human_sensitivity import parse_parameters
+    from otgym.experiments.human_sensitivity.config import parse_parameters
 
     try:
         parse_parameters(value)
@@ -28,7 +28,7 @@ def _check_parameters(value: str) -> str:
 
 
 def _check_method(value: str) -> str:
-    from otgym.experiments.human_sensitivity import METHODS
+    from otgym.experiments.human_sensitivity.config import METHODS
 
     if value not in METHODS:
         raise typer.BadParameter(f"must be one of {', '.join(METHODS)}, got {value!r}", param_hint="--method")
@@ -91,18 +91,11 @@ def register(experiment: typer.Typer) -> None:
 
         Example: otgym experiment human-sensitivity --method morris --parameters carry_speed_um_s,horizon_s --trajectories 2 --participants 1 --time-limit-s 5 --out results/human-sensitivity
         """
-        from otgym.experiments.human_sensitivity import (
-            analyse,
-            check_arguments,
-            design,
-            parse_parameters,
-            run_design,
-            sample_outputs,
-            size_of,
-        )
-        from otgym.experiments.output_folder import check_out_dir
-        from otgym.experiments.seeds import development_note
-        from otgym.experiments.sensitivity_report import write_report
+        from otgym.experiments.common.output_folder import check_out_dir
+        from otgym.experiments.common.seeds import development_note
+        from otgym.experiments.human_sensitivity.config import check_arguments, parse_parameters, size_of
+        from otgym.experiments.human_sensitivity.report import write_report
+        from otgym.experiments.human_sensitivity.run import analyse, design, run_design, sample_outputs
 
         labels = parse_parameters(parameters)
         size = trajectories if method == "morris" else samples

@@ -319,7 +319,7 @@ def recorder(
     from otgym.bus.foxglove_scene import SceneRecording
     from otgym.bus.schemas import SCHEMAS
     from otgym.bus.transport import Node
-    from otgym.experiments.output_folder import check_out_dir
+    from otgym.experiments.common.output_folder import check_out_dir
     from otgym.record.mcap_file import McapRecorder, session_path
 
     stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
@@ -403,7 +403,7 @@ def ui(
     """
     from otgym.bus.sim_node import build_task
     from otgym.bus.transport import Node
-    from otgym.experiments.output_folder import check_out_dir
+    from otgym.experiments.common.output_folder import check_out_dir
     from otgym.task.layout import layout_of
     from otgym.teleop.device import DeviceError
     from otgym.ui.node import run_window

@@ -120,7 +120,7 @@ def _play_task(
 ) -> None:
     """``otgym play --task``: its checks, then ``otgym.ui.task_window.play_task``."""
     from otgym import tasks
-    from otgym.experiments.output_folder import check_out_dir
+    from otgym.experiments.common.output_folder import check_out_dir
     from otgym.ui.task_window import check_playable
 
     if distributed:
@@ -178,7 +178,7 @@ def run_play(
 
     import pygame
 
-    from otgym.experiments.output_folder import check_out_dir
+    from otgym.experiments.common.output_folder import check_out_dir
     from otgym.sim.chip import load_chip
     from otgym.ui.palette import WINDOW_SIZE, fonts
     from otgym.ui.startup import StartupAborted, StartupStatus, draw_startup, wait_in_window
@@ -375,7 +375,7 @@ def run_distributed(
     from otgym import registry
     from otgym.bus.sim_node import build_task
     from otgym.cli.launch import NodeProcesses, free_loopback_endpoint
-    from otgym.experiments.output_folder import check_out_dir
+    from otgym.experiments.common.output_folder import check_out_dir
     from otgym.sim.chip import load_chip
     from otgym.task.layout import layout_of
     from otgym.teleop.device import DeviceError

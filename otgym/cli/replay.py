@@ -51,7 +51,7 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-        from otgym.experiments.output_folder import check_out_dir
+        from otgym.experiments.common.output_folder import check_out_dir
         from otgym.record.frames import render_frames
         from otgym.record.mcap_file import check_mcap, read_recording
         from otgym.record.replay import session_scene, summary

@@ -11,7 +11,7 @@ from pathlib import Path
 import typer
 
 from otgym.cli import options
-from otgym.experiments.seeds import REPORT_SEEDS
+from otgym.experiments.common.seeds import REPORT_SEEDS
 
 
 def register(experiment: typer.Typer) -> None:
@@ -41,8 +41,8 @@ def register(experiment: typer.Typer) -> None:
         Example: otgym experiment speed-front --penalties 100,1000 --seeds 3 --episodes 1024 --out results/front
         """
         from otgym.cli.options import parse_numbers
-        from otgym.experiments.front_config import FrontConfig
-        from otgym.experiments.output_folder import check_out_dir
+        from otgym.experiments.common.output_folder import check_out_dir
+        from otgym.experiments.speed_front.config import FrontConfig
 
         config = FrontConfig(
             penalties=parse_numbers("--penalties", penalties),
@@ -78,10 +78,10 @@ def run_and_write(config, out: Path, command: str) -> None:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from otgym.experiments.front_config import training_seeds
-    from otgym.experiments.seeds import development_note
-    from otgym.experiments.speed_front import run_front
-    from otgym.experiments.speed_front_report import write_front
+    from otgym.experiments.common.seeds import development_note
+    from otgym.experiments.speed_front.config import training_seeds
+    from otgym.experiments.speed_front.report import write_front
+    from otgym.experiments.speed_front.run import run_front
     from otgym.rl.policy import PRETRAINED_POLICY, load_policy
     from otgym.tasks.transport import core as tr
 

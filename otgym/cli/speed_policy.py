@@ -43,7 +43,7 @@ def register(experiment: typer.Typer) -> None:
 
         Example: otgym experiment pretrain --seeds 0,1,2 --out results/policy.npz
         """
-        from otgym.experiments.pretrain import run
+        from otgym.experiments.speed_control.pretrain import run
 
         chosen = _seeds(seeds)
         if out.parent and not out.parent.is_dir():
@@ -62,7 +62,7 @@ def register(experiment: typer.Typer) -> None:
 
         Example: otgym experiment reward-terms --episodes 256 --seed 401 --out results/reward-terms
         """
-        from otgym.experiments.reward_terms import run
+        from otgym.experiments.speed_control.reward_terms import run
 
         try:
             run(policy, episodes, seed, out, log=lambda line: print(line, flush=True))

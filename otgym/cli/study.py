@@ -118,7 +118,7 @@ def register(app: typer.Typer) -> None:
 
         Example: otgym study analyze results/session-p1 results/session-p2 --out results/analysis
         """
-        from otgym.experiments.output_folder import check_out_dir
+        from otgym.experiments.common.output_folder import check_out_dir
         from otgym.study.analyze import analyze as run
         from otgym.study.participants import study_participants
 

@@ -125,7 +125,7 @@ def register(app: typer.Typer, entry_point: typing.Callable[[list[str]], None]) 
         from otgym.cluster.output import CELLS_CSV
         from otgym.cluster.summary import write_summary
         from otgym.cluster.sweep_file import load_sweep
-        from otgym.experiments.output_folder import check_out_dir
+        from otgym.experiments.common.output_folder import check_out_dir
 
         loaded = load_sweep(sweep_file, command_specs(context.find_root().command))
         if serial and address is not None:

@@ -1,6 +1,6 @@
 """``otgym experiment assemble``, ``orient`` and ``sort-cells``: a task's shipped
 learned policy against its scripted baseline on the held-out report seed
-(``otgym.experiments.task_report``; the plan in docs/tasks.md)."""
+(``otgym.experiments.task_report.run``; the plan in docs/tasks.md)."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ from pathlib import Path
 import typer
 
 from otgym.cli import options
-from otgym.experiments.seeds import REPORT_SEEDS, TASK_REPORTS
+from otgym.experiments.common.seeds import REPORT_SEEDS, TASK_REPORTS
 
 
 def _register_one(experiment: typer.Typer, task_name: str) -> None:
-    from otgym.experiments.task_report import DEFAULT_EPISODES, PRESETS, SECONDARY
+    from otgym.experiments.task_report.run import DEFAULT_EPISODES, PRESETS, SECONDARY
 
     @experiment.command(task_name)
     def command(
@@ -28,8 +28,8 @@ def _register_one(experiment: typer.Typer, task_name: str) -> None:
         ),
         out: Path = options.out_dir(..., "Folder for results.json and summary.md."),
     ) -> None:
-        from otgym.experiments import task_report
-        from otgym.experiments.output_folder import check_out_dir
+        from otgym.experiments.common.output_folder import check_out_dir
+        from otgym.experiments.task_report import run as task_report
         from otgym.rl.policy import resolve_policy
 
         policy_path = task_report.SHIPPED_POLICIES[task_name] if policy is None else resolve_policy(policy)

@@ -43,9 +43,9 @@ def register(app: typer.Typer) -> None:
         Example: otgym train --task speed-control --preset paper --steps 204800 --out results/train
         """
         from otgym import tasks
-        from otgym.experiments.output_folder import check_out_dir
-        from otgym.experiments.speed_control import train as run_training
-        from otgym.experiments.speed_control import train_task, write_training
+        from otgym.experiments.common.output_folder import check_out_dir
+        from otgym.experiments.speed_control.train import train as run_training
+        from otgym.experiments.speed_control.train import train_task, write_training
         from otgym.rl.dqn import DQNConfig
 
         task = tasks.load(task_name)

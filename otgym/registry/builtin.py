@@ -24,8 +24,8 @@ Tasks' extras: ``gym_id`` and ``vector`` (the Gymnasium id and vector entry poin
 ``functional`` (the module of its pure ``make_params``, ``reset`` and ``step``, which
 ``otgym.envs.gymnax_env`` wraps as a gymnax environment); a task with a report-seed
 comparison of its learned policy against its baseline (``otgym experiment NAME``,
-``otgym.experiments.task_report``) names ``report_seed`` and ``training_seed`` (seed
-registry: ``otgym.experiments.seeds``), ``report_preset``, ``report_policy`` (a file in
+``otgym.experiments.task_report.run``) names ``report_seed`` and ``training_seed`` (seed
+registry: ``otgym.experiments.common.seeds``), ``report_preset``, ``report_policy`` (a file in
 ``otgym/data/policies/``), ``report_baseline`` (what the baseline is, in words),
 ``report_metrics`` (its own metrics, comma-separated), ``report_outcomes`` (the
 ``"module:function"`` that runs both policies on paired episodes) and, optionally,
@@ -71,7 +71,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
             "report_policy": "assemble_ring.npz",
             "report_baseline": "the plan at 0.3 um per frame",
             "report_metrics": "rms_error_um,beads_lost,collisions",
-            "report_outcomes": "otgym.experiments.assemble_baseline:report_outcomes",
+            "report_outcomes": "otgym.experiments.assemble.run:report_outcomes",
         },
     ),
     (
@@ -88,7 +88,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
             "report_policy": "orient_default.npz",
             "report_baseline": "the bang-bang controller",
             "report_metrics": "failed,overshoot,final_error_deg",
-            "report_outcomes": "otgym.experiments.orient:report_outcomes",
+            "report_outcomes": "otgym.experiments.orient.run:report_outcomes",
         },
     ),
     (
@@ -106,7 +106,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
             "report_baseline": "the scripted baseline (each cell moved 5 um past the inlet's axis on its side)",
             "report_metrics": "purity,yield,cells_sorted,cells_missorted,cells_lost,light_dose_per_cell_mj_per_um2",
             "report_secondary": "throughput_cells_per_min",
-            "report_outcomes": "otgym.experiments.sort_cells:report_outcomes",
+            "report_outcomes": "otgym.experiments.sort_cells.run:report_outcomes",
         },
     ),
     # robots

@@ -67,7 +67,7 @@ def control_tick(
     autonomy_live=True,
 ) -> TickCommand:
     """The tick's command from what it sees (``obs``), each environment's mode
-    (``modes`` (E,): ``otgym.runtime.trials.TRIAL_MODES``), the autonomy's dP_r
+    (``modes`` (E,): ``otgym.runtime.trials.trial_modes()``), the autonomy's dP_r
     (``robot_um`` (E, T, 2); zeros where ``autonomy_live`` (E,) is False) and the
     human's dP_h, ``human(modes, alpha) -> (E, T, 2)`` (called once, after alpha:
     a simulated person reacts to the share it gets). Each trap's dP_s is capped at

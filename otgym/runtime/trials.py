@@ -2,14 +2,19 @@
 participant, a mode, a scenario), all stepped together tick by tick:
 
     dP_r = navigator(observation)                       (the autonomy, um: the route
-                                                         navigator, or the model-predictive
-                                                         one in mode ``mpc`` and, with
-                                                         ``shared_autonomy="mpc"``, in shared mode;
-                                                         the learned-speed one in mode ``rl``
-                                                         and with ``shared_autonomy="rl"``)
+                                                         navigator, or in a mode named
+                                                         after a registered navigator
+                                                         that navigator, and in shared
+                                                         mode the one ``shared_autonomy``
+                                                         names)
     alpha, dP_h, dP_s = control_tick(...)               (otgym.runtime.tick: the law, the
                                                          participants' two hands, the blend)
     observation = task.step(dP_s)
+
+Each trial's navigator is built by its registry name (``otgym.autonomy.by_name``), so a
+navigator that a lab registers (tag ``trial-mode``) is a mode of these trials as the
+built-in ``mpc`` and ``rl`` are; each navigator's own options (the MPC's configuration,
+the learned speed's policy) reach its ``for_task`` from ``navigator_config``.
 
 Each hand feels the feedback of its robot's handles. In batched trials the handle
 forces come from the trap law at the simulator's handle offsets: rendering and sensing
@@ -21,17 +26,16 @@ tested), and the interactive loop (``otgym.runtime.loop``) feeds the real sensor
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+import inspect
+from collections.abc import Callable, Mapping, Sequence
 
 import jax
 import numpy as np
 
 from otgym import registry
-from otgym.autonomy.mpc import MPCConfig, MPCCosts
-from otgym.autonomy.mpc_navigator import MPCNavigator, observation_rows
-from otgym.autonomy.navigator import RouteNavigator
+from otgym.autonomy.by_name import navigator_for
+from otgym.autonomy.mpc_navigator import observation_rows
 from otgym.autonomy.protocol import Navigator
-from otgym.autonomy.rl_navigator import RLNavigator
 from otgym.human.params import HumanParams
 from otgym.human.participant_task import ParticipantTask
 from otgym.human.participants import SimulatedParticipants
@@ -53,14 +57,25 @@ cell drifting in the chip's 8 um/s flow and far below the assembly's escape spee
 CRUISE_SPEED_UM_S = 5.0
 """The route navigator's speed along the route in trials: the autonomous mode's pace."""
 
-TRIAL_MODES = MODES + registry.names("navigators", "trial-mode")
-"""The arbitration modes, and the navigators tagged ``trial-mode``: autonomous (alpha 0)
-with that navigator's dP_r instead of the route navigator's (``mpc``: the
-model-predictive navigator; ``rl``: the learned-speed one)."""
+ROUTE_AUTONOMY = "route"
+"""The navigator of the manual and autonomous modes (and of shared mode by default): the
+route follower at ``cruise_speed_um_s``."""
+
+
+def trial_modes() -> tuple[str, ...]:
+    """The arbitration modes, and the navigators registered now with tag ``trial-mode``:
+    autonomous (alpha 0) with that navigator's dP_r instead of the route navigator's
+    (built in: ``mpc``, the model-predictive navigator; ``rl``, the learned-speed one)."""
+    return MODES + registry.names("navigators", "trial-mode")
+
+
 PEOPLE_MODES = ("manual", "shared")
 """The arbitration modes in which a participant's dP_h counts (alpha > 0 at times)."""
-AUTONOMIES = registry.names("navigators", "shared")
-"""Whose dP_r shared control may get: the navigators tagged ``shared``."""
+
+
+def shared_autonomies() -> tuple[str, ...]:
+    """Whose dP_r shared control may get: the navigators registered now with tag ``shared``."""
+    return registry.names("navigators", "shared")
 
 
 TRIAL_COLUMNS = [
@@ -89,8 +104,9 @@ class TrialSpec:
     scenario: int
 
     def __post_init__(self):
-        if self.mode not in TRIAL_MODES:
-            raise ValueError(f"unknown mode {self.mode!r}; choose one of {', '.join(TRIAL_MODES)}")
+        modes = trial_modes()
+        if self.mode not in modes:
+            raise ValueError(f"unknown mode {self.mode!r}; choose one of {', '.join(modes)}")
 
 
 def task_feedback(trap_law, retarget: RetargetConfig, handles_per_robot: int) -> FeedbackConfig:
@@ -111,6 +127,26 @@ def stylus_feedback(task) -> FeedbackConfig:
     return task_feedback(task.config.scene.trap_law, TASK_RETARGET, int(np.sum(task.trap_robot == task.trap_robot[0])))
 
 
+def trial_autonomy(mode: str, shared_autonomy: str = ROUTE_AUTONOMY) -> str:
+    """The navigator whose dP_r a trial of ``mode`` gets: the navigator a mode is named
+    after, ``shared_autonomy`` in shared mode, else the route navigator."""
+    if mode == "shared":
+        return shared_autonomy
+    return ROUTE_AUTONOMY if mode in MODES else mode
+
+
+def build_navigator(name: str, task, max_speed_um_s: float, seed: int, config: Mapping | None = None) -> Navigator:
+    """Navigator ``name`` of the registry on ``task``, as ``otgym.autonomy.by_name``
+    builds it, with ``config`` (its own options) passed to its ``for_task``, and the
+    trials' ``seed`` too where its ``for_task`` takes one (a navigator that draws random
+    numbers, as the MPC does)."""
+    options = dict(config or {})
+    found = registry.load("navigators", name)
+    if "seed" in inspect.signature(found.for_task).parameters:
+        options.setdefault("seed", seed)
+    return navigator_for(name, task, max_speed_um_s=max_speed_um_s, warm_up=False, **options)
+
+
 def run_trials(
     task: InteractiveTask,
     specs: list[TrialSpec],
@@ -121,45 +157,45 @@ def run_trials(
     participant_task: ParticipantTask = ParticipantTask(),
     cruise_speed_um_s: float = CRUISE_SPEED_UM_S,
     progress: Callable[[float], None] | None = None,
-    shared_autonomy: str = "route",
-    mpc_config: MPCConfig = MPCConfig(),
-    mpc_costs: MPCCosts = MPCCosts(),
-    mpc_stats: dict | None = None,
-    mpc_navigator: Callable[..., Navigator] | None = None,
+    shared_autonomy: str = ROUTE_AUTONOMY,
+    navigator_config: Mapping[str, Mapping] | None = None,
+    navigator_stats: dict | None = None,
+    navigators: Mapping[str, Navigator] | None = None,
     scenarios: list[Scenario] | None = None,
     recorder: Callable[[TickView], None] | None = None,
     participant_tasks: Sequence[ParticipantTask] | None = None,
-    speed_policy=None,
     display_latency_s=DISPLAY_LATENCY_S,
 ) -> list[dict]:
     """Run ``specs`` as one batch until every trial is done; one result row per spec
-    (with ``autonomy``: whose dP_r the trial got, ``route``, ``mpc`` or ``rl``). The
-    model-predictive navigator gives dP_r to ``mpc`` trials and, with
-    ``shared_autonomy="mpc"``, to shared ones; ``mpc_stats`` (a dict) receives its
-    replan count and wall times; ``mpc_navigator`` (default ``MPCNavigator``) builds
-    the navigator from ``(task, config, costs, seed=...)``, e.g. a recording or
-    distilled one (``otgym.autonomy.mpc_policy``). ``scenarios`` (one per spec) replaces
+    (with ``autonomy``: the name of the navigator whose dP_r the trial got,
+    ``trial_autonomy``). Each navigator a trial needs is built once for the batch by its
+    registry name (``build_navigator``), with its own options from ``navigator_config``
+    (name -> keyword arguments of its ``for_task``, e.g. ``{"mpc": {"config":
+    MPCConfig(...)}, "rl": {"policy": ...}}``), or taken ready-built from
+    ``navigators`` (name -> navigator, e.g. a recording or distilled MPC,
+    ``otgym.autonomy.mpc_policy``); the route navigator gives every trial its dP_r
+    first, the others replace it in their trials' rows. ``navigator_stats`` (a dict)
+    receives, per navigator other than the route's that offers ``stats()``, what it says (the MPC: its
+    replan count and wall times). ``scenarios`` (one per spec) replaces
     ``task.scenario(spec.scenario)``, e.g. scenarios made with another
     ``ScenarioConfig``; ``recorder`` is called after every tick with a ``TickView`` of
     the batch (``otgym.runtime.trace.TraceRecorder`` copies chosen rows; it must not
     change what it sees). ``participant_tasks`` (one per spec) gives each trial's
     participant its own task parameters instead of ``participant_task``, in the same
-    batch; ``display_latency_s`` is one latency or one per spec. ``rl`` trials and, with
-    ``shared_autonomy="rl"``, shared ones get the learned-speed navigator's dP_r
-    (``speed_policy``, default the shipped ``SPEED_POLICY``). The participants perceive
-    only the window (``otgym.human.percept``): after each tick it shows the scene, the
-    mode and the alpha the tick used, ``display_latency_s`` late; they never get the
-    autonomy's dP_r."""
+    batch; ``display_latency_s`` is one latency or one per spec. The participants
+    perceive only the window (``otgym.human.percept``): after each tick it shows the
+    scene, the mode and the alpha the tick used, ``display_latency_s`` late; they never
+    get the autonomy's dP_r."""
     if not specs:
         raise ValueError("no trials to run")
-    if shared_autonomy not in AUTONOMIES:
-        raise ValueError(f"unknown shared autonomy {shared_autonomy!r}; choose one of {', '.join(AUTONOMIES)}")
+    autonomies = shared_autonomies()
+    if shared_autonomy not in autonomies:
+        raise ValueError(f"unknown shared autonomy {shared_autonomy!r}; choose one of {', '.join(autonomies)}")
     tick = task.config.tick_s
     modes = np.array([s.mode for s in specs])
-    uses_mpc = (modes == "mpc") | ((modes == "shared") & (shared_autonomy == "mpc"))
-    mpc_rows = np.flatnonzero(uses_mpc)
-    uses_rl = (modes == "rl") | ((modes == "shared") & (shared_autonomy == "rl"))
-    rl_rows = np.flatnonzero(uses_rl)
+    autonomy = [trial_autonomy(s.mode, shared_autonomy) for s in specs]
+    others = {name: np.flatnonzero([a == name for a in autonomy]) for name in dict.fromkeys(autonomy)}
+    others.pop(ROUTE_AUTONOMY, None)
     if scenarios is None:
         scenarios = [task.scenario(s.scenario) for s in specs]
     elif len(scenarios) != len(specs):
@@ -167,23 +203,23 @@ def run_trials(
     key = jax.random.PRNGKey(seed)
     key, reset_key = jax.random.split(key)
     state = task.reset(scenarios, reset_key)
-    navigator = RouteNavigator(
-        task.route_um,
-        task.route_arc_um,
-        task.offsets_um,
-        tick,
-        cruise_speed_um_s,
-        max_speed_um_s=retarget.max_trap_speed_um_s,
-    )
-    navigator.reset(len(specs))
-    mpc = (mpc_navigator or MPCNavigator)(task, mpc_config, mpc_costs, seed=seed) if len(mpc_rows) else None
-    if mpc is not None:
-        mpc.reset(len(mpc_rows))
-    learned = (
-        RLNavigator.for_task(task, speed_policy, max_speed_um_s=retarget.max_trap_speed_um_s) if len(rl_rows) else None
-    )
-    if learned is not None:
-        learned.reset(len(rl_rows))
+    navigator_config = navigator_config or {}
+    navigators = navigators or {}
+
+    def navigator_named(name: str) -> Navigator:
+        if name in navigators:
+            return navigators[name]
+        options = dict(navigator_config.get(name, {}))
+        if name == ROUTE_AUTONOMY:
+            options.setdefault("cruise_speed_um_s", cruise_speed_um_s)
+        return build_navigator(name, task, retarget.max_trap_speed_um_s, seed, options)
+
+    route = navigator_named(ROUTE_AUTONOMY)
+    route.reset(len(specs))
+    built = {}
+    for name, rows_of in others.items():
+        built[name] = navigator_named(name)
+        built[name].reset(len(rows_of))
     law = task.config.scene.trap_law
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
     people = SimulatedParticipants(
@@ -210,11 +246,9 @@ def run_trials(
         display.show(obs, arbitration_modes(modes), mode_alpha(modes, obs.nearest_obstacle_gap_um, arbitration))
     total_ticks = int(np.ceil(task.config.time_limit_s / tick))
     for index in range(total_ticks):
-        robot = navigator.increments(obs)
-        if mpc is not None:
-            robot[mpc_rows] = mpc.increments(observation_rows(obs, mpc_rows))
-        if learned is not None:
-            robot[rl_rows] = learned.increments(observation_rows(obs, rl_rows))
+        robot = route.increments(obs)
+        for name, navigator in built.items():
+            robot[others[name]] = navigator.increments(observation_rows(obs, others[name]))
         command = control_tick(
             obs,
             modes,
@@ -240,19 +274,11 @@ def run_trials(
             break
     if progress is not None:
         progress(1.0)
-    if mpc is not None and mpc_stats is not None:
-        mpc_stats.update(
-            replans=len(mpc.replan_seconds),
-            replan_seconds=list(mpc.replan_seconds),
-            environments_planned=list(mpc.replan_sizes),
-        )
+    if navigator_stats is not None:
+        navigator_stats.update({name: nav.stats() for name, nav in built.items() if hasattr(nav, "stats")})
     rows = state.metrics.rows()
-    for spec, row, planned, speed_learned in zip(specs, rows, uses_mpc, uses_rl):
+    for spec, row, name in zip(specs, rows, autonomy):
         row.update(
-            participant=spec.participant,
-            mode=spec.mode,
-            trial=spec.trial,
-            scenario=spec.scenario,
-            autonomy="mpc" if planned else "rl" if speed_learned else "route",
+            participant=spec.participant, mode=spec.mode, trial=spec.trial, scenario=spec.scenario, autonomy=name
         )
     return rows

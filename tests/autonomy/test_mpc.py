@@ -11,7 +11,6 @@ the model's state at the end of its rollout.
 
 import copy
 import dataclasses
-import functools
 
 import jax
 import jax.numpy as jnp
@@ -414,12 +413,11 @@ def test_shared_control_takes_the_mpc_as_its_autonomy():
         dict(enumerate(sample_population(1, seed=4242))),
         seed=0,
         shared_autonomy="mpc",
-        mpc_config=SMALL,
-        mpc_stats=stats,
-        mpc_navigator=functools.partial(MPCNavigator, chunk_envs=1),  # the replan compiled for the other tests
+        navigator_config={"mpc": {"config": SMALL, "chunk_envs": 1}},  # the replan compiled for the other tests
+        navigator_stats=stats,
     )
     assert [row["autonomy"] for row in rows] == ["mpc", "mpc", "route"]
-    assert stats["replans"] > 0 and max(stats["environments_planned"]) == 2
+    assert stats["mpc"]["replans"] > 0 and max(stats["mpc"]["environments_planned"]) == 2
 
 
 def test_warm_up_leaves_it_fresh_and_it_plans_alike_from_a_rebuilt_observation(task, navigator, gripped):

@@ -15,7 +15,9 @@ bad value chosen from the option's declaration:
   file), ``X,Y`` (three numbers, NaN, words), ``NUMBERS`` (NaN, empty), ``ENDPOINT``,
   ``NAMES`` (a name otgym's bus refuses), ``NAMESPACE``/``TOPIC`` (a name ROS 2 would
   refuse), ``HOST``, ``NAME=NUMBERS`` (an unknown parameter, NaN, no value, a value the
-  parameter refuses), ``P:T`` (not two integers, one beyond the run's participants); ``TEXT`` is free text and left alone;
+  parameter refuses), ``P:T`` (not two integers, one beyond the run's participants), ``PACE`` (a word other than
+  baseline or all, a level beyond the last), ``LABEL=DIR`` (no label, a folder that is no
+  finished run); ``TEXT`` is free text and left alone;
 - options that only make sense together (``COMBINATIONS`` below).
 
 "Before any expensive work" is checked, not timed: while a case runs, a JAX compilation,
@@ -141,6 +143,8 @@ STRING_CASES = {
         Case("no values", "timing_jitter_s="),
         Case("refused value", "timing_jitter_s=-1"),
     ],
+    "PACE": [Case("unknown pace", "fast"), Case("level beyond the last", "99")],
+    "LABEL=DIR": [Case("no label", "a-folder", "folder"), Case("not a run folder", "run=a-folder", "folder")],
     "P:T": [Case("not P:T", "3"), Case("negative", "-1:0"), Case("beyond the run", "99:0")],
     "ID": [Case("empty", ""), Case("a comma", "lab,7"), Case("a path", "../lab7"), Case("a space", "lab 7")],
     "TEXT": [],

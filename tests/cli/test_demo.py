@@ -14,7 +14,8 @@ import pandas as pd
 import pytest
 
 from otgym.cli.app import main
-from otgym.experiments import demo as demo_module
+from otgym.experiments.demo import config as demo_config_module
+from otgym.experiments.demo import run as demo_module
 from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
 from otgym.sim.chip import load_chip
 from otgym.study import wilson_interval
@@ -230,7 +231,7 @@ def test_a_failing_stage_stops_the_background_study_and_is_the_error_reported(tm
     """The study thread (here a stand-in that reports until told to stop) is stopped at
     its next report when the speed-control stage fails, and the demo raises that
     stage's error, not the study's."""
-    import otgym.experiments.speed_control_eval as evaluation
+    import otgym.experiments.speed_control.evaluate as evaluation
 
     ended, reporting = [], threading.Event()
 
@@ -250,7 +251,7 @@ def test_a_failing_stage_stops_the_background_study_and_is_the_error_reported(tm
 
     monkeypatch.setattr(demo_module, "run_study", endless_study)
     monkeypatch.setattr(evaluation, "evaluate", broken_evaluation)
-    config = demo_module.demo_config(episodes=EPISODES, study_participants=2)
+    config = demo_config_module.demo_config(episodes=EPISODES, study_participants=2)
     with pytest.raises(RuntimeError, match="broken evaluation"):
         demo_module.run_demo(config, tmp_path / "out")
     assert ended == ["_Cancelled"]

@@ -38,7 +38,7 @@ def physics_rollout():
 
 
 def training():
-    from otgym.experiments.speed_control import make_env
+    from otgym.experiments.speed_control.train import make_env
     from otgym.rl.dqn import make_train
     from otgym.tasks.transport import speed_control as spc
     from otgym.tasks.transport.presets import preset
@@ -58,7 +58,7 @@ def training():
 
 
 def evaluation():
-    from otgym.experiments.speed_control_eval import make_rollout
+    from otgym.experiments.speed_control.evaluate import make_rollout
     from otgym.rl.network import QNetwork
     from otgym.tasks.transport import speed_control as spc
     from otgym.tasks.transport.core import OBS_SIZE

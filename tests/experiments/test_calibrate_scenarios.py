@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy.stats import fisher_exact
 
-from otgym.experiments.calibrate_scenarios import TARGET_AVOIDED, parse_values, summarise
+from otgym.experiments.calibration.run import TARGET_AVOIDED, parse_values, summarise
 from otgym.study.stats import wilson_interval
 from tests.otgym_cli import run_otgym
 

@@ -10,9 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from otgym.experiments.demo import DemoConfig, StudyConfig, demo_config, read_summary, stage_names
-from otgym.experiments.output_folder import check_out_dir
-from otgym.experiments.report import shared_control_section, speed_control_section
+from otgym.experiments.common.output_folder import check_out_dir
+from otgym.experiments.demo.config import DemoConfig, StudyConfig, demo_config, stage_names
+from otgym.experiments.demo.report import shared_control_section, speed_control_section
+from otgym.experiments.demo.run import read_summary
 from otgym.study import summarize
 from tests.study import make_trials
 
@@ -319,9 +320,9 @@ def test_the_shipped_policy_on_the_front_names_its_run_and_what_it_covers():
     """The front paragraph quotes the run (command, seed, n), the shipped policy's rate
     with its interval, and the constant speeds it covers; fails if a covered constant is
     missing, an uncovered one is listed, or a development seed passes as held out."""
-    from otgym.experiments.front_stats import Outcomes
-    from otgym.experiments.shipped_results import front_lines
-    from otgym.experiments.speed_front_report import summarize
+    from otgym.experiments.demo.shipped_results import front_lines
+    from otgym.experiments.speed_front.report import summarize
+    from otgym.experiments.speed_front.stats import Outcomes
 
     n = 200
     lost = lambda k: np.arange(n) < k  # noqa: E731 - success array: the first k completed

@@ -12,7 +12,7 @@ import json
 import pandas as pd
 import pytest
 
-from otgym.experiments.shared_control import MPC_ACCEPTANCE_RATE, acceptance, write_experiment
+from otgym.experiments.shared_control.report import MPC_ACCEPTANCE_RATE, acceptance, write_experiment
 from otgym.study.stats import compare_modes
 from otgym.study.summary import summarize
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from otgym.experiments.front_stats import (
+from otgym.experiments.speed_front.stats import (
     Outcomes,
     compare,
     compare_all,

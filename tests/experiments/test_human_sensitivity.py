@@ -8,17 +8,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from otgym.experiments.human_sensitivity import (
-    DUMMY,
+from otgym.experiments.human_sensitivity.config import DUMMY, check_arguments, parse_parameters, size_of
+from otgym.experiments.human_sensitivity.run import (
     analyse,
-    check_arguments,
     deciding,
     design,
-    parse_parameters,
     run_design,
     sample_outputs,
     sample_settings,
-    size_of,
 )
 from otgym.human.assumptions import ASSUMPTIONS, by_label
 from otgym.human.params import POPULATION_CV, HumanParams

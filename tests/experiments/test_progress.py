@@ -1,6 +1,6 @@
 """The experiment runs' progress lines: one per tenth reached, in order, never repeated."""
 
-from otgym.experiments.progress import tenths
+from otgym.experiments.common.progress import tenths
 
 
 def test_each_tenth_is_reported_once_in_order_with_its_label():

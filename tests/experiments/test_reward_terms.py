@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from otgym.experiments.reward_terms import markdown, summarize
+from otgym.experiments.speed_control.reward_terms import markdown, summarize
 from tests.otgym_cli import run_cli
 
 

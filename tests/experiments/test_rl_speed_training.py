@@ -1,4 +1,4 @@
-"""The learned speed policy's training (``otgym.experiments.train_interactive_speed``)
+"""The learned speed policy's training (``otgym.experiments.learned_speed.train``)
 and its navigator in the batched trials, tiny: one round of two environments cut at
 2 s; trials of 3 s."""
 
@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from otgym.autonomy.rl_navigator import N_FEATURES, SPEEDS_UM_S, load_speed_policy
-from otgym.experiments.train_interactive_speed import SpeedTrainingConfig, save_speed_policy, train
+from otgym.experiments.learned_speed.train import SpeedTrainingConfig, save_speed_policy, train
 from otgym.human.params import sample_population
 from otgym.runtime.trials import TrialSpec, run_trials
 from otgym.task.task import InteractiveConfig, InteractiveTask
 from tests.autonomy.test_rl_navigator import Fixed
 
-SCENARIO = 960_000  # a training scenario (otgym.experiments.seeds)
+SCENARIO = 960_000  # a training scenario (otgym.experiments.common.seeds)
 
 
 class Counting(Fixed):
@@ -38,7 +38,12 @@ def test_training_saves_a_policy_and_the_trials_give_rl_and_shared_the_learned_s
     counting = Counting(len(SPEEDS_UM_S) - 1)
     specs = [TrialSpec(0, mode, 0, SCENARIO) for mode in ("autonomous", "rl", "shared")]
     rows = run_trials(
-        task, specs, dict(enumerate(sample_population(1, 97))), seed=97, shared_autonomy="rl", speed_policy=counting
+        task,
+        specs,
+        dict(enumerate(sample_population(1, 97))),
+        seed=97,
+        shared_autonomy="rl",
+        navigator_config={"rl": {"policy": counting}},
     )
     assert [row["autonomy"] for row in rows] == ["route", "rl", "rl"]
     decisions = int(np.ceil(3.0 / 0.5))

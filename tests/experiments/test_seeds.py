@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from otgym.experiments import seeds
+from otgym.experiments.common import seeds
 
 
 def test_a_development_seed_is_flagged():

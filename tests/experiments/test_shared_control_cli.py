@@ -6,7 +6,8 @@ import json
 import pandas as pd
 import pytest
 
-from otgym.experiments.shared_control import TRIAL_COLUMNS, parse_modes
+from otgym.experiments.shared_control.config import parse_modes
+from otgym.runtime.trials import TRIAL_COLUMNS
 from tests.otgym_cli import run_otgym
 
 COMMAND = ["experiment", "shared-control"]
@@ -135,7 +136,7 @@ def test_batches_and_scenarios_of_run_experiment(monkeypatch, one_batch, per_par
     participant on scenario seed * 10000 + t) or, for the demo, one batch of every mode
     with each participant on scenarios of their own (every mode on the same ones). The
     task and the trials are stand-ins: only the batches are checked."""
-    import otgym.experiments.shared_control as experiment
+    import otgym.experiments.shared_control.run as experiment
 
     calls = []
 

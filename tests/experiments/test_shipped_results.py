@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from otgym.experiments import shipped_results as sr
+from otgym.experiments.demo import shipped_results as sr
 
 SUMMARY_HEADER = (
     "mode,trials,participants,success_mean,success_sd,obstacles_encountered,obstacles_avoided,avoided_rate,"
@@ -109,17 +109,26 @@ def test_the_shipped_fig8_gives_item_d_its_p_value():
     assert "Holm p = 0.27)" in text and "**not significant**: (d)" in text
 
 
-def test_a_folder_without_its_command_is_refused_by_name(tmp_path):
+def test_a_folder_without_its_command_is_refused_by_name(tmp_path, capsys):
+    """By the collector, and by ``otgym experiment fig8-json`` (one error line naming the
+    missing file, exit 2, nothing written), as is a call that gives no run."""
+    from otgym.cli import app as cli_app
+
     write_run(tmp_path / "run", with_command=False)
     with pytest.raises(FileNotFoundError, match="command.txt"):
         sr.collect_fig8_run("x", tmp_path / "run")
-    assert sr.main(["fig8", str(tmp_path / "out.json")]) == 2  # no run given
+    for runs, word in (([f"x={tmp_path / 'run'}"], "command.txt"), ([], "LABEL=DIR")):
+        with pytest.raises(SystemExit) as exit_info:
+            cli_app.main(["experiment", "fig8-json", "--out", str(tmp_path / "out.json"), *runs])
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert exit_info.value.code == 2 and len(lines) == 1 and lines[0].startswith("error: "), lines
+        assert word in lines[0] and not (tmp_path / "out.json").exists()
 
 
 def test_the_shipped_files_are_report_runs_on_held_out_seeds():
     """What the demo quotes: the front of the shipped policy (1,024 held-out episodes) and,
     where shipped, the Fig. 8 runs, each on a seed listed as a report seed."""
-    from otgym.experiments.seeds import DEVELOPMENT, REPORT_SEEDS
+    from otgym.experiments.common.seeds import DEVELOPMENT, REPORT_SEEDS
 
     front = sr.shipped_front()
     assert front is not None and front["seed_status"] == "held out" and front["episodes"] >= 1024

@@ -11,7 +11,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from otgym.experiments import seeds, task_report
+from otgym.experiments.common import seeds
+from otgym.experiments.task_report import run as task_report
 from otgym.rl.network import QNetwork
 from otgym.rl.policy import load_policy
 from otgym.tasks.sort_cells import core

@@ -7,15 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from otgym.experiments.speed_control_eval import (
+from otgym.experiments.speed_control.evaluate import (
     SAFE_FRACTION,
     Evaluation,
     acceptance,
     evaluate,
     passes,
-    write_safety_figure,
-    write_table,
 )
+from otgym.experiments.speed_control.report import write_safety_figure, write_table
 from tests.conftest import FIXED_POLICY_HIDDEN as HIDDEN
 
 EPISODES = 4  # shared with the demo test, so both run one compiled rollout
@@ -152,7 +151,7 @@ def test_table_and_figure_files(tmp_path, fastest_policy_evaluation):
 
 def test_paper_values_stand_beside_only_the_papers_speeds():
     """The ``realistic`` preset's 2-12 um/s groups are not the paper's: no paper column."""
-    from otgym.experiments.paper_tables import table_ii_markdown
+    from otgym.experiments.common.paper_tables import table_ii_markdown
     from otgym.tasks.transport.presets import PAPER_SPEEDS_UM_S, realistic
 
     def rows(speeds):

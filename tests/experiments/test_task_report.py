@@ -1,5 +1,5 @@
 """The statistics of ``otgym experiment assemble`` / ``orient``
-(``otgym.experiments.task_report``) on made-up paired outcomes whose answers are known:
+(``otgym.experiments.task_report.run``) on made-up paired outcomes whose answers are known:
 the plan's decision rule in each of its branches, Wilson intervals, McNemar's exact p
 from the binomial, the median's distribution-free interval. Nothing is simulated."""
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from otgym.experiments import task_report as tr
+from otgym.experiments.task_report import run as tr
 
 N = 256
 

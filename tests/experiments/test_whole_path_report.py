@@ -5,8 +5,8 @@ and seed named; and the demo's run sizes checked."""
 
 import pytest
 
-from otgym.experiments.report import whole_path_section
-from otgym.experiments.whole_path import RECOMMENDED_AUTONOMY, WholePathDemo, summarize
+from otgym.experiments.demo.report import whole_path_section
+from otgym.experiments.demo.whole_path import RECOMMENDED_AUTONOMY, WholePathDemo, summarize
 from tests.experiments.test_demo_report import wilson
 
 

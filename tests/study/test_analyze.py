@@ -9,7 +9,7 @@ import pandas as pd
 import pingouin as pg
 import pytest
 
-from otgym.experiments.shared_control import TRIAL_COLUMNS
+from otgym.runtime.trials import TRIAL_COLUMNS
 from otgym.study import figures
 from otgym.study.analyze import TRIALS_COLUMNS, analyze, load_study
 from otgym.study.figures import fig8_figure

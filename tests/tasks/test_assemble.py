@@ -140,18 +140,9 @@ def test_assignment_is_swap_stable_and_its_straight_moves_keep_beads_apart():
 
 
 def test_baseline_pace_is_the_largest_level_within_half_the_waist():
-    from otgym.experiments.assemble_baseline import baseline_action
+    from otgym.experiments.assemble.run import baseline_action
 
     config = preset("ring")
     action = baseline_action(config)
     assert config.pace_levels_um[action] <= config.waist_um / 2
     assert action == config.n_actions - 1 or config.pace_levels_um[action + 1] > config.waist_um / 2
-
-
-@pytest.mark.parametrize("argv", [["--episodes", "0"], ["--pace", "99"], ["--pace", "fast"]])
-def test_baseline_command_rejects_bad_input_with_one_error_line(argv, capsys):
-    from otgym.experiments.assemble_baseline import main
-
-    assert main(argv) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("error: ")

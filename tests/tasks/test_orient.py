@@ -172,7 +172,7 @@ def test_sb3_checker_passes_without_warnings():
 
 @pytest.mark.slow
 def test_scripted_outcomes_hold_keeps_bang_bang_reaches_fastest_overshoots(params):
-    from otgym.experiments.orient import compare_scripted
+    from otgym.experiments.orient.run import compare_scripted
 
     out = compare_scripted(4, seed=0, params=params)
     tolerance = np.deg2rad(params.config.tolerance_deg)
@@ -202,7 +202,7 @@ def test_scripted_outcomes_hold_keeps_bang_bang_reaches_fastest_overshoots(param
 
 
 def test_summary_counts_successes_overshoots_and_the_wilson_interval():
-    from otgym.experiments.orient import summarise
+    from otgym.experiments.orient.run import summarise
 
     deg = np.deg2rad
     outcome = {

@@ -236,7 +236,7 @@ def test_batched_reset_and_step(params, n_envs):
 
 @pytest.mark.slow
 def test_scripted_baseline_sorts_better_than_random_and_direct_trapping_doses_more():
-    from otgym.experiments.sort_cells import rollouts
+    from otgym.experiments.sort_cells.run import rollouts
 
     n = 16
     out = {}

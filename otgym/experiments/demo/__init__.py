@@ -1,0 +1,1 @@
+"""The demo (``otgym demo``): ``run`` (its configuration and stages), ``whole_path`` (the whole path past the moving obstacles), ``report`` (report.md beside the paper's numbers) and ``shipped_results`` (the long report runs shipped as JSON)."""

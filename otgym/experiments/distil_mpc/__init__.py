@@ -1,0 +1,1 @@
+"""The MPC distilled into a policy network (``otgym experiment distil-mpc``)."""

@@ -1,0 +1,1 @@
+"""Training of the interactive task's learned speed policy (navigator ``rl``)."""

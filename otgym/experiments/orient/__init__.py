@@ -1,0 +1,1 @@
+"""Episodes of the ``orient`` task under a policy, and its report outcomes."""

@@ -1,0 +1,1 @@
+"""The paper's manual / autonomous / shared experiment with simulated participants (``otgym experiment shared-control``, Fig. 8 a-b): ``config`` (modes and sizes, checked before any work), ``run`` (the batched trials), ``report`` (the files and the acceptance), ``route_bound`` (the route-keeping bound on the same scenarios) and ``trace_files`` (one trial tick by tick)."""

@@ -1,0 +1,1 @@
+"""The paper's Table II: the learned speed controller of the transport task trained (``train``, ``pretrain``) and evaluated against constant speeds (``evaluate``), and what each reward term contributes (``reward_terms``)."""

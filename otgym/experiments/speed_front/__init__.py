@@ -1,0 +1,1 @@
+"""Table II as a front (``otgym experiment speed-front``): ``config`` (what runs, checked before any work), ``run`` (train the family, roll out every policy), ``stats`` (the front and the paired tests), ``report`` (the files)."""
