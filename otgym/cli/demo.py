@@ -20,6 +20,7 @@ from otgym.experiments.demo.config import (
     DEMO_EPISODES,
     DEMO_RUNS,
     DEMO_SPEED_UM_S,
+    DEMO_TASK_EPISODES,
     FULL_EPISODES,
     SIZE_RANGES,
     StudyConfig,
@@ -92,6 +93,13 @@ def register(app: typer.Typer) -> None:
             **_bounds("study_time_limit_s"),
             help=f"Simulated seconds after which a study trial ends unfinished, {_range('study_time_limit_s')}.",
         ),
+        task_episodes: int = typer.Option(
+            DEMO_TASK_EPISODES,
+            "--task-episodes",
+            **_bounds("task_episodes"),
+            help=f"Paired episodes of each task beyond the paper's (assemble, orient, sort-cells: learned policy "
+            f"against scripted baseline), {_range('task_episodes')}; 0 leaves them out.",
+        ),
         sequential: bool = typer.Option(
             False,
             "--sequential",
@@ -101,8 +109,9 @@ def register(app: typer.Typer) -> None:
         """Plan on the default chip (Table I), evaluate the pretrained speed controller
         against constant speeds (Table II, safety violins), carry the cell along the
         whole path past moving obstacles with the learned speed (or the MPC) beside the
-        constant-speed route follower, run a small manual/autonomous/shared study (Fig. 8), and write
-        report.md beside the paper's numbers. Small samples, a few minutes on two
+        constant-speed route follower, run a small manual/autonomous/shared study (Fig. 8), run each
+        other task's learned policy beside its scripted baseline, and write report.md beside the
+        paper's numbers. Small samples, a few minutes on two
         cores; every size is printed with its result.
 
         Example: otgym demo --out results
@@ -122,6 +131,7 @@ def register(app: typer.Typer) -> None:
             study_time_limit_s,
             background_study=not sequential,
             autonomy=autonomy,
+            task_episodes=task_episodes,
         )
         console = Console(soft_wrap=True)
         columns = (
@@ -174,6 +184,13 @@ def register(app: typer.Typer) -> None:
             highlight=False,
         )
         written = "plan/, speed_control/, whole_path/"
+        if summary["tasks"] is not None:
+            from otgym.experiments.demo.tasks import task_line
+
+            console.print(f"the other tasks, {task_episodes} paired episodes each (seed {seed}):", highlight=False)
+            for row in summary["tasks"]:
+                console.print(f"  {task_line(row)}", markup=False, highlight=False)
+            written += ", tasks/"
         study = summary["shared_control"]
         if study is not None:
             from otgym.study.paper_fig8 import PAPER_FIG8

@@ -16,6 +16,7 @@ import pytest
 from otgym.cli.app import main
 from otgym.experiments.demo import config as demo_config_module
 from otgym.experiments.demo import run as demo_module
+from otgym.experiments.demo import tasks as demo_tasks
 from otgym.rl.policy import PRETRAINED_POLICY, load_policy, save_policy
 from otgym.sim.chip import load_chip
 from otgym.study import wilson_interval
@@ -39,7 +40,13 @@ def demo_run(tmp_path_factory, fixed_action_q_params):
     policy = save_policy(folder / "slow.npz", fixed_action_q_params(0), {"preset": "paper", "hidden": list(HIDDEN)})
     out = folder / "out"
     printed = io.StringIO()
-    with contextlib.redirect_stdout(printed), pytest.raises(SystemExit) as exit_info:
+    with (
+        contextlib.redirect_stdout(printed),
+        pytest.raises(SystemExit) as exit_info,
+        pytest.MonkeyPatch.context() as mp,
+    ):
+        # of the other tasks, only sort-cells, at the size of its report's test (its programs compiled once)
+        mp.setattr(demo_tasks, "task_names", lambda: ("sort-cells",))
         main(
             [
                 "demo",
@@ -57,6 +64,8 @@ def demo_run(tmp_path_factory, fixed_action_q_params):
                 "1",
                 "--study-time-limit-s",
                 "30",
+                "--task-episodes",
+                "4",
             ]
         )
     assert exit_info.value.code == 0, printed.getvalue()
@@ -158,7 +167,8 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(demo_run):
     trials.csv)."""
     out, printed = demo_run
     stages = [line for line in printed.splitlines() if line.startswith("[")]
-    assert [line[:5] for line in stages] == ["[1/4]", "[2/4]", "[3/4]", "[4/4]"]
+    assert [line[:5] for line in stages] == ["[1/5]", "[2/5]", "[3/5]", "[4/5]", "[5/5]"]
+    assert "the other tasks (sort-cells)" in stages[4] and "4 paired episodes each" in stages[4]
     assert "planning" in stages[0] and "2 simulated participants" in stages[1] and "in the background" in stages[1]
     assert "3 modes in one batch, trials cut at 30 s" in stages[1]
     assert (
@@ -182,6 +192,8 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(demo_run):
         "shared_control/stats.json",
         "shared_control/fig8.png",
         "shared_control/acceptance.json",
+        "tasks/sort-cells/results.json",
+        "tasks/sort-cells/summary.md",
     ):
         assert (out / name).is_file(), name
     summary = json.loads((out / "summary.json").read_text())
@@ -202,6 +214,14 @@ def test_demo_writes_tables_figures_and_a_report_beside_the_paper(demo_run):
     assert "whole path past the moving obstacles" in printed
     assert "learned speed reached the goal in 1 of 1 runs" in printed
     assert summary["rl_asr"] == rows["RL"]["ASR"]
+    (task,) = summary["tasks"]
+    written = json.loads((out / "tasks" / "sort-cells" / "results.json").read_text())["comparison"]
+    assert (task["learned_successes"], task["baseline_successes"]) == (
+        written["learned_successes"],
+        written["baseline_successes"],
+    )
+    line = f"sort-cells (robots): the learned policy succeeded in {task['learned_successes']} of 4 episodes"
+    assert line in printed and line in report and "The other tasks" in report
 
     trials = pd.read_csv(out / "shared_control" / "trials.csv")
     assert len(trials) == 6 and set(trials["mode"]) == {"manual", "autonomous", "shared"}

@@ -30,6 +30,10 @@ DEMO_SPEED_UM_S = 5.0
 (``otgym.runtime.trials.CRUISE_SPEED_UM_S``), around which the scenarios' crossing
 times are drawn."""
 
+DEMO_TASK_EPISODES = 8
+"""Paired episodes of each other task (assemble, orient, sort-cells: learned policy
+against scripted baseline, ``otgym.experiments.demo.tasks``); the report runs 256.
+Measured cold on 2 cores: 8 cost about 16, 30 and 20 CPU-s, most of it compiling."""
 FULL_EPISODES = 256
 """Episodes per policy of the full evaluation, ``otgym evaluate``."""
 
@@ -83,6 +87,7 @@ SIZE_RANGES = {
     "study_participants": (2, 16),  # a repeated-measures analysis needs two
     "study_trials": (1, 8),
     "study_time_limit_s": (1.0, 300.0),  # 300 s is the full study's limit
+    "task_episodes": (0, 256),  # 0 leaves the other tasks out; 256 is their report's size
 }
 """Valid ranges (inclusive) of the demo's sizes. The speed's
 top is the interactive task's trap-speed clamp (``otgym.runtime.trials``): beyond it the
@@ -113,6 +118,8 @@ class DemoConfig:
     whole_path: WholePathDemo = dataclasses.field(default_factory=lambda: _whole_path(runs=DEMO_RUNS, seed=1))
     study: StudyConfig | None = StudyConfig()
     """None leaves the shared-control study out."""
+    task_episodes: int = DEMO_TASK_EPISODES
+    """Paired episodes of each other task; 0 leaves them out."""
     background_study: bool = True
     """Run the study in a thread beside the speed control and the whole path (they share
     no state; the demo's work is mostly single-threaded, so two cores run both)."""
@@ -120,6 +127,7 @@ class DemoConfig:
     def __post_init__(self):
         check_range("--episodes", self.episodes, *SIZE_RANGES["episodes"])
         check_range("--seed", self.seed, *SIZE_RANGES["seed"])
+        check_range("--task-episodes", self.task_episodes, *SIZE_RANGES["task_episodes"])
         check_range("--runs", self.whole_path.runs, *SIZE_RANGES["runs"])
         check_range("--speed-um-s", self.whole_path.speed_um_s, *SIZE_RANGES["speed_um_s"], integer=False, unit=" um/s")
         check_range("whole-path seed", self.whole_path.seed, *SIZE_RANGES["seed"])
@@ -142,6 +150,7 @@ def demo_config(
     study_time_limit_s: float = StudyConfig.time_limit_s,
     background_study: bool = True,
     autonomy: str | None = None,
+    task_episodes: int = DEMO_TASK_EPISODES,
 ) -> DemoConfig:
     """The demo's configuration from the command line's values (study_participants 0
     leaves the study out; ``autonomy`` None: the whole path's recommended one); every
@@ -162,6 +171,7 @@ def demo_config(
         episodes=episodes,
         seed=seed,
         study=study,
+        task_episodes=task_episodes,
         background_study=background_study,
         whole_path=_whole_path(
             speed_um_s=float(speed_um_s), runs=runs, seed=seed, **({} if autonomy is None else {"autonomy": autonomy})
@@ -183,6 +193,13 @@ def stage_names(config: DemoConfig) -> list[str]:
         f"scenario{'s' * (whole_path.runs > 1)}, the {mode_name(whole_path.autonomy)} beside the route follower at "
         f"{whole_path.speed_um_s:g} um/s",
     ]
+    if config.task_episodes:
+        from otgym.experiments.demo.tasks import task_names
+
+        names.append(
+            f"the other tasks ({', '.join(task_names())}): each learned policy against its scripted baseline, "
+            f"{config.task_episodes} paired episodes each (the report's 256: otgym experiment TASK)"
+        )
     if config.study is not None:
         study = config.study
         names.insert(

@@ -17,7 +17,10 @@ of it the study.
    size is ``otgym experiment shared-control``), its trials cut at 90 s of simulated
    time: long enough to meet the obstacles and for the autonomous and shared trials to
    reach the goal (``StudyConfig``).
-5. ``report.md``: our numbers beside the paper's, with every sample size.
+5. ``tasks/``: each task beyond the paper's (assemble, orient, sort-cells), its
+   learned policy against its scripted baseline on a few paired episodes
+   (``otgym.experiments.demo.tasks``; the full reports: ``otgym experiment TASK``).
+6. ``report.md``: our numbers beside the paper's, with every sample size.
 
 Every size is checked against its range (``otgym.experiments.demo.config``) and the
 output folder is checked for writing before any work.
@@ -94,6 +97,7 @@ def run_demo(
     the planner both threads use once, under its compiler lock). It is the demo's
     longest stage, so it starts first. No result depends on which thread runs what."""
     from otgym.experiments.demo import report, shipped_results
+    from otgym.experiments.demo.tasks import run_tasks, tasks_section
     from otgym.experiments.demo.whole_path import run as run_whole_path
     from otgym.experiments.speed_control.evaluate import evaluate
     from otgym.experiments.speed_control.report import write_results
@@ -164,7 +168,8 @@ def run_demo(
             announce(2)
             study_result = study_work()
 
-        announce(count - 1)
+        tasks_last = 1 if config.task_episodes else 0  # the other tasks' stage comes last
+        announce(count - 1 - tasks_last)
         start = time.perf_counter()
         evaluation = evaluate(spc.make_params(task), q_params, meta["hidden"], config.episodes, config.seed)
         speed_dir = out_dir / "speed_control"
@@ -172,10 +177,16 @@ def run_demo(
         rows, safety, checks = write_results(evaluation, speed_dir, *limits)
         timings["speed_control_s"] = time.perf_counter() - start
 
-        announce(count)
+        announce(count - tasks_last)
         start = time.perf_counter()
         whole_path_summary = run_whole_path(config.whole_path, out_dir / "whole_path", progress)
         timings["whole_path_s"] = time.perf_counter() - start
+        task_rows = None
+        if config.task_episodes:
+            announce(count)
+            start = time.perf_counter()
+            task_rows = run_tasks(config.task_episodes, config.seed, out_dir / "tasks", progress)
+            timings["tasks_s"] = time.perf_counter() - start
         if study is not None:
             if study.running():
                 stage("waiting for the shared-control study")
@@ -202,6 +213,8 @@ def run_demo(
         report.planning_section(metrics),
         report.whole_path_section(whole_path_summary),
     ]
+    if task_rows is not None:
+        sections.append(tasks_section(task_rows, config.seed))
     study_summary = None
     if config.study is not None:
         study_summary, timings["shared_control_s"] = study_result
@@ -229,6 +242,7 @@ def run_demo(
         "episodes": config.episodes,
         "limits": {"force_pn": limits[0], "distance_um": limits[1]},
         "shared_control": study_summary,
+        "tasks": task_rows,
         "timings_s": {**{name: round(seconds, 1) for name, seconds in timings.items()}, "total_s": round(total, 1)},
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
