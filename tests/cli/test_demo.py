@@ -112,6 +112,8 @@ def test_the_whole_path_reaches_the_goal_past_the_obstacles_with_the_learned_spe
         (["--study-participants", "1"], "--study-participants must be an integer in [2, 16], got 1"),
         (["--study-trials", "100"], "--study-trials must lie in [1, 8], not 100"),
         (["--study-time-limit-s", "0"], "--study-time-limit-s must lie in [1.0, 300.0], not 0"),
+        (["--task-episodes", "-1"], "--task-episodes must lie in [0, 256], not -1"),
+        (["--task-episodes", "257"], "--task-episodes must lie in [0, 256], not 257"),
     ],
 )
 def test_cli_rejects_bad_input_with_one_line_before_any_work(tmp_path, capsys, arguments, message):
