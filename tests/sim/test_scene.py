@@ -257,3 +257,28 @@ def test_vmap_of_step_is_step_batch_with_the_batch_key(transport):
     direct, _ = step_batch(transport, states, velocity, batch_key(keys))
     assert np.array_equal(np.asarray(via_vmap.physics.pose), np.asarray(direct.physics.pose))
     assert events.contact_force_pn.shape == (VMAP_ENVS, 2)
+
+
+@pytest.mark.slow
+def test_obstacles_at_an_outlet_re_enter_as_if_every_step_drew_their_spots(scene_of):
+    """A step draws re-entry spots only when some obstacle is at an outlet: the obstacle
+    there re-enters at the spot the step's own spawn key gives (``_recirculate`` applied to
+    the physics' result), and the other environment's obstacles stay where the physics
+    put them."""
+    scene = scene_of(sc.SceneConfig(control_period_s=2e-4))
+    states = reset_batch(scene, jax.random.split(jax.random.PRNGKey(3), 2))
+    outlet = np.asarray(scene.outlets_um[0])
+    obstacle = scene.obstacles[0]
+    pose = states.physics.pose.at[0, obstacle, :2].set(jnp.asarray(outlet - np.array([5.0, 0.0])))
+    states = states.replace(physics=states.physics.replace(pose=pose))
+    still = jnp.zeros((2, scene.n_traps, 2))
+    key = jax.random.PRNGKey(11)
+    moved, _ = step_batch(scene, states, still, key)
+    # the same step with the propulsion it drew and no re-entry: the physics' own result
+    physics_only, _ = step_batch(scene, states, still, key, moved.obstacle_propulsion_um_s)
+    spawn_key = jax.random.split(key, 3)[2]
+    expected = jax.vmap(lambda k, p: sc._recirculate(scene, k, p))(jax.random.split(spawn_key, 2), physics_only.physics.pose)
+    np.testing.assert_array_equal(np.asarray(moved.physics.pose), np.asarray(expected))
+    entered = np.asarray(moved.physics.pose[0, obstacle, :2])
+    assert np.min(np.linalg.norm(np.asarray(scene.inlet_spawns_um) - entered, axis=1)) == 0.0  # a spawn spot
+    np.testing.assert_array_equal(np.asarray(moved.physics.pose[1]), np.asarray(physics_only.physics.pose[1]))
