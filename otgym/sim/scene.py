@@ -345,6 +345,20 @@ def _recirculate(scene: Scene, key, pose):
     return pose.at[obstacles, :2].set(jnp.where(at_exit[:, None], fresh, xy))
 
 
+def _recirculate_batch(scene: Scene, key, pose):
+    """``_recirculate`` for each environment of ``pose`` (E, B, 3), with environment i's
+    key ``jax.random.split(key, E)[i]``. The re-entry spots are drawn only when some
+    obstacle of the batch is at an outlet (a draw over every spawn spot per obstacle and
+    environment is a good part of a small batch's step); the result is that of drawing
+    them always."""
+    return jax.lax.cond(
+        jnp.any(_at_exit(scene, pose)),
+        lambda p: jax.vmap(lambda k, q: _recirculate(scene, k, q))(jax.random.split(key, p.shape[0]), p),
+        lambda p: p,
+        pose,
+    )
+
+
 def reset(scene: Scene, key) -> SceneState:
     """A random state: payload at a random spot with room for it, heading along the
     local flow (the channel's axis) or at random where there is no flow."""
@@ -390,16 +404,7 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key, obstacl
     )
     physics, report = ph.control_step_batch(model, state.physics, controls, physics_key)
     if scene.obstacles and scene.outlets_um.shape[0] and obstacle_propulsion_um_s is None:
-        # the re-entry spots are drawn only in a step where some obstacle reached an
-        # outlet (a draw over every spawn spot per obstacle and environment is a good part
-        # of a small batch's step); the same keys, so the same spots as always drawing
-        pose = jax.lax.cond(
-            jnp.any(_at_exit(scene, physics.pose)),
-            lambda p: jax.vmap(lambda k, q: _recirculate(scene, k, q))(jax.random.split(spawn_key, n_env), p),
-            lambda p: p,
-            physics.pose,
-        )
-        physics = physics.replace(pose=pose)
+        physics = physics.replace(pose=_recirculate_batch(scene, spawn_key, physics.pose))
     new_state = SceneState(physics, propulsion, state.time_s + config.control_period_s)
     return new_state, _events(scene, physics, report)
 

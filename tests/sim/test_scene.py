@@ -259,26 +259,25 @@ def test_vmap_of_step_is_step_batch_with_the_batch_key(transport):
     assert events.contact_force_pn.shape == (VMAP_ENVS, 2)
 
 
-@pytest.mark.slow
-def test_obstacles_at_an_outlet_re_enter_as_if_every_step_drew_their_spots(scene_of):
-    """A step draws re-entry spots only when some obstacle is at an outlet: the obstacle
-    there re-enters at the spot the step's own spawn key gives (``_recirculate`` applied to
-    the physics' result), and the other environment's obstacles stay where the physics
-    put them."""
-    scene = scene_of(sc.SceneConfig(control_period_s=2e-4))
-    states = reset_batch(scene, jax.random.split(jax.random.PRNGKey(3), 2))
-    outlet = np.asarray(scene.outlets_um[0])
-    obstacle = scene.obstacles[0]
-    pose = states.physics.pose.at[0, obstacle, :2].set(jnp.asarray(outlet - np.array([5.0, 0.0])))
-    states = states.replace(physics=states.physics.replace(pose=pose))
-    still = jnp.zeros((2, scene.n_traps, 2))
+def test_re_entry_spots_are_drawn_only_when_needed_and_are_those_of_always_drawing(transport):
+    """An obstacle at an outlet re-enters at the spot the batch's key gives it, as if
+    every step drew spots (``_recirculate`` for each environment); a batch with no
+    obstacle at an outlet is left as it is."""
+    obstacles = list(transport.obstacles)
+    pose = np.zeros((2, transport.model.n_bodies, 3), np.float32)
+    pose[:, transport.payload, :2] = transport.start_candidates_um[0]
+    pose[:, obstacles, :2] = transport.obstacle_candidates_um[: len(obstacles)]
+    away = jnp.asarray(pose)
+    obstacle = obstacles[0]
+    pose[0, obstacle, :2] = np.asarray(transport.outlets_um[0]) - np.array([5.0, 0.0])
+    at_outlet = jnp.asarray(pose)
     key = jax.random.PRNGKey(11)
-    moved, _ = step_batch(scene, states, still, key)
-    # the same step with the propulsion it drew and no re-entry: the physics' own result
-    physics_only, _ = step_batch(scene, states, still, key, moved.obstacle_propulsion_um_s)
-    spawn_key = jax.random.split(key, 3)[2]
-    expected = jax.vmap(lambda k, p: sc._recirculate(scene, k, p))(jax.random.split(spawn_key, 2), physics_only.physics.pose)
-    np.testing.assert_array_equal(np.asarray(moved.physics.pose), np.asarray(expected))
-    entered = np.asarray(moved.physics.pose[0, obstacle, :2])
-    assert np.min(np.linalg.norm(np.asarray(scene.inlet_spawns_um) - entered, axis=1)) == 0.0  # a spawn spot
-    np.testing.assert_array_equal(np.asarray(moved.physics.pose[1]), np.asarray(physics_only.physics.pose[1]))
+    batch = jax.jit(sc._recirculate_batch)
+    always = jax.jit(lambda s, k, p: jax.vmap(lambda k, q: sc._recirculate(s, k, q))(jax.random.split(k, 2), p))
+    assert not np.any(np.asarray(sc._at_exit(transport, away)))
+    for pose in (at_outlet, away):
+        np.testing.assert_array_equal(np.asarray(batch(transport, key, pose)), np.asarray(always(transport, key, pose)))
+    moved = np.asarray(batch(transport, key, at_outlet))
+    assert np.min(np.linalg.norm(np.asarray(transport.inlet_spawns_um) - moved[0, obstacle, :2], axis=1)) == 0.0
+    np.testing.assert_array_equal(moved[1], np.asarray(at_outlet[1]))
+    np.testing.assert_array_equal(np.asarray(batch(transport, key, away)), np.asarray(away))
