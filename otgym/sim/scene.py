@@ -328,15 +328,35 @@ def _spots_away_from(key, spots, centre, distance_um, count):
     return spots[jax.random.categorical(key, logits, shape=(count,))]
 
 
+def _at_exit(scene: Scene, pose):
+    """Which obstacles of ``pose`` (..., B, 3) are within ``PORT_ZONE_UM`` of an outlet (..., K)."""
+    xy = pose[..., np.asarray(scene.obstacles), :2]
+    return jnp.min(jnp.linalg.norm(xy[..., :, None, :] - scene.outlets_um, axis=-1), axis=-1) < PORT_ZONE_UM
+
+
 def _recirculate(scene: Scene, key, pose):
     """Obstacles that reached an outlet re-enter near an inlet, away from the payload."""
     obstacles = np.asarray(scene.obstacles)
     xy = pose[obstacles, :2]
-    at_exit = jnp.min(jnp.linalg.norm(xy[:, None] - scene.outlets_um[None], axis=-1), axis=1) < PORT_ZONE_UM
+    at_exit = _at_exit(scene, pose)
     fresh = _spots_away_from(
         key, scene.inlet_spawns_um, pose[scene.payload, :2], scene.config.min_obstacle_distance_um, len(obstacles)
     )
     return pose.at[obstacles, :2].set(jnp.where(at_exit[:, None], fresh, xy))
+
+
+def _recirculate_batch(scene: Scene, key, pose):
+    """``_recirculate`` for each environment of ``pose`` (E, B, 3), with environment i's
+    key ``jax.random.split(key, E)[i]``. The re-entry spots are drawn only when some
+    obstacle of the batch is at an outlet (a draw over every spawn spot per obstacle and
+    environment is a good part of a small batch's step); the result is that of drawing
+    them always."""
+    return jax.lax.cond(
+        jnp.any(_at_exit(scene, pose)),
+        lambda p: jax.vmap(lambda k, q: _recirculate(scene, k, q))(jax.random.split(key, p.shape[0]), p),
+        lambda p: p,
+        pose,
+    )
 
 
 def reset(scene: Scene, key) -> SceneState:
@@ -384,8 +404,7 @@ def step_batch(scene: Scene, state: SceneState, trap_velocity_um_s, key, obstacl
     )
     physics, report = ph.control_step_batch(model, state.physics, controls, physics_key)
     if scene.obstacles and scene.outlets_um.shape[0] and obstacle_propulsion_um_s is None:
-        pose = jax.vmap(lambda k, p: _recirculate(scene, k, p))(jax.random.split(spawn_key, n_env), physics.pose)
-        physics = physics.replace(pose=pose)
+        physics = physics.replace(pose=_recirculate_batch(scene, spawn_key, physics.pose))
     new_state = SceneState(physics, propulsion, state.time_s + config.control_period_s)
     return new_state, _events(scene, physics, report)
 

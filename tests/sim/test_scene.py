@@ -257,3 +257,27 @@ def test_vmap_of_step_is_step_batch_with_the_batch_key(transport):
     direct, _ = step_batch(transport, states, velocity, batch_key(keys))
     assert np.array_equal(np.asarray(via_vmap.physics.pose), np.asarray(direct.physics.pose))
     assert events.contact_force_pn.shape == (VMAP_ENVS, 2)
+
+
+def test_re_entry_spots_are_drawn_only_when_needed_and_are_those_of_always_drawing(transport):
+    """An obstacle at an outlet re-enters at the spot the batch's key gives it, as if
+    every step drew spots (``_recirculate`` for each environment); a batch with no
+    obstacle at an outlet is left as it is."""
+    obstacles = list(transport.obstacles)
+    pose = np.zeros((2, transport.model.n_bodies, 3), np.float32)
+    pose[:, transport.payload, :2] = transport.start_candidates_um[0]
+    pose[:, obstacles, :2] = transport.obstacle_candidates_um[: len(obstacles)]
+    away = jnp.asarray(pose)
+    obstacle = obstacles[0]
+    pose[0, obstacle, :2] = np.asarray(transport.outlets_um[0]) - np.array([5.0, 0.0])
+    at_outlet = jnp.asarray(pose)
+    key = jax.random.PRNGKey(11)
+    batch = jax.jit(sc._recirculate_batch)
+    always = jax.jit(lambda s, k, p: jax.vmap(lambda k, q: sc._recirculate(s, k, q))(jax.random.split(k, 2), p))
+    assert not np.any(np.asarray(sc._at_exit(transport, away)))
+    for pose in (at_outlet, away):
+        np.testing.assert_array_equal(np.asarray(batch(transport, key, pose)), np.asarray(always(transport, key, pose)))
+    moved = np.asarray(batch(transport, key, at_outlet))
+    assert np.min(np.linalg.norm(np.asarray(transport.inlet_spawns_um) - moved[0, obstacle, :2], axis=1)) == 0.0
+    np.testing.assert_array_equal(moved[1], np.asarray(at_outlet[1]))
+    np.testing.assert_array_equal(np.asarray(batch(transport, key, away)), np.asarray(away))
