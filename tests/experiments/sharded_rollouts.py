@@ -7,11 +7,14 @@ the 79th on) and ``evaluation`` (an evaluation rollout of four episodes; the tra
 chunk holds its parts, the Q-network's forward pass over split environments and their
 episode ends, so ``test_sharding`` runs physics and training only).
 
-Each part runs twice: first on one device, as a one-device process runs it
-(``otgym.physics.sharding.environment_mesh`` answering None, so no array is constrained
-and the programs are those of a process without this module), then split over both
-devices. Saves ``devices1.npz`` and ``devices2.npz`` in OUT_DIR, each with
-``devices_<part>``, the number of devices each result is split over."""
+That process runs each part split over both devices and saves ``devices2.npz`` in
+OUT_DIR, with ``devices_<part>``, the number of devices each result is split over. The
+one-device results it is compared with come from ``run_parts`` in the test's own
+process, a one-device process (``otgym.physics.sharding.environment_mesh`` answers None
+there, so no array is constrained): its programs are those every other one-device
+process runs, the canonical training chunk included, so JAX's persistent cache serves
+them to and from the rest of the suite. (A process started with two host devices keys
+its compiled programs apart from a one-device process's, so it could not share them.)"""
 
 import sys
 from pathlib import Path
@@ -84,13 +87,6 @@ def run_parts(names: list[str]) -> dict:
 
 
 if __name__ == "__main__":
-    from otgym.physics import sharding
-
     out, parts = Path(sys.argv[1]), sys.argv[2:]
     assert len(jax.local_devices()) == 2, "start with XLA_FLAGS=--xla_force_host_platform_device_count=2"
-    split_mesh = sharding.environment_mesh
-    sharding.environment_mesh = lambda: None  # one device: what a one-device process sees
-    np.savez(out / "devices1.npz", **run_parts(parts))
-    sharding.environment_mesh = split_mesh
-    jax.clear_caches()  # nothing traced without the mesh is reused (module-level jits included)
     np.savez(out / "devices2.npz", **run_parts(parts))

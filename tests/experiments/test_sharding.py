@@ -1,9 +1,10 @@
 """The environment axis split over several devices (``otgym.physics.sharding``) gives the
 one-device results. Run on the CPU with two host devices
 (``XLA_FLAGS=--xla_force_host_platform_device_count=2``, which must be set before JAX
-starts, hence a fresh process: ``sharded_rollouts.py``). That one process computes every
-part on one device (no mesh: the programs of a one-device process) and then split over
-both devices.
+starts, hence a fresh process: ``sharded_rollouts.py``), which computes every part split
+over both devices. The one-device results are computed in the test's own process, a
+one-device process, whose programs (the canonical training chunk's among them) JAX's
+persistent cache shares with the rest of the suite.
 
 Per-environment training results are bitwise equal at this size (64 environments), the physics rollout's (4 environments) to float32
 round-off with JAX 0.10.2 (bitwise with earlier versions): JAX's partitionable threefry PRNG gives every element of a draw
@@ -19,6 +20,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import jax
 import numpy as np
 import pytest
 
@@ -39,7 +41,10 @@ pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("sharded_rollouts")]  # 
 
 @pytest.fixture(scope="module")
 def rollouts(tmp_path_factory) -> tuple[dict, dict]:
-    """Every part's arrays on one device and split over two, from one fresh process."""
+    """Every part's arrays on one device (this process) and split over two (a fresh
+    process with two host devices)."""
+    from tests.experiments.sharded_rollouts import run_parts
+
     out = tmp_path_factory.mktemp("sharded")
     env = dict(os.environ, PYTHONPATH=str(REPO), XLA_FLAGS="--xla_force_host_platform_device_count=2")
     env.setdefault("JAX_COMPILATION_CACHE_DIR", str(Path.home() / ".cache" / "otgym" / "jax"))
@@ -50,11 +55,10 @@ def rollouts(tmp_path_factory) -> tuple[dict, dict]:
         check=True,
         timeout=3600,
     )
-    loaded = []
-    for devices in (1, 2):
-        with np.load(out / f"devices{devices}.npz") as data:
-            loaded.append({name: data[name] for name in data.files})
-    return loaded[0], loaded[1]
+    assert len(jax.local_devices()) == 1  # no mesh here: the programs of a one-device process
+    with np.load(out / "devices2.npz") as data:
+        split = {name: data[name] for name in data.files}
+    return run_parts(PARTS), split
 
 
 def check_same(rollouts, parts):

@@ -1,7 +1,8 @@
-"""Pure-JAX DQN: the whole loop jits and vmaps over seeds (on the corridor MDP of
-``test_dqn_known_mdp``, a program that compiles in seconds; the real task's training
-chunk is compiled once for the suite by ``tests.rl.canonical``'s users); the epsilon
-schedule; policy files round-trip and reject wrong or missing files."""
+"""Pure-JAX DQN: the whole loop jits and vmaps over seeds (the corridor MDP's training of
+``test_dqn_known_mdp``, five seeds in one program, shared with that test through
+``conftest.py``'s ``corridor_training``; the real task's training chunk is compiled
+once for the suite by ``tests.rl.canonical``'s users); the epsilon schedule; policy
+files round-trip and reject wrong or missing files."""
 
 import dataclasses
 
@@ -9,32 +10,35 @@ import jax
 import numpy as np
 import pytest
 
-from otgym.rl.dqn import DQNConfig, epsilon, make_train
+from otgym.rl.dqn import DQNConfig, epsilon
 from otgym.rl.network import QNetwork
 from otgym.rl.policy import load_policy, save_policy
 from otgym.tasks.transport import core as tr
-from tests.rl.test_dqn_known_mdp import corridor_env
+from tests.rl.conftest import CORRIDOR_GROUP
+from tests.rl.test_dqn_known_mdp import CONFIG, SEEDS
 
 TINY = DQNConfig(
     n_envs=8, total_env_steps=160, chunk_iters=10, buffer_size=64, batch_size=16, learning_starts=32, target_every=5
 )
-
-
-@pytest.fixture(scope="module")
-def trained():
-    _, _, train = make_train(TINY, corridor_env())
-    runner, metrics = jax.jit(jax.vmap(train))(jax.random.split(jax.random.PRNGKey(0), 2))
-    return runner, metrics
+"""The epsilon schedule's configuration: 20 iterations."""
 
 
 @pytest.mark.slow
-def test_training_runs_in_jit_over_two_seeds(trained):
-    runner, metrics = trained
-    assert metrics["loss"].shape == (2, TINY.n_chunks * TINY.chunk_iters)
-    assert np.all(np.isfinite(np.asarray(metrics["loss"])))
-    # learning starts once the buffer holds 32 transitions (4 iterations of 8 envs)
-    assert np.all(np.asarray(metrics["loss"])[:, :3] == 0) and np.all(np.asarray(metrics["loss"])[:, 5:] > 0)
-    assert int(runner.buffer.size[0]) == 64 and int(runner.iteration[0]) == 20
+@pytest.mark.xdist_group(CORRIDOR_GROUP)  # one worker trains (conftest.py's corridor_training)
+def test_training_runs_in_jit_over_the_seeds(corridor_training):
+    """The corridor training of five seeds in one jitted, vmapped program: a loss per
+    iteration, zero until the replay buffer holds ``learning_starts`` = 512 transitions
+    (16 iterations of 32 environments), positive after; the buffer full at its 4096
+    (38,400 transitions were offered); 1200 iterations run; the seeds' networks differ."""
+    runner, metrics, _ = corridor_training
+    iterations = CONFIG.n_chunks * CONFIG.chunk_iters
+    starts = CONFIG.learning_starts // CONFIG.n_envs
+    loss = np.asarray(metrics["loss"])
+    assert iterations == 1200 and starts == 16 and loss.shape == (SEEDS, iterations)
+    assert np.all(np.isfinite(loss))
+    assert np.all(loss[:, : starts - 1] == 0) and np.all(loss[:, starts + 1 :] > 0)
+    assert np.all(np.asarray(runner.buffer.size) == CONFIG.buffer_size)
+    assert np.all(np.asarray(runner.iteration) == iterations)
     kernel = runner.q_params["params"]["Dense_0"]["kernel"]
     assert not np.allclose(np.asarray(kernel[0]), np.asarray(kernel[1])), "seeds differ"
 

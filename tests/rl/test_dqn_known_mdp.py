@@ -15,8 +15,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from otgym.rl.dqn import DQNConfig, Env, make_train
+from otgym.rl.dqn import DQNConfig, Env
 from otgym.rl.network import QNetwork
+from tests.rl.conftest import CORRIDOR_GROUP
 
 CELLS, GOAL, HAZARD = 8, 7, (3, 4)
 ADVANCE = (1, 2, 0)  # cells advanced by action 0 (slow), 1 (fast), 2 (stay)
@@ -112,7 +113,8 @@ def test_value_iteration_gives_a_mixed_optimal_policy():
 
 
 @pytest.mark.slow
-def test_dqn_finds_the_optimal_policy_and_values():
+@pytest.mark.xdist_group(CORRIDOR_GROUP)  # one worker trains (conftest.py's corridor_training)
+def test_dqn_finds_the_optimal_policy_and_values(corridor_training):
     """Five training seeds (vmapped, one compile). The issue's bar for training
     reliability is 4 of 5 seeds; each passing seed must choose the optimal action in
     every clearly decided cell, and its greedy value at each cell must lie within 0.25 of
@@ -123,11 +125,7 @@ def test_dqn_finds_the_optimal_policy_and_values():
     q_star = optimal_q()
     ordered = np.sort(q_star, axis=1)
     clear = ordered[:, -1] - ordered[:, -2] >= CLEAR_GAP
-    env = corridor_env()
-    init, _, train = make_train(CONFIG, env)
-    keys = jax.random.split(jax.random.PRNGKey(0), SEEDS)
-    runner, _ = jax.jit(jax.vmap(train))(keys)
-    untrained = jax.vmap(init)(keys)
+    runner, _, untrained = corridor_training
     cells = jax.nn.one_hot(jnp.arange(GOAL), CELLS)
 
     network = QNetwork(3, CONFIG.hidden)

@@ -74,34 +74,51 @@ GYM_CHECK = """
 import json, sys, warnings
 import gymnasium
 import otgym  # registers every task's Gymnasium id
-env = gymnasium.make("otgym/push-bead-v0")
-checker = sys.argv[1]
-with warnings.catch_warnings(record=True) as caught:
-    warnings.simplefilter("always")
-    if checker == "gymnasium":
-        from gymnasium.utils.env_checker import check_env
-        check_env(env.unwrapped, skip_render_check=True)
-    else:
-        from stable_baselines3.common.env_checker import check_env
-        check_env(env.unwrapped, warn=True)
-obs, _ = env.reset(seed=0)
-steps, done = 0, False
-while not done:
-    obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
-    steps, done = steps + 1, terminated or truncated
-print(json.dumps({"spec": env.spec.id, "space": str(env.action_space), "obs": len(obs), "steps": steps,
-                  "warnings": [f"{w.filename}: {w.message}" for w in caught]}))
+for checker in sys.argv[1:]:
+    env = gymnasium.make("otgym/push-bead-v0")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if checker == "gymnasium":
+            from gymnasium.utils.env_checker import check_env
+            check_env(env.unwrapped, skip_render_check=True)
+        else:
+            from stable_baselines3.common.env_checker import check_env
+            check_env(env.unwrapped, warn=True)
+    obs, _ = env.reset(seed=0)
+    steps, done = 0, False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        steps, done = steps + 1, terminated or truncated
+    print("report: " + json.dumps({"checker": checker, "spec": env.spec.id, "space": str(env.action_space),
+                                   "obs": len(obs), "steps": steps,
+                                   "warnings": [f"{w.filename}: {w.message}" for w in caught]}), flush=True)
 """
 
 
-def _check(site: Path, tmp_path: Path, checker: str) -> dict:
-    result = run(site, ["-c", GYM_CHECK, checker], tmp_path)
+def _sb3_usable() -> bool:
+    """Both installed; found, not imported: every xdist worker collects this module, and
+    torch takes seconds to import (the check itself runs in a child process)."""
+    return all(importlib.util.find_spec(name) is not None for name in ("stable_baselines3", "torch"))
+
+
+@pytest.fixture(scope="module")
+def checks(site, tmp_path_factory) -> dict[str, dict]:
+    """Gymnasium's ``check_env`` and then (where it is installed) SB3's, each on a fresh
+    environment from ``gymnasium.make``, then an episode of random actions: one fresh
+    process runs both, one after the other (a user's process that imports otgym and
+    Gymnasium once), and prints a report per checker."""
+    checkers = ["gymnasium"] + (["sb3"] if _sb3_usable() else [])
+    result = run(site, ["-c", GYM_CHECK, *checkers], tmp_path_factory.mktemp("checks"))
     assert result.returncode == 0, result.stderr[-3000:]
-    return json.loads(result.stdout.strip().splitlines()[-1])
+    reports = [
+        json.loads(line.removeprefix("report: ")) for line in result.stdout.splitlines() if line.startswith("report: ")
+    ]
+    assert [report["checker"] for report in reports] == checkers, result.stdout[-3000:]
+    return {report["checker"]: report for report in reports}
 
 
-def test_gymnasium_make_and_check_env(site, tmp_path):
-    report = _check(site, tmp_path, "gymnasium")
+def test_gymnasium_make_and_check_env(checks):
+    report = checks["gymnasium"]
     assert report["spec"] == "otgym/push-bead-v0" and report["space"] == "Discrete(5)" and report["obs"] == 5
     assert 1 <= report["steps"] <= 60  # an episode ends by the task's own limit
     assert _unexpected(report["warnings"]) == []
@@ -117,15 +134,9 @@ def _unexpected(warnings: list[str]) -> list[str]:
     return [w for w in warnings if UNBOUNDED not in w]
 
 
-def _sb3_usable() -> bool:
-    """Both installed; found, not imported: every xdist worker collects this module, and
-    torch takes seconds to import (the check itself runs in a child process)."""
-    return all(importlib.util.find_spec(name) is not None for name in ("stable_baselines3", "torch"))
-
-
 @pytest.mark.skipif(not _sb3_usable(), reason="needs stable-baselines3 and torch (pip install '.[sb3]')")
-def test_stable_baselines3_check_env(site, tmp_path):
-    report = _check(site, tmp_path, "sb3")
+def test_stable_baselines3_check_env(checks):
+    report = checks["sb3"]
     assert report["spec"] == "otgym/push-bead-v0" and _unexpected(report["warnings"]) == []
 
 
