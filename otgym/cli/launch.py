@@ -31,12 +31,16 @@ def _die_with_parent() -> None:
 
 
 class NodeProcesses:
-    """Children ``otgym node ROLE ...``, by label; their stdout and stderr go to files
-    in a temporary folder (removed by ``stop_all``)."""
+    """Children ``otgym node ROLE ...``, by label; their stdout and stderr go to
+    ``LABEL.out`` and ``LABEL.err`` in ``log_dir`` (created, and kept), or without one in
+    a temporary folder that ``stop_all`` removes."""
 
-    def __init__(self):
+    def __init__(self, log_dir: Path | None = None):
         self.children: dict[str, subprocess.Popen] = {}
-        self._folder = Path(tempfile.mkdtemp(prefix="otgym-nodes-"))
+        self._keep = log_dir is not None
+        if log_dir is not None:
+            log_dir.mkdir(parents=True, exist_ok=True)
+        self._folder = Path(log_dir) if log_dir is not None else Path(tempfile.mkdtemp(prefix="otgym-nodes-"))
         self.finished: set[str] = set()
         """Labels whose exit is expected (stopped by us, or done)."""
 
@@ -122,7 +126,8 @@ class NodeProcesses:
                 self.stop(label, grace_s)
         for label in self.children:
             self.stop(label, grace_s)
-        shutil.rmtree(self._folder, ignore_errors=True)
+        if not self._keep:
+            shutil.rmtree(self._folder, ignore_errors=True)
 
 
 def free_loopback_endpoint() -> str:

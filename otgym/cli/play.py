@@ -408,7 +408,7 @@ def run_distributed(
     sim += (["--duration", repr(duration_s)] if duration_s is not None else []) + (["--hold"] if questionnaire else [])
     sim += ["--wait-for-start"]  # trial 1 once every node is ready and the window open (_window_over_nodes)
     sim += ["--autonomy", "remote"] if remote_autonomy else []
-    nodes = NodeProcesses()
+    nodes = NodeProcesses(out / "nodes")  # each node's own output, kept beside the session's files
     failed: list[str] = []
     app = None
     autonomy = ["autonomy", "--chip", chip, "--navigator", navigator, "--connect", endpoint]

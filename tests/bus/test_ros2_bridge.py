@@ -31,6 +31,16 @@ PLAY_END_S = 420.0
 """The bound on the play session's end after the probe: the session at a fraction of
 real time under load, then the sim's end, the recorder's drain and each node's stop
 (up to 10 s each before SIGKILL)."""
+KNOWN_FAILURE = (
+    "open: in every cold run of the whole suite since 2026-11-28 (five, 2 cores) the probe received no 10 "
+    "PoseArrays from otgym play --ros2 while the session ran and ended well; run alone, cold or warm, under load up "
+    "to 15, it passed every time (six runs); cause not found"
+)
+"""Why a probe that hears nothing is an expected failure (reported with ``-rx`` and what
+both sides saw), not a pass: any other failed check of this test is a failure."""
+PLAY_START_S = 900.0
+"""``otgym play``'s own bound on its nodes' start-up (``wait_ready``): cold, on a machine
+whose other core compiles too, the nodes take minutes to say ready."""
 PROBE_DEADLINE_S = 120.0
 """The probe's bound on all its waits together (discovery, 10 PoseArrays, the traps moving)."""
 
@@ -105,12 +115,6 @@ def test_a_bad_ros2_argument_is_one_error_line_before_the_bus_opens(ros_env, mon
 
 @pytest.mark.slow
 @pytest.mark.xdist_group("ros2_sessions")  # never beside the rig test: real-time sessions of their own
-@pytest.mark.xfail(
-    strict=False,  # runs, and reports XPASS when it passes
-    reason="open: in three cold runs of the whole suite (2026-11-28, 2 cores) the probe listed otgym's topics but "
-    "received no 10 PoseArrays while the session ran and ended well (exit 0, its trial written); run alone and warm "
-    "it passed every time (a shared-mode variant 4 runs, this test once, right after the rig test); cause not found",
-)
 def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_path):
     """``otgym play --distributed --ros2`` (headless, the simulated stylus): a ROS 2 node
     of its own process receives the session's traps and markers while it runs; the
@@ -121,17 +125,21 @@ def test_play_distributed_with_ros2_puts_the_session_on_the_graph(ros_env, tmp_p
         "-m", "otgym", "play", "--headless", "--distributed", "--ros2", "--device", "simulated",
         "--no-questionnaire", "--mode", "manual", "--duration", str(SESSION_S), "--out", str(tmp_path),
     )  # fmt: skip
-    probe_deadline_s = STARTUP_S * 2 + PROBE_DEADLINE_S
+    probe_deadline_s = PLAY_START_S + PROBE_DEADLINE_S  # bounds a hang; the probe ends once it has heard enough
     probe = spawn(str(ROOT / "tests" / "bus" / "ros2_probe.py"), str(probe_deadline_s), "--listen-only")
     try:
         output, _ = probe.communicate(timeout=probe_deadline_s + 60)
         lines = [line for line in output.splitlines() if line.startswith("result: ")]
         assert probe.returncode == 0 and lines, output[-3000:]
         result = json.loads(lines[-1].removeprefix("result: "))
-        if "failed" in result:  # the session's side too, to tell a silent graph from a late session
+        if "failed" in result:  # what both sides saw, in the report (-rx), to tell a silent graph from a late session
             play.send_signal(signal.SIGINT)
             rest, _ = play.communicate(timeout=PLAY_END_S)
-            raise AssertionError(f"{result}\notgym play (exit {play.returncode}):\n{rest[-3000:]}")
+            bridge = (tmp_path / "nodes" / "ros2.out").read_text(errors="replace")[-1500:]
+            pytest.xfail(
+                f"{KNOWN_FAILURE}: the probe {result}; otgym play (exit {play.returncode}): {rest[-2000:]}; "
+                f"its ros2 node: {bridge}"
+            )
         assert result["pose_arrays"] >= 10 and result["poses_per_array"] == [4], result
         assert {"walls", "robots", "traps"} <= set(result["marker_namespaces"])
         try:  # the rest of the session (slower than real time under load), then the nodes' ends

@@ -297,7 +297,9 @@ def test_edges_of_the_ranges_are_accepted_and_zero_participants_leaves_the_study
         2**32 - 1,
     )
     assert config.study == StudyConfig(16, 8, time_limit_s=300.0)
-    assert demo_config(study_participants=0).study is None and len(stage_names(demo_config(study_participants=0))) == 3
+    assert demo_config(study_participants=0).study is None and len(stage_names(demo_config(study_participants=0))) == 4
+    assert len(stage_names(demo_config(study_participants=0, task_episodes=0))) == 3  # nor the other tasks
+    assert demo_config(task_episodes=256).task_episodes == 256 and demo_config(task_episodes=0).task_episodes == 0
     with pytest.raises(ValueError, match="distinct"):
         StudyConfig(modes=("manual", "manual"))
     with pytest.raises(ValueError, match="--episodes"):
