@@ -32,7 +32,7 @@ PLAY_END_S = 420.0
 real time under load, then the sim's end, the recorder's drain and each node's stop
 (up to 10 s each before SIGKILL)."""
 KNOWN_FAILURE = (
-    "open: in every cold run of the whole suite since 2026-11-28 (five, 2 cores) the probe received no 10 "
+    "open: in five of seven cold runs of the whole suite (2026-11-28, 2 cores) the probe received no 10 "
     "PoseArrays from otgym play --ros2 while the session ran and ended well; run alone, cold or warm, under load up "
     "to 15, it passed every time (six runs); cause not found"
 )
