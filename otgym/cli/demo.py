@@ -97,8 +97,8 @@ def register(app: typer.Typer) -> None:
             DEMO_TASK_EPISODES,
             "--task-episodes",
             **_bounds("task_episodes"),
-            help=f"Paired episodes of each task beyond the paper's (assemble, orient, sort-cells: learned policy "
-            f"against scripted baseline), {_range('task_episodes')}; 0 leaves them out.",
+            help=f"Paired episodes of each task with a report in the registry (its learned policy against its "
+            f"scripted baseline), {_range('task_episodes')}; 0 leaves them out.",
         ),
         sequential: bool = typer.Option(
             False,

@@ -77,7 +77,7 @@ def tasks_section(rows: list[dict], seed: int) -> list[str]:
         f"Each task's shipped learned policy and its scripted baseline on the same {rows[0]['episodes']} "
         f"episodes of seed {seed} (a development seed: a look, not a result). The report-seed comparisons, "
         "256 episodes each with their intervals and paired tests, are in the documentation's Tasks page "
-        "(`otgym experiment assemble`, `orient`, `sort-cells`).",
+        "(" + ", ".join(f"`otgym experiment {row['task']}`" for row in rows) + ").",
         "",
     ]
     lines += [f"- {task_line(row)}" for row in rows]
