@@ -14,6 +14,9 @@
   ``@reproduce_failure`` blob that replays it.
 - The slow tests run first (a stable reorder), so that xdist's workers share the long
   end-to-end runs at the start instead of one worker finishing them alone at the end.
+- No test leaves SDL's display open (``no_display_left_open``): a display left open keeps
+  its driver, so the worker's next X-window test would open its window with the dummy
+  driver and never reach X.
 - Fixtures shared across packages: the ``paper`` preset's task parameters, Q-network
   parameters with a fixed greedy action, a real X server (``xvfb``: ``tests.xserver``).
 """
@@ -45,6 +48,17 @@ def pytest_collection_modifyitems(config, items):
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+@pytest.fixture(autouse=True)
+def no_display_left_open():
+    """Fails the test (in its teardown) that leaves pygame's display initialised, and
+    closes it, so the next test in this worker starts without one."""
+    yield
+    pygame = sys.modules.get("pygame")
+    if pygame is not None and pygame.display.get_init():
+        pygame.quit()
+        pytest.fail("the test left pygame's display open (pygame.quit() it, or stop the device that opened it)")
 
 
 @pytest.fixture(scope="session")

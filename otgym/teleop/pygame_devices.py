@@ -100,15 +100,25 @@ def _require_pos(name: str, value: float) -> float:
     return float(value)
 
 
-def _init_events(what: str) -> None:
-    """SDL's event queue lives in its video subsystem."""
-    if not pygame.display.get_init():
-        try:
-            pygame.display.init()
-        except pygame.error as error:
-            raise DeviceError(
-                f"{what} needs a pygame display ({error}); set SDL_VIDEODRIVER=dummy to run without a screen"
-            ) from None
+def _init_events(what: str) -> bool:
+    """SDL's event queue lives in its video subsystem: initialise it when no window has.
+    True when this call did, so that the device's ``stop`` closes what its ``start``
+    opened (a display left open keeps its driver for the next window in the process)."""
+    if pygame.display.get_init():
+        return False
+    try:
+        pygame.display.init()
+    except pygame.error as error:
+        raise DeviceError(
+            f"{what} needs a pygame display ({error}); set SDL_VIDEODRIVER=dummy to run without a screen"
+        ) from None
+    return True
+
+
+def _quit_events(opened: bool) -> None:
+    """Close the display ``_init_events`` opened (``opened``); leave a window's alone."""
+    if opened and pygame.display.get_init():
+        pygame.display.quit()
 
 
 class _RateDevice(Device):
@@ -120,6 +130,7 @@ class _RateDevice(Device):
         self._position_mm = np.zeros(3)
         self._sequence = 0
         self._last_s: float | None = None
+        self._opened_display = False  # whether start opened SDL's display (stop closes it)
 
     def _sample(self, velocity_mm_s: np.ndarray, buttons: int, now_s: float) -> Sample:
         self._position_mm = self._position_mm + velocity_mm_s * (now_s - self._last_s)
@@ -148,13 +159,15 @@ class KeyboardMouseDevice(_RateDevice):
         self._drag_px = np.zeros(2)
 
     def start(self) -> None:
-        _init_events("keyboard and mouse input")
+        self._opened_display = _init_events("keyboard and mouse input") or self._opened_display
         self._release_all()
         self._last_s = time.monotonic()
 
     def stop(self) -> None:
         self._last_s = None
         self._release_all()
+        _quit_events(self._opened_display)
+        self._opened_display = False
 
     def handle_event(self, event) -> None:
         """Update the key, button and drag state from one pygame event."""
@@ -246,17 +259,21 @@ class GamepadDevice(_RateDevice):
         """Open the controller; DeviceError naming the pads found when there is none."""
         if self._pad is not None:
             return
-        _init_events("gamepad input")
-        pygame.joystick.init()
-        controller.init()
-        names = [pygame.joystick.Joystick(i).get_name() for i in range(pygame.joystick.get_count())]
-        found = ", ".join(f"{i}: {name}" for i, name in enumerate(names)) or "none"
-        if self.index >= len(names):
-            raise DeviceError(f"no gamepad at index {self.index}; found: {found}")
-        if not controller.is_controller(self.index):
-            raise DeviceError(
-                f"device {self.index} ({names[self.index]}) is not a game controller SDL knows; found: {found}"
-            )
+        self._opened_display = _init_events("gamepad input") or self._opened_display
+        try:
+            pygame.joystick.init()
+            controller.init()
+            names = [pygame.joystick.Joystick(i).get_name() for i in range(pygame.joystick.get_count())]
+            found = ", ".join(f"{i}: {name}" for i, name in enumerate(names)) or "none"
+            if self.index >= len(names):
+                raise DeviceError(f"no gamepad at index {self.index}; found: {found}")
+            if not controller.is_controller(self.index):
+                raise DeviceError(
+                    f"device {self.index} ({names[self.index]}) is not a game controller SDL knows; found: {found}"
+                )
+        except DeviceError:
+            self.stop()
+            raise
         self._pad = controller.Controller(self.index)
         self._last_s = time.monotonic()
 
@@ -265,6 +282,8 @@ class GamepadDevice(_RateDevice):
             self._pad.quit()
         self._pad = None
         self._last_s = None
+        _quit_events(self._opened_display)
+        self._opened_display = False
 
     def read(self) -> Sample | None:
         """The latest stick state; DeviceError when the pad was unplugged."""

@@ -98,3 +98,24 @@ def test_stick_mapping_dead_zone_and_flip():
         GamepadDevice(stick="middle")
     with pytest.raises(ValueError, match="dead_zone"):
         GamepadDevice(dead_zone=1.0)
+
+
+def test_a_device_closes_the_display_it_opened_and_leaves_a_windows_open():
+    """A display left open keeps its SDL driver for the process's next window (a window
+    meant for X opened with the dummy driver): what ``start`` opened, ``stop`` closes."""
+    pygame.quit()
+    for device in (KeyboardMouseDevice(), open_device("gamepad", index=7)):
+        try:
+            device.start()
+        except DeviceError:  # no pad here: its start fails, and closes what it opened
+            pass
+        device.stop()
+        assert not pygame.display.get_init(), device
+    pygame.display.init()  # a window's display: the device's stop leaves it open
+    try:
+        device = KeyboardMouseDevice()
+        device.start()
+        device.stop()
+        assert pygame.display.get_init()
+    finally:
+        pygame.quit()
