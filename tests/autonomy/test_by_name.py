@@ -76,3 +76,5 @@ def test_play_runs_a_registered_in_process_navigator_as_the_sessions_autonomy(st
         assert isinstance(parts.autonomy.navigator, StillNavigator) and parts.autonomy.navigator.warmed
     finally:
         parts.on_failure()  # the recording never started: none is left behind
+        for device in windowed:  # the keyboard's start opened SDL's display; its stop closes it
+            device.stop()

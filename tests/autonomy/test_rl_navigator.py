@@ -205,3 +205,5 @@ def test_play_runs_the_learned_speed_in_the_session_process(tmp_path):
         assert parts.autonomy.navigator.last_decided[0]
     finally:
         parts.on_failure()
+        for device in windowed:  # the keyboard's start opened SDL's display; its stop closes it
+            device.stop()
