@@ -37,7 +37,7 @@ import socket
 import zenoh
 
 from otgym.bus import ros_graph
-from otgym.bus.transport import zenoh_config
+from otgym.bus.zenoh_session import zenoh_config
 
 PROBE_TIMEOUT_S = 2.0
 """How long the simulator waits for a zenoh answer on a port another program holds."""
@@ -135,7 +135,7 @@ def probe(
 
 def listen_endpoints(listen: list[str], connect: list[str], config_file: str | None) -> list[str] | None:
     """The endpoints the simulator would listen on (``--listen``, else the file's, else
-    ``transport.SIM_ENDPOINT``); None where the file gives them per mode."""
+    ``zenoh_session.SIM_ENDPOINT``); None where the file gives them per mode."""
     endpoints = json.loads(zenoh_config("sim", listen, connect, config_file).get_json("listen/endpoints"))
     return endpoints if isinstance(endpoints, list) else None
 

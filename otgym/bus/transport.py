@@ -1,24 +1,7 @@
 """One process's place on the bus: a zenoh session, loopback only by default, with a
 liveliness token and checked subscriptions (eclipse-zenoh 1.x, https://zenoh.io/docs/).
 
-Network. The simulator is a zenoh router (``mode: "router"``) listening on
-``SIM_ENDPOINT`` (tcp/127.0.0.1:7447, the port of rmw_zenoh's router ``rmw_zenohd``);
-every other node is a zenoh peer that listens on an ephemeral loopback port and connects
-to the simulator's endpoint, retried every 0.1-0.5 s for as long as it runs (zenoh's
-``connect/retry``), so a restarted simulator is found again. Multicast scouting is off,
-so nothing is sent to or accepted from outside loopback unless endpoints say so. Gossip
-scouting is on: the router tells every peer linked to it of the others (its gossip goes
-to routers and peers), each peer dials every peer it hears of, and the router forwards
-between two peers that are not linked (``peers_failover_brokering``). So a ROS 2 node on
-rmw_zenoh, a peer that sends its gossip only to routers and dials only peers of a smaller
-zenoh id, finds every otgym node through the simulator as through ``rmw_zenohd``
-(``otgym.bus.router``, which also lets the simulator join an ``rmw_zenohd`` already on
-its port), and otgym's peers stay meshed while the simulator is away.
-``--listen``/``--connect`` replace these endpoints (another machine's address to span
-machines); a zenoh configuration file (``config_file``) adds TLS or user/password
-authentication. What the file sets (endpoints, multicast and gossip scouting) is kept
-unless ``--listen``/``--connect`` are given; what it leaves out gets the defaults above,
-never zenoh's own (which listen on every interface and scout by multicast).
+Network (endpoints, scouting, routing): ``otgym.bus.zenoh_session``.
 
 Keys and the ROS 2 graph (``otgym.bus.ros_graph``: rmw_zenoh's layout). A topic
 ``/otgym/traps`` of a node in namespace ``/`` and domain ``ROS_DOMAIN_ID`` (0) travels on
@@ -72,7 +55,6 @@ callback sees it; one that fails is dropped and counted in ``dropped`` (per topi
 from __future__ import annotations
 
 import itertools
-import json
 import logging
 import threading
 import time
@@ -84,14 +66,8 @@ import zenoh.ext
 from otgym.bus import messages as msg
 from otgym.bus import ros_graph
 from otgym.bus.intake import DDS_NAME, TYPE_HASH, Counts, Intake, qos_problem
+from otgym.bus.zenoh_session import zenoh_config
 
-SIM_ENDPOINT = "tcp/127.0.0.1:7447"
-EPHEMERAL_ENDPOINT = "tcp/127.0.0.1:0"
-WAIT_BEFORE_DROP_US = 20_000
-"""How long a publisher of a stream (every tick's traps, bodies, alpha, feedback,
-twists) waits for room in a congested queue before it drops the message: one tick.
-zenoh's default, 1 ms, lost 1-2 % of ticks' messages on a loaded 2-core machine; a
-message later than a tick is stale anyway."""
 NOT_TO_DROP = (msg.EVENTS, msg.COMMAND)
 """Topics whose every message matters (trial events carry the trials' rows, commands
 change the session): their publishers block when congested instead of dropping."""
@@ -102,7 +78,6 @@ missed-sample recovery): a subscriber stalled longer than zenoh's ``wait_before_
 RECOVERY_CACHE_SAMPLES = 1024
 """Messages a recovered topic's publisher keeps for subscribers that missed them (a
 session's events: a few per trial)."""
-ROLES = ("sim", "device", "autonomy", "recorder", "ui", "foxglove", "ros2")
 MISS_HEARTBEAT_S = 0.5
 """A latched publisher's sporadic heartbeat (rmw_zenoh's for reliable, transient-local
 publishers: ``SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD``), so a ROS 2 subscriber's recovery
@@ -110,18 +85,6 @@ of a missed last sample works as with a ROS 2 publisher."""
 LATCHED_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.TRANSIENT_LOCAL, ros_graph.KEEP_LAST, 1)
 ALL_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_ALL, ros_graph.DEFAULT_DEPTH)
 STREAM_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_LAST, 1)
-GOSSIP = {
-    "scouting/multicast/enabled": "false",
-    "scouting/gossip/enabled": "true",
-    "scouting/gossip/target": '{"router": ["router", "peer"], "peer": ["router", "peer"]}',
-    "scouting/gossip/autoconnect": '{"router": [], "peer": ["router", "peer"]}',
-    "scouting/gossip/autoconnect_strategy": '{"peer": {"to_router": "always", "to_peer": "always"}}',
-    "routing/router/peers_failover_brokering": "true",
-}
-"""Scouting and routing (see the module's docstring), each kept where a configuration
-file sets it: no multicast; gossip from the router to routers and peers (and from a peer
-to both); a peer dials every router and peer it hears of, whatever their zenoh ids; the
-router forwards between two peers that are not linked to each other."""
 log = logging.getLogger(__name__)
 
 
@@ -135,43 +98,6 @@ def qos_of(topic: str) -> ros_graph.Qos:
 def ros_node_name(role: str, name: str) -> str:
     """The ROS 2 name of an otgym node: ``otgym_<role>``, a device node ``otgym_device_<name>``."""
     return f"otgym_device_{name}" if role == "device" else f"otgym_{role}"
-
-
-def zenoh_config(
-    role: str,
-    listen: list[str] | None = None,
-    connect: list[str] | None = None,
-    config_file: str | None = None,
-    mode: str | None = None,
-) -> zenoh.Config:
-    """The session configuration of a node of ``role`` (see the module's docstring);
-    ``mode``: zenoh's mode, by default ``router`` for the simulator, ``peer`` for the
-    others (a simulator that joins a router is a peer: ``otgym.bus.router``)."""
-    if role not in ROLES:
-        raise ValueError(f"unknown node role {role!r}; choose one of {', '.join(ROLES)}")
-    mode = mode or ("router" if role == "sim" else "peer")
-    if mode not in ("router", "peer"):
-        raise ValueError(f"a node is a zenoh router or peer, not {mode!r}")
-    config = zenoh.Config.from_file(config_file) if config_file else zenoh.Config()
-    unset = zenoh.Config()  # what a file leaves out reads as zenoh's defaults: replaced by ours below
-    default_listen = [SIM_ENDPOINT] if role == "sim" else [EPHEMERAL_ENDPOINT]
-    default_connect = [] if role == "sim" else [SIM_ENDPOINT]
-    config.insert_json5("mode", json.dumps(mode))
-    config.insert_json5("timestamping/enabled", "true")  # latched topics' publishers need it
-    for key, given, default in (
-        ("listen/endpoints", listen, default_listen),
-        ("connect/endpoints", connect, default_connect),
-    ):
-        if given or config.get_json(key) == unset.get_json(key):
-            config.insert_json5(key, json.dumps(list(given or default)))
-    for key, value in GOSSIP.items():
-        if config.get_json(key) == unset.get_json(key):
-            config.insert_json5(key, value)
-    drop_key = "transport/link/tx/queue/congestion_control/drop/wait_before_drop"
-    if config.get_json(drop_key) == unset.get_json(drop_key):
-        config.insert_json5(drop_key, str(WAIT_BEFORE_DROP_US))
-    config.insert_json5("connect/retry", '{"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 2}')
-    return config
 
 
 class _Publisher:

@@ -20,7 +20,8 @@ from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
 from otgym.bus import messages as msg
 from otgym.bus import task_messages
-from otgym.bus.transport import EPHEMERAL_ENDPOINT, WAIT_BEFORE_DROP_US, Node, zenoh_config
+from otgym.bus.transport import Node
+from otgym.bus.zenoh_session import EPHEMERAL_ENDPOINT, WAIT_BEFORE_DROP_US, zenoh_config
 from otgym.teleop.device import Sample
 from tests.bus.test_nodes import free_endpoint, wait_until
 
