@@ -117,3 +117,15 @@ def test_the_checks_catch_an_upward_import_and_a_cycle(tmp_path, monkeypatch, br
     assert contract_kept(config, "acyclic") is not broken
     cycles = module_cycles(grimp.build_graph("layerprobe", cache_dir=None))
     assert cycles == ([["layerprobe.high.b", "layerprobe.low.a"]] if broken else [])
+
+
+MAX_MODULE_LINES = 500
+"""The bound on a module of otgym (docs/contributing.md: modules with one job, none over 500 lines)."""
+
+
+def test_no_module_of_otgym_is_over_500_lines():
+    sizes = {
+        path.relative_to(ROOT).as_posix(): len(path.read_text().splitlines()) for path in (ROOT / "otgym").rglob("*.py")
+    }
+    assert len(sizes) > 100, sorted(sizes)  # the package was found
+    assert {path: lines for path, lines in sizes.items() if lines > MAX_MODULE_LINES} == {}
