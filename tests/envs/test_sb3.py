@@ -79,8 +79,16 @@ def test_sb3_env_checker_passes_without_warnings(env_id):
     env.close()
 
 
+@pytest.fixture
+def sb3_log_dir(tmp_path, monkeypatch):
+    """SB3's logger folder in the test's own: unset, every model makes an empty
+    ``SB3-<date>`` folder in the machine's temporary folder and leaves it there."""
+    monkeypatch.setenv("SB3_LOGDIR", str(tmp_path / "sb3"))
+    return tmp_path / "sb3"
+
+
 @pytest.mark.slow
-def test_dqn_trains_on_speed_control_and_predicts_in_space():
+def test_dqn_trains_on_speed_control_and_predicts_in_space(sb3_log_dir):
     import torch
     from stable_baselines3 import DQN
 
@@ -111,7 +119,7 @@ def test_dqn_trains_on_speed_control_and_predicts_in_space():
 
 
 @pytest.mark.slow
-def test_ppo_trains_on_cell_transport_and_predicts_in_space():
+def test_ppo_trains_on_cell_transport_and_predicts_in_space(sb3_log_dir):
     import torch
     from stable_baselines3 import PPO
 
