@@ -7,15 +7,16 @@ Each inlet carries 5000 um^3/s (0.3 nL/min): a mean speed of 4 um/s in a branch
 (5000 / (25 * 50)), gentle enough for the paper's trap law (escape force about 0.3 pN
 per handle). The flow is linear in the rates, so a scene can rescale it.
 
-Run ``python -m otgym.sim.default_chip`` to regenerate the shipped
-``otgym/data/chips/default.png`` and ``default.json``.
+The shipped ``otgym/data/chips/default.png`` and ``default.json`` are
+``save_chip(default_chip(), CHIP_DATA_DIR)`` (``otgym.sim.chip``); a test checks that they
+match this generator.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from otgym.sim.chip import CHIP_DATA_DIR, Chip, Port, save_chip
+from otgym.sim.chip import Chip, Port
 
 SIZE_UM = (300.0, 200.0)
 PIXEL_SIZE_UM = 0.5
@@ -75,7 +76,3 @@ def default_chip(pixel_size_um: float = PIXEL_SIZE_UM) -> Chip:
     )
     sites = (("start", TRANSPORT_START_UM), ("goal", TRANSPORT_GOAL_UM))
     return Chip("default", image, pixel_size_um, CHANNEL_HEIGHT_UM, ports, sites)
-
-
-if __name__ == "__main__":
-    print(save_chip(default_chip(), CHIP_DATA_DIR))

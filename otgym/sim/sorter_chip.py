@@ -6,15 +6,16 @@ inlet channel) and each outlet takes half, so the flow divides on the inlet's ax
 cell above it leaves by the top outlet (``outlet_a``), one below by the bottom one
 (``outlet_b``). The sidecar names the junction as the site ``junction``.
 
-Run ``python -m otgym.sim.sorter_chip`` to regenerate the shipped
-``otgym/data/chips/sorter.png`` and ``sorter.json``.
+The shipped ``otgym/data/chips/sorter.png`` and ``sorter.json`` are
+``save_chip(sorter_chip(), CHIP_DATA_DIR)`` (``otgym.sim.chip``); a test checks that they
+match this generator.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from otgym.sim.chip import CHIP_DATA_DIR, Chip, Port, save_chip
+from otgym.sim.chip import Chip, Port
 from otgym.sim.default_chip import _segment_distance
 
 NAME = "sorter"
@@ -51,7 +52,3 @@ def sorter_chip(pixel_size_um: float = PIXEL_SIZE_UM) -> Chip:
         Port("outlet_b", "outlet", BRANCHES_UM[1][1], INLET_FLOW_UM3_S / 2),
     )
     return Chip(NAME, image, pixel_size_um, CHANNEL_HEIGHT_UM, ports, (("junction", JUNCTION_UM),))
-
-
-if __name__ == "__main__":
-    print(save_chip(sorter_chip(), CHIP_DATA_DIR))

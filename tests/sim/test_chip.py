@@ -10,6 +10,7 @@ from PIL import Image
 from otgym.sim.chip import Chip, Port, load_chip, save_chip
 from otgym.sim.default_chip import CHANNEL_HEIGHT_UM, CHANNEL_WIDTH_UM
 from otgym.sim.default_chip import default_chip as generate_default_chip
+from otgym.sim.sorter_chip import sorter_chip as generate_sorter_chip
 
 
 def test_shipped_default_matches_the_generator(default_chip):
@@ -20,6 +21,14 @@ def test_shipped_default_matches_the_generator(default_chip):
     assert default_chip.channel_height_um == CHANNEL_HEIGHT_UM == 50.0
     assert [p.kind for p in default_chip.ports].count("inlet") == 2
     assert [p.kind for p in default_chip.ports].count("outlet") == 2
+
+
+def test_shipped_sorter_matches_the_generator():
+    shipped, generated = load_chip("sorter"), generate_sorter_chip()
+    assert shipped.shape == generated.shape == (120, 240)
+    assert np.abs(shipped.image - generated.image).max() <= 0.5 / 255 + 1e-6  # the PNG's 8 bits
+    assert shipped.ports == generated.ports and shipped.sites == generated.sites
+    assert shipped.channel_height_um == generated.channel_height_um
 
 
 def test_port_openings_are_one_channel_wide(default_chip):
