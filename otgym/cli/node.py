@@ -35,11 +35,11 @@ import typer
 from otgym.cli import checks, options
 
 SESSION_END_RECORDED = "recorded: session_end"
+"""The recorder node's line once the simulator's ``session_end`` event is in its file."""
 EVENT_RECOVERY_GRACE_S = 1.0
 """How long the sim's bus stays open after its session, so that a subscriber that
 missed the last events (its link closed while it stalled) recovers them from the events
 publisher's cache (``otgym.bus.transport.RECOVERED``) before the cache is gone."""
-"""The recorder node's line once the simulator's ``session_end`` event is in its file."""
 
 node_app = typer.Typer(
     name="node",
