@@ -55,11 +55,12 @@ class StudyConfig:
     way, after their first obstacles.
 
     Its cost: time_limit_s / 20 ms control ticks of one batch (it runs until its
-    slowest trial ends; a batch's tick costs about 7.4 ms of CPU for 3 trials and
-    10-11 ms for 9 on this machine's cores), about 45-50 s of CPU for the defaults,
-    plus about 15 s to build the task and compile it with cold caches. It runs beside
-    the other stages and is the demo's longest: measured 64-66 s of the 74-76 s the
-    whole demo took on this machine's 2 cores with cold caches and no other job."""
+    slowest trial ends), most of it Python per tick (the simulated participants and the
+    task's bookkeeping between small XLA calls): for the defaults, 4,500 ticks of 9
+    trials, about 125 s of CPU and 120 s of wall time alone on this machine's 2 cores
+    with warm caches. It runs beside the other stages and is the demo's longest:
+    measured 165 s of the 186 s the whole demo took with cold caches and no other job
+    (docs/performance.md has the commands)."""
 
     participants: int = 3
     trials: int = 1
