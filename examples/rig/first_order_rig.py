@@ -110,11 +110,14 @@ class FirstOrderRig:
 def main(argv: list[str]) -> int:
     import rclpy
     from geometry_msgs.msg import Pose, PoseArray
-    from rclpy.executors import ExternalShutdownException
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
     from std_msgs.msg import String
 
-    rclpy.init(args=argv)
+    # Ctrl-C is Python's KeyboardInterrupt, raised between callbacks. rclpy's own handler
+    # would shut the context down from the signal, and a spin that was building its wait
+    # set at that moment raises RCLError ("the given context is not valid") instead.
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("first_order_rig")
     time_constant_s = node.declare_parameter("time_constant_s", 0.02).value
     rate_hz = node.declare_parameter("rate_hz", 100.0).value
@@ -180,7 +183,7 @@ def main(argv: list[str]) -> int:
     print(f"ready: first-order rig, time constant {time_constant_s} s, {rate_hz} Hz", flush=True)
     try:
         rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except KeyboardInterrupt:
         pass
     finally:
         print(
