@@ -32,9 +32,10 @@ PLAY_END_S = 420.0
 real time under load, then the sim's end, the recorder's drain and each node's stop
 (up to 10 s each before SIGKILL)."""
 KNOWN_FAILURE = (
-    "open: in five of seven cold runs of the whole suite (2026-11-28, 2 cores) the probe received no 10 "
-    "PoseArrays from otgym play --ros2 while the session ran and ended well; run alone, cold or warm, under load up "
-    "to 15, it passed every time (six runs); cause not found"
+    "open: in six of nine cold runs of the whole suite (2026-11-28, 2 cores, Fast DDS with its shared-memory "
+    "transport) the probe received no 10 PoseArrays from otgym play --ros2 while the session ran and ended well (in "
+    "the last, one and then nothing while the bridge sent 13,277 messages); the suspected cause, that transport under "
+    "CPU load (eProsima/Fast-DDS#5469), is what ros_env now leaves out"
 )
 """Why a probe that hears nothing is an expected failure (reported with ``-rx`` and what
 both sides saw), not a pass: any other failed check of this test is a failure."""
@@ -44,10 +45,17 @@ PROBE_DEADLINE_S = 120.0
 
 @pytest.fixture
 def ros_env(monkeypatch):
-    """ROS 2 on loopback in a domain of this test's own (1-232, ROS 2's documented range),
-    for the processes it starts."""
+    """ROS 2 on loopback in a domain of this test's own, for the processes it starts.
+
+    The domain is drawn in 1-101: ROS 2's documentation calls 0-101 safe on Linux, where
+    a higher domain's DDS ports fall in the kernel's ephemeral range. Fast DDS uses UDP
+    on loopback only (``FASTDDS_BUILTIN_TRANSPORTS=UDPv4``), not its shared-memory
+    transport, which is known to stop delivering to a subscriber starved of CPU
+    (eProsima/Fast-DDS#5469): in a cold full run of the suite the probe got one
+    ``PoseArray`` and then nothing while the bridge sent 13,277 messages."""
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.SystemRandom().randrange(1, 233)))
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.SystemRandom().randrange(1, 102)))
+    monkeypatch.setenv("FASTDDS_BUILTIN_TRANSPORTS", "UDPv4")
     monkeypatch.delenv("RMW_IMPLEMENTATION", raising=False)  # the default: Fast DDS
     monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
 
