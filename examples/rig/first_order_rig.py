@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import json
 import math
+import signal
 import sys
 import time
 
@@ -114,9 +115,12 @@ def main(argv: list[str]) -> int:
     from rclpy.signals import SignalHandlerOptions
     from std_msgs.msg import String
 
-    # Ctrl-C is Python's KeyboardInterrupt, raised between callbacks. rclpy's own handler
-    # would shut the context down from the signal, and a spin that was building its wait
-    # set at that moment raises RCLError ("the given context is not valid") instead.
+    # Ctrl-C (and SIGTERM) is Python's KeyboardInterrupt, raised between callbacks, even
+    # where the rig was started with SIGINT ignored. rclpy's own handler would shut the
+    # context down from the signal, and a spin that was building its wait set at that
+    # moment raises RCLError ("the given context is not valid") instead.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("first_order_rig")
     time_constant_s = node.declare_parameter("time_constant_s", 0.02).value
