@@ -79,9 +79,12 @@ RECOVERY_CACHE_SAMPLES = 1024
 """Messages a recovered topic's publisher keeps for subscribers that missed them (a
 session's events: a few per trial)."""
 MISS_HEARTBEAT_S = 0.5
-"""A latched publisher's sporadic heartbeat (rmw_zenoh's for reliable, transient-local
-publishers: ``SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD``), so a ROS 2 subscriber's recovery
-of a missed last sample works as with a ROS 2 publisher."""
+"""Period of the heartbeat that tells a subscriber the publisher's last sequence number.
+A latched publisher's is sporadic (sent only after a new message), as rmw_zenoh's for
+reliable, transient-local publishers (``SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD``), so a
+ROS 2 subscriber's recovery of a missed last sample works as with a ROS 2 publisher. A
+recovered topic's is periodic: a subscriber that reconnects after the last message's
+heartbeat would otherwise never learn what it missed."""
 LATCHED_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.TRANSIENT_LOCAL, ros_graph.KEEP_LAST, 1)
 ALL_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_ALL, ros_graph.DEFAULT_DEPTH)
 STREAM_QOS = ros_graph.Qos(ros_graph.RELIABLE, ros_graph.VOLATILE, ros_graph.KEEP_LAST, 1)
@@ -247,7 +250,7 @@ class Node:
                     key,
                     congestion_control=zenoh.CongestionControl.BLOCK,
                     cache=zenoh.ext.CacheConfig(RECOVERY_CACHE_SAMPLES),
-                    sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=MISS_HEARTBEAT_S),
+                    sample_miss_detection=zenoh.ext.MissDetectionConfig(heartbeat=MISS_HEARTBEAT_S),
                 )
             elif topic in NOT_TO_DROP:
                 publisher = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
