@@ -14,7 +14,10 @@ and commands reliable, keep all; streams reliable, volatile, depth 1.
   chip, the route, the contact force, each device's feedback, and the twist and buttons
   of devices not in ``devices``), and ``/otgym/markers``
   (``visualization_msgs/msg/MarkerArray``, ``otgym.bus.ros2_markers``), at most one
-  array every ``markers_period_s``.
+  array every ``markers_period_s``. The publishers of the table's fixed topics and of
+  ``/otgym/markers`` are declared at start, so that ROS 2 subscribers have matched them
+  (discovery takes seconds under load) before the session's first message; a device's
+  topics are declared with its first message.
 - To otgym: for each device in ``devices``, ``/otgym/device/<device>/twist``
   (``geometry_msgs/msg/TwistStamped``) and ``/otgym/device/<device>/buttons``
   (``sensor_msgs/msg/Joy``); ``/otgym/command`` (``std_msgs/msg/String``); with
@@ -218,6 +221,9 @@ class Bridge:
         ):
             for topic in topics:
                 self._from_ros(topic, type_name, transport.STREAM_QOS, otgym_topic=False)
+        for topic in msg.fixed_topics():  # matched by ROS 2 subscribers before the session's first message
+            if topic not in self.inputs:
+                self._declare(topic)
         self._markers_publisher = self.ros.create_publisher(
             message_class(ros2_markers.MARKER_ARRAY),
             ros2_markers.MARKERS_TOPIC.lstrip("/"),
