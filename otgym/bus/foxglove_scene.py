@@ -69,6 +69,17 @@ class Output:
     stamp_ns: int
 
 
+def load_contour_tools() -> None:
+    """Import what ``wall_contours_um`` needs: Pillow, and scikit-image's contour functions
+    with the SciPy modules they load lazily (about 1 s of CPU cold). A tracker calls it
+    when it is made, so that the session's first chip image does not hold up the
+    messages behind it."""
+    from PIL import Image  # noqa: F401
+    from skimage import measure
+
+    measure.find_contours, measure.approximate_polygon  # noqa: B018  (lazy attributes: loaded here)
+
+
 def wall_contours_um(png: bytes, pixel_size_um: float) -> list[np.ndarray]:
     """The chip's walls: the half-gray contours of its image (simplified to half a
     pixel), each (N, 2) um; pixel centres at +0.5 pixel (``otgym.sim.chip``)."""
@@ -85,6 +96,7 @@ class SceneTracker:
     """Turns bus messages into Foxglove outputs (see the module's docstring)."""
 
     def __init__(self):
+        load_contour_tools()
         self.description: dict | None = None
         self.walls_um: list[np.ndarray] = []
         self.route_um = np.zeros((0, 2))

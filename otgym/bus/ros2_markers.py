@@ -30,7 +30,15 @@ import json
 import numpy as np
 
 from otgym.bus import messages as msg
-from otgym.bus.foxglove_scene import GOAL_COLOUR, KIND_COLOURS, ROUTE_COLOUR, TRAP_COLOUR, WALL_COLOUR, wall_contours_um
+from otgym.bus.foxglove_scene import (
+    GOAL_COLOUR,
+    KIND_COLOURS,
+    ROUTE_COLOUR,
+    TRAP_COLOUR,
+    WALL_COLOUR,
+    load_contour_tools,
+    wall_contours_um,
+)
 
 MARKERS_TOPIC = "/otgym/markers"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
@@ -67,6 +75,7 @@ class MarkerTracker:
     """Turns bus messages into markers (see the module's docstring)."""
 
     def __init__(self):
+        load_contour_tools()
         self.description: dict | None = None
         self.walls_um: list[np.ndarray] = []
         self.route_um = np.zeros((0, 2))
