@@ -161,6 +161,7 @@ class Node:
         self._subscribed: dict[str, tuple[set, ros_graph.Qos]] = {}
         self._published: dict[str, tuple[tuple[str, str], ros_graph.Qos]] = {}
         self._remote: list[ros_graph.Entity] = []
+        self._closed = False
         self._handles.append(
             self.session.liveliness().declare_subscriber(
                 f"{ros_graph.ADMIN_SPACE}/{self.domain}/**", self._on_graph_token, history=True
@@ -201,7 +202,11 @@ class Node:
         publisher = self._publishers.get(topic)
         if publisher is None:
             publisher = self._declare_publisher(topic)
-        publisher.put(data)
+        try:
+            publisher.put(data)
+        except zenoh.ZError:
+            if not self._closed:  # a callback that answers while the node closes sends nothing
+                raise
 
     def publish_ros(self, topic: str, type_name: str, data: bytes) -> str:
         """Send ``data`` (CDR of ``type_name``) on a ROS 2 topic that is not otgym's
@@ -434,7 +439,27 @@ class Node:
             self.session.liveliness().declare_subscriber(f"otgym/node/{role}/*", on_sample, history=True)
         )
 
+    def announce(self, fact: str) -> None:
+        """Declare that this node has done ``fact`` (a liveliness token
+        ``otgym/done/<fact>/<role>/<name>``, withdrawn with the node), for ``wait_for``."""
+        self._handles.append(self.session.liveliness().declare_token(f"otgym/done/{fact}/{self.role}/{self.name}"))
+
+    def wait_for(self, fact: str, role: str, timeout_s: float) -> list[str]:
+        """Wait, at most ``timeout_s``, until every live node of ``role`` has announced
+        ``fact`` (a node that goes away no longer counts); the names of those that had not."""
+        liveliness, deadline = self.session.liveliness(), time.monotonic() + timeout_s
+
+        def names(key: str) -> set[str]:
+            return {str(r.ok.key_expr).rsplit("/", 1)[-1] for r in liveliness.get(key, timeout=1.0) if r.ok}
+
+        while True:
+            waiting = sorted(names(f"otgym/node/{role}/*") - names(f"otgym/done/{fact}/{role}/*"))
+            if not waiting or time.monotonic() > deadline:
+                return waiting
+            time.sleep(0.05)
+
     def close(self) -> None:
+        self._closed = True
         self.session.close()
 
     def __enter__(self):

@@ -40,6 +40,10 @@ EVENT_RECOVERY_GRACE_S = 1.0
 """How long the sim's bus stays open after its session, so that a subscriber that
 missed the last events (its link closed while it stalled) recovers them from the events
 publisher's cache (``otgym.bus.transport.RECOVERED``) before the cache is gone."""
+RECORDERS_WAIT_S = 15.0
+"""How long, at most, the sim's bus stays open after its session until every recorder
+node on it has the session's end in its file (``Node.wait_for``): the sim is the bus's
+router, and what a recorder starved of CPU has not yet received goes with it."""
 
 node_app = typer.Typer(
     name="node",
@@ -225,6 +229,13 @@ def sim(
             flush=True,
         )
         time.sleep(EVENT_RECOVERY_GRACE_S)
+        unrecorded = node.wait_for("session_end", "recorder", RECORDERS_WAIT_S)
+        if unrecorded:
+            print(
+                f"sim: the recorder(s) {', '.join(unrecorded)} had not recorded the session's end "
+                f"within {RECORDERS_WAIT_S:g} s; closing the bus",
+                flush=True,
+            )
     sys.stdout.flush()
 
 
@@ -327,17 +338,24 @@ def recorder(
     with McapRecorder(path) as recording, Node("recorder", "recorder", **endpoints) as node:
         scene = SceneRecording(recording.write_encoded)
 
+        ended = threading.Event()
+
         def sink(topic: str, message, data: bytes) -> None:
             type_name = msg.topic_type(topic)
             recording.write(topic, type_name, SCHEMAS[type_name], data)
             scene.take(topic, message)
             if topic == msg.EVENTS and msg.event_fields(message).get("event") == "session_end":
-                print(SESSION_END_RECORDED, flush=True)  # what otgym play --distributed waits for
+                ended.set()
 
         node.subscribe("/otgym/**", sink)
         _ready(f"recorder into {path}")
+        announced = False
         while not stop.wait(0.25):
             recording.flush()
+            if ended.is_set() and not announced:  # in its file: the sim may close the bus
+                node.announce("session_end")
+                print(SESSION_END_RECORDED, flush=True)  # what otgym play --distributed waits for
+                announced = True
     print(
         f"recorder: {sum(recording.counts.values())} messages, {sum(node.dropped.values())} dropped, into {path}",
         flush=True,

@@ -244,8 +244,9 @@ def test_recorder_node_killed_with_sigkill_keeps_all_but_its_last_moments(tmp_pa
 def test_recorder_node_says_when_the_session_end_is_in_its_file(tmp_path, children):
     """The recorder node prints its SESSION_END_RECORDED line (what ``otgym play
     --distributed`` waits for before stopping it) once the sim's session_end event is
-    written, not for another event; after SIGTERM the file holds both events. Catches
-    a line printed for any event, or none."""
+    written, not for another event, and announces it on the bus (``Node.wait_for``: what
+    the sim waits on before it closes the bus), also when it was stopped meanwhile; after
+    SIGTERM the file holds both events. Catches a line printed for any event, or none."""
     from otgym.cli.node import SESSION_END_RECORDED
 
     endpoint = free_endpoint()
@@ -253,9 +254,15 @@ def test_recorder_node_says_when_the_session_end_is_in_its_file(tmp_path, childr
     wait_for_line(children[0], "ready")
     with Node("sim", "sim", connect=[endpoint]) as node:
         node.wait_for_subscribers(msg.EVENTS)
-        node.publish(msg.EVENTS, msg.event("trial_end", trial=1))
-        node.publish(msg.EVENTS, msg.event("session_end", trials=1))
+        os.kill(children[0].pid, signal.SIGSTOP)  # a recorder starved of CPU at the session's end
+        try:
+            node.publish(msg.EVENTS, msg.event("trial_end", trial=1))
+            node.publish(msg.EVENTS, msg.event("session_end", trials=1))
+            assert node.wait_for("session_end", "recorder", 1.0) == ["recorder"]  # what the sim waits on
+        finally:
+            os.kill(children[0].pid, signal.SIGCONT)
         lines = [wait_for_line(children[0], "recorded:", 10.0)]
+        assert node.wait_for("session_end", "recorder", 10.0) == []
     children[0].send_signal(signal.SIGTERM)
     rest, _ = children[0].communicate(timeout=30)
     lines += rest.splitlines()

@@ -342,3 +342,28 @@ def test_events_sent_while_a_subscriber_was_stalled_reach_it_in_order_once_it_re
             os.kill(child.pid, signal.SIGCONT)
             child.kill()
             child.wait()
+
+
+def test_a_node_waits_for_every_live_recorder_to_announce_and_no_longer_for_one_that_left():
+    endpoint = free_endpoint()
+    with Node("sim", "sim", listen=[endpoint]) as sim:
+        first = Node("recorder", "first", connect=[endpoint])
+        with Node("recorder", "second", connect=[endpoint]) as second:
+            wait_until(lambda: sim.wait_for("session_end", "recorder", 0.0) == ["first", "second"], 5.0)
+            first.announce("session_end")
+            wait_until(lambda: sim.wait_for("session_end", "recorder", 0.0) == ["second"], 5.0)
+            assert sim.wait_for("session_end", "recorder", 0.3) == ["second"]  # it waited, and says who
+            first.close()
+            second.announce("other")  # another fact is not this one
+            assert sim.wait_for("session_end", "recorder", 0.3) == ["second"]
+            second.announce("session_end")
+            assert sim.wait_for("session_end", "recorder", 5.0) == []
+        assert sim.wait_for("session_end", "recorder", 0.0) == []
+
+
+def test_publishing_on_a_closed_node_sends_nothing_and_raises_nothing():
+    """What a callback answering while its node closes does (the sim's answer to a twist)."""
+    node = Node("sim", "sim", listen=[free_endpoint()])
+    node.publish(msg.EVENTS, msg.event("probe", n=0))
+    node.close()
+    node.publish(msg.EVENTS, msg.event("probe", n=1))
