@@ -38,8 +38,8 @@ from otgym.autonomy.mpc import MPCConfig, MPCCosts
 from otgym.autonomy.mpc_navigator import MPCNavigator
 from otgym.autonomy.navigator import RouteNavigator, route_point
 from otgym.sim import scene as sc
-from otgym.task.scenario import Scenario
 from otgym.task.task import CARRY, InteractiveTask
+from otgym.tasks.transport.scenario import Scenario
 
 SIZES = ((16, 24), (24, 24), (32, 12), (32, 24), (64, 24))
 """(rollouts, plan steps) timed; the default is (32, 24)."""

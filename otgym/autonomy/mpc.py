@@ -66,7 +66,7 @@ from flax import struct
 from otgym import physics as ph
 from otgym.autonomy.route_frame import RouteData, cell_arc_um, clip_lateral, formation_places
 from otgym.sim import scene as sc
-from otgym.task.scenario import ScenarioConfig, propulsion_um_s
+from otgym.tasks.transport.scenario import ScenarioConfig, propulsion_um_s
 
 PASS_OFFSETS_UM = (-6.0, -3.0, 3.0, 6.0)
 """Lateral offsets of the passing manoeuvres (cruise beside the route)."""

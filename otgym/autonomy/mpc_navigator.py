@@ -37,8 +37,8 @@ from otgym.autonomy.navigator import RouteNavigator, cap_speed
 from otgym.autonomy.obstacle_prediction import ObstacleTracker
 from otgym.autonomy.route_frame import clip_lateral, formation_places, formation_pose, route_data
 from otgym.sim import scene as sc
-from otgym.task.scenario import Scenario
 from otgym.task.task import CARRY, InteractiveTask, Observation
+from otgym.tasks.transport.scenario import Scenario
 
 TRACKER_WINDOW_S = 1.0
 

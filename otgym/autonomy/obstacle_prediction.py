@@ -13,7 +13,7 @@ Noise: a free sphere of radius a diffuses with D = kT / (6 pi eta a) (0.08 um^2/
 a 3 um obstacle in water at 25 C); the least-squares slope of a Brownian path sampled
 densely over a window T has variance 12 D / (5 T), so 0.44 um/s per axis over the
 default 1 s, against obstacles that move at 2 um/s. The prediction is expressed as tracks in the form the task's scenarios use
-(``otgym.task.scenario.propulsion_um_s``), so the model steers its obstacles with
+(``otgym.tasks.transport.scenario.propulsion_um_s``), so the model steers its obstacles with
 the same bounded propulsion as the task, but along the predicted line.
 """
 
@@ -78,7 +78,7 @@ class ObstacleTracker:
 
     def predicted_tracks(self, now_s) -> dict[str, np.ndarray]:
         """Constant-velocity tracks (E, K, ...) from the last observed positions at
-        ``now_s`` (E,), in the form of ``otgym.task.scenario.stack_tracks``, plus
+        ``now_s`` (E,), in the form of ``otgym.tasks.transport.scenario.stack_tracks``, plus
         ``idle`` (E, K): 1 for an obstacle never yet seen moving (it may still start;
         one that moved and stopped has come to rest), else 0."""
         velocity = self.velocity_um_s()

@@ -31,7 +31,7 @@ import itertools
 import numpy as np
 from scipy.spatial import cKDTree
 
-from otgym.task.scenario import Scenario
+from otgym.tasks.transport.scenario import Scenario
 
 
 @dataclasses.dataclass(frozen=True)

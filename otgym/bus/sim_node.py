@@ -138,7 +138,8 @@ def follow_commands(node: Node, session, on_quit: Callable[[], None]) -> None:
 def build_task(chip: str = "default"):
     """The interactive task on ``chip`` (a name or a PNG)."""
     from otgym.sim.chip import load_chip
-    from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
+    from otgym.task.task import InteractiveConfig, InteractiveTask
+    from otgym.tasks.transport.interactive import interactive_scene
 
     return InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=load_chip(chip))))
 

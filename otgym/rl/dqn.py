@@ -111,6 +111,35 @@ def epsilon(config: DQNConfig, iteration):
     return config.eps_start + fraction * (config.eps_end - config.eps_start)
 
 
+def make_optimiser(learning_rate: float):
+    """Adam with gradients clipped to a global norm of 10, every DQN learner's optimiser."""
+    return optax.chain(optax.clip_by_global_norm(10.0), optax.adam(learning_rate))
+
+
+def double_dqn_loss(network: QNetwork, gamma: float, huber_delta: float = 1.0) -> Callable:
+    """``loss(q_params, target_params, batch)``: the mean Huber loss of Q(s, a) against
+    the double-DQN target (van Hasselt et al. 2016) r + gamma (1 - terminated)
+    Q_target(s', argmax_a Q(s', a)); ``batch`` is (obs, action, reward, next_obs,
+    terminated as float). Every DQN learner in otgym uses it."""
+
+    def loss(q_params, target_params, batch):
+        obs, action, reward, next_obs, terminated = batch
+        q = network.apply(q_params, obs)[jnp.arange(obs.shape[0]), action]
+        best = jnp.argmax(network.apply(q_params, next_obs), axis=-1)
+        next_q = network.apply(target_params, next_obs)[jnp.arange(obs.shape[0]), best]
+        target = reward + gamma * (1.0 - terminated) * jax.lax.stop_gradient(next_q)
+        return jnp.mean(optax.huber_loss(q, target, delta=huber_delta))
+
+    return loss
+
+
+def gradient_step(loss: Callable, optimiser, q_params, opt_state, target_params, batch):
+    """One optimiser step of ``loss`` on ``batch``: (q_params, opt_state, loss value)."""
+    value, grads = jax.value_and_grad(loss)(q_params, target_params, batch)
+    updates, opt_state = optimiser.update(grads, opt_state, q_params)
+    return optax.apply_updates(q_params, updates), opt_state, value
+
+
 def make_train(config: DQNConfig, env: Env):
     """Returns ``(init, run_chunk, train)``: ``init(key) -> Runner``;
     ``run_chunk(runner) -> (runner, metrics)`` runs ``chunk_iters`` iterations
@@ -118,7 +147,8 @@ def make_train(config: DQNConfig, env: Env):
     ``successes``, ``loss``); ``train(key)`` is init plus all chunks, jittable and
     vmappable over keys."""
     network = QNetwork(env.n_actions, config.hidden)
-    optimiser = optax.chain(optax.clip_by_global_norm(10.0), optax.adam(config.learning_rate))
+    optimiser = make_optimiser(config.learning_rate)
+    loss_fn = double_dqn_loss(network, config.gamma, config.huber_delta)
     capacity = config.buffer_size // config.n_envs * config.n_envs
 
     def init(key) -> Runner:
@@ -147,14 +177,6 @@ def make_train(config: DQNConfig, env: Env):
             key,
         )
 
-    def loss_fn(q_params, target_params, batch):
-        obs, action, reward, next_obs, terminated = batch
-        q = network.apply(q_params, obs)[jnp.arange(obs.shape[0]), action]
-        best = jnp.argmax(network.apply(q_params, next_obs), axis=-1)
-        next_q = network.apply(target_params, next_obs)[jnp.arange(obs.shape[0]), best]
-        target = reward + config.gamma * (1.0 - terminated) * jax.lax.stop_gradient(next_q)
-        return jnp.mean(optax.huber_loss(q, target, delta=config.huber_delta))
-
     def update(carry, key):
         q_params, opt_state, buffer, target_params = carry
         index = jax.random.randint(key, (config.batch_size,), 0, jnp.maximum(buffer.size, 1))
@@ -165,9 +187,8 @@ def make_train(config: DQNConfig, env: Env):
             buffer.next_obs[index],
             buffer.terminated[index].astype(jnp.float32),
         )
-        loss, grads = jax.value_and_grad(loss_fn)(q_params, target_params, batch)
-        updates, opt_state = optimiser.update(grads, opt_state, q_params)
-        return (optax.apply_updates(q_params, updates), opt_state, buffer, target_params), loss
+        q_params, opt_state, loss = gradient_step(loss_fn, optimiser, q_params, opt_state, target_params, batch)
+        return (q_params, opt_state, buffer, target_params), loss
 
     def iteration(runner: Runner, _):
         key, act_key, explore_key, step_key, reset_key, update_key = jax.random.split(runner.key, 6)

@@ -75,8 +75,8 @@ from otgym.runtime.trials import TASK_RETARGET
 from otgym.shared import MODES, ArbitrationConfig
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.sensor import VisionForceSensor
-from otgym.task.scenario import Scenario
 from otgym.task.task import DONE, InteractiveTask, Observation
+from otgym.tasks.transport.scenario import Scenario
 from otgym.teleop.device import Device, DeviceError, start_devices
 from otgym.teleop.feedback import FeedbackConfig, FeedbackLaw, newtons_per_pn_for
 from otgym.teleop.retarget import RetargetConfig, Retargeter

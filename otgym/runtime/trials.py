@@ -43,8 +43,8 @@ from otgym.human.percept import DISPLAY_LATENCY_S, ShownRoute, WindowDisplay
 from otgym.runtime.tick import arbitration_modes, control_tick, mode_alpha
 from otgym.runtime.trace import TickView
 from otgym.shared import MODES, ArbitrationConfig
-from otgym.task.scenario import Scenario
 from otgym.task.task import InteractiveTask
+from otgym.tasks.transport.scenario import Scenario
 from otgym.teleop.feedback import FeedbackConfig, stable_newtons_per_pn
 from otgym.teleop.retarget import RetargetConfig
 

@@ -1,13 +1,12 @@
-"""The interactive task (paper section III-C): two trapped microrobots approach and grip
-a cell, then carry it along the planned route to the destination past dynamic
-obstacles that cross the route, stepped at a fixed control rate (50 Hz: each tick
-advances the physics by the tick's duration, so one environment can run in real time
-and many run batched for experiments).
+"""The interactive task's host wrapper (paper section III-C): two trapped microrobots
+approach and grip a cell, then carry it along the planned route to the destination
+past dynamic obstacles that cross the route, stepped at a fixed control rate (50 Hz),
+so that one environment can run in real time and many run batched for experiments.
+The physics, the route and the tick are the functional core
+``otgym.tasks.transport.interactive``; this wrapper takes and gives numpy, keeps each
+environment's phase and its trial's tallies (float64) and the scenarios.
 
-The scene is the ``transport`` scene with literature physics (``SceneConfig``'s
-defaults: Gaussian traps of 50 pN/um and 0.6 um waist, water at 25 C, the chip's full
-flow) at a 0.25 ms physics step (80 steps a tick; the scene's stability checks accept
-it). The robots start ``approach_gap_um`` farther from the cell than their grip; the
+The robots start ``approach_gap_um`` farther from the cell than their grip; the
 cell, free until gripped, drifts with the flow.
 
 Phases per environment: APPROACH (until both grippers are within ``grip_gap_um`` of
@@ -28,13 +27,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from otgym import physics as ph
 from otgym.physics import light_dose as ld
-from otgym.planning import formation as fm
-from otgym.planning import plan_path
 from otgym.sim import scene as sc
-from otgym.sim.chip import Chip, load_chip
-from otgym.task.scenario import Scenario, ScenarioConfig, make_scenario, propulsion_um_s, stack_tracks
+from otgym.tasks.transport import interactive as core
+from otgym.tasks.transport.interactive import InteractiveConfig
+from otgym.tasks.transport.scenario import Scenario, make_scenario, stack_tracks
 
 APPROACH, CARRY, DONE = 0, 1, 2
 ALPHA_BANDS = (("autonomous", 0.0, 0.2), ("balanced", 0.2, 0.4), ("fine_tune", 0.4, 1.0 + 1e-9))
@@ -46,39 +43,6 @@ fine-tune cue: the window shows its prompt from here (``otgym.ui.cues``) and the
 participants take over from here (``otgym.human.participants``; they act on the cue the
 window shows, an assumption about people, not a measurement)."""
 ROUTE_SEARCH_POINTS = (-40, 400)
-
-
-def interactive_scene(**overrides) -> sc.SceneConfig:
-    """The literature transport scene at 50 Hz ticks and a 0.25 ms physics step (the
-    stable step of its stiff traps on the robots' interacting-sphere mobility is 0.255 ms)."""
-    return sc.SceneConfig(**{"kind": "transport", "dt_s": 2.5e-4, "control_period_s": 0.02, **overrides})
-
-
-@dataclasses.dataclass(frozen=True)
-class InteractiveConfig:
-    scene: sc.SceneConfig = dataclasses.field(default_factory=interactive_scene)
-    start_um: str | tuple[float, float] = "start"  # a site of the chip's sidecar, or (x, y) um
-    goal_um: str | tuple[float, float] = "goal"
-    approach_gap_um: float = 1.5
-    grip_gap_um: float = 0.3
-    goal_tolerance_um: float = 3.0
-    time_limit_s: float = 300.0
-    encounter_gap_um: float = 20.0
-    scenario: ScenarioConfig = ScenarioConfig()
-
-    def __post_init__(self):
-        for name in ("approach_gap_um", "grip_gap_um", "goal_tolerance_um", "time_limit_s", "encounter_gap_um"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value!r}")
-        if self.scene.kind != "transport":
-            raise ValueError(f"the interactive task needs a transport scene, got kind {self.scene.kind!r}")
-        if self.scene.n_obstacles != self.scenario.n_obstacles:
-            raise ValueError(f"scene has {self.scene.n_obstacles} obstacles, scenario {self.scenario.n_obstacles}")
-
-    @property
-    def tick_s(self) -> float:
-        return self.scene.control_period_s
 
 
 @dataclasses.dataclass
@@ -184,13 +148,8 @@ class PendingStep:
     before_done: np.ndarray  # (E,) environments already DONE when it was dispatched
 
 
-_reset_one = jax.jit(sc.reset_at)
-"""``sc.reset_at`` compiled whole (bitwise the op-by-op result, without compiling each op)."""
 _reset_batch = jax.jit(jax.vmap(sc.reset_at, in_axes=(None, 0, None, None)))
-"""``sc.reset_at`` for a batch of keys, compiled whole."""
-_start_heading = jax.jit(lambda route: fm.heading_at(route, 0.0))
-"""The route's heading at its start (rad), one compiled program instead of a dozen eager ones."""
-_formation_offsets = jax.jit(fm.formation_offsets)
+"""``reset_at`` for a batch of keys, compiled whole (bitwise the op-by-op result)."""
 
 
 class InteractiveTask:
@@ -198,34 +157,17 @@ class InteractiveTask:
 
     def __init__(self, config: InteractiveConfig = InteractiveConfig()):
         self.config = config
-        self.scene = sc.build_scene(config.scene)
-        chip = config.scene.chip if isinstance(config.scene.chip, Chip) else load_chip(config.scene.chip)
-        self.chip = chip
-        plan = plan_path(
-            chip.image,
-            chip.pixel_size_um,
-            chip.site_um(config.start_um),
-            chip.site_um(config.goal_um),
-            robot_radius_um=self.scene.assembly_radius_um,
-            threshold=0.5,
-        )
-        self.route = fm.dense_path(plan.smoothed_um)
-        self.route_um = np.asarray(self.route.points_um, float)
-        self.route_arc_um = np.asarray(self.route.arc_um, float)
-        heading = _start_heading(self.route)
-        gripped = _reset_one(self.scene, jax.random.PRNGKey(0), self.route.points_um[0], heading)
-        self.offsets_um = np.asarray(_formation_offsets(gripped.physics.trap_xy_um, self.route.points_um[0], heading))
-        model = self.scene.model
-        self.trap_sphere = np.asarray(model.trap_sphere, int)
-        self.trap_robot = np.asarray([model.sphere_body[s] for s in self.trap_sphere], int)  # (T,) robot of each trap
-        # largest translational drag of each body (any direction): the escape speed is a lower bound
-        drag = np.linalg.eigvalsh(np.asarray(model.body_translational_resistance_pn_s_per_um))[:, -1]
-        payload_drag = float(drag[list(self.scene.robots) + [self.scene.payload]].sum())
-        self.escape_speed_um_s = model.n_traps * config.scene.trap_law.max_force_pn / payload_drag
+        params = core.make_params(config)
+        self.params = params
+        self.scene, self.chip, self.route = params.scene, params.chip, params.route
+        self.route_um, self.route_arc_um = params.route_um, params.route_arc_um
+        self.offsets_um, self.trap_robot = params.offsets_um, params.trap_robot
+        self.trap_sphere = np.asarray(self.scene.model.trap_sphere, int)
+        self.escape_speed_um_s = core.escape_speed_um_s(self.scene, config)
         """Speed at which the traps' largest force no longer drags the assembly (the
         trap-speed clamp of teleoperation stays below it)."""
-        self._step = jax.jit(functools.partial(_advance, config=config))
-        self._measure_jit = jax.jit(functools.partial(_measure, config=config))
+        self._step = jax.jit(functools.partial(core.advance, config=config))
+        self._measure_jit = jax.jit(functools.partial(core.measure, config=config))
         self._distance_jit = jax.jit(lambda walls, points: walls.distance_and_normal(points)[0])
         self._scenarios: dict[int, Scenario] = {}
 
@@ -266,7 +208,7 @@ class InteractiveTask:
         """E environments, one per scenario: the cell at the route's start, the robots
         ``approach_gap_um`` out from their grip, the obstacles at their tracks' starts."""
         n_env = len(scenarios)
-        heading = _start_heading(self.route)
+        heading = self.params.heading_rad
         keys = jax.random.split(key, n_env)
         state = _reset_batch(self.scene, keys, self.route.points_um[0], heading)
         pose = np.array(state.physics.pose)
@@ -391,52 +333,3 @@ class InteractiveTask:
         metrics.done |= finished
         state.phase = np.where(finished, DONE, state.phase)
         obs.phase = state.phase.copy()
-
-
-def _measure(scene: sc.Scene, scene_state: sc.SceneState, config: InteractiveConfig):
-    """Positions, gaps and forces of a batch of scene states (jnp)."""
-    model = scene.model
-    pose = scene_state.physics.pose
-    xy = ph.sphere_positions_um(model, pose)  # (E, S, 2)
-    radius = model.sphere_radius_um
-    trap_sphere = np.asarray(model.trap_sphere, int)
-    handles = xy[:, trap_sphere]
-    traps = scene_state.physics.trap_xy_um
-    bodies = np.asarray(model.sphere_body)
-    payload = np.flatnonzero(bodies <= scene.payload)
-    obstacles = np.asarray(scene.obstacles, int)
-    obstacle_spheres = np.asarray([np.flatnonzero(bodies == o)[0] for o in obstacles], int)
-    between = jnp.linalg.norm(xy[:, payload, None] - xy[:, None, obstacle_spheres], axis=-1)  # (E, P, K)
-    gap = jnp.min(between - radius[payload][:, None] - radius[obstacle_spheres][None], axis=1)
-    grippers = xy[:, np.asarray(scene.gripper_spheres)]  # (E, R, 2, 2)
-    cell = pose[:, scene.payload, :2]
-    surface = (
-        jnp.linalg.norm(grippers - cell[:, None, None], axis=-1)
-        - config.scene.cell_radius_um
-        - radius[scene.gripper_spheres[0][0]]
-    )
-    return {
-        "sphere_xy_um": xy,
-        "cell_xy_um": cell,
-        "trap_xy_um": traps,
-        "handle_xy_um": handles,
-        "robot_xy_um": pose[:, np.asarray(scene.robots), :2],
-        "obstacle_xy_um": pose[:, obstacles, :2],
-        "obstacle_gap_um": gap,
-        "cell_gap_um": jnp.min(surface, axis=-1),
-        "trap_distance_um": jnp.linalg.norm(handles - traps, axis=-1),
-        "contact_force_pn": jnp.zeros((pose.shape[0], len(scene.robots)), pose.dtype),  # set by _advance
-        "obstacle_touched": jnp.zeros((pose.shape[0], len(obstacles)), bool),
-    }  # set by _advance
-
-
-def _advance(scene: sc.Scene, scene_state: sc.SceneState, increment_um, key, tracks, config: InteractiveConfig):
-    obstacles = np.asarray(scene.obstacles, int)
-    obstacle_xy = scene_state.physics.pose[:, obstacles, :2]
-    flow = jax.vmap(scene.model.flow.velocity_um_s)(obstacle_xy)
-    propulsion = propulsion_um_s(tracks, scene_state.time_s, obstacle_xy, flow, config.scenario)
-    new_state, events = sc.step_batch(scene, scene_state, increment_um / config.tick_s, key, propulsion)
-    measured = _measure(scene, new_state, config)
-    measured["contact_force_pn"] = events.contact_force_pn
-    measured["obstacle_touched"] = events.obstacle_touched
-    return new_state, measured

@@ -25,7 +25,8 @@ def play_setup(
     ``InteractiveConfig.time_limit_s``); a study protocol may shorten it."""
     from otgym.runtime.trials import stylus_feedback
     from otgym.sim.chip import load_chip
-    from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
+    from otgym.task.task import InteractiveConfig, InteractiveTask
+    from otgym.tasks.transport.interactive import interactive_scene
     from otgym.ui.bindings import play_binding, play_bindings, robot_primaries
     from otgym.ui.recording import SessionRecording
 

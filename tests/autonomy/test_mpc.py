@@ -21,8 +21,8 @@ from otgym.autonomy import grip_calibration, mpc
 from otgym.autonomy.mpc import MPCConfig, MPCCosts
 from otgym.autonomy.mpc_navigator import MPCNavigator
 from otgym.autonomy.navigator import RouteNavigator, route_point
-from otgym.task.scenario import Scenario
 from otgym.task.task import CARRY, InteractiveTask
+from otgym.tasks.transport.scenario import Scenario
 
 SMALL = MPCConfig(n_rollouts=16, plan_steps=8, knot_steps=4)
 STEP_S = SMALL.step_s

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from otgym.autonomy.route_timing import AssemblyShape, earliest_passage
-from otgym.task.scenario import Scenario
+from otgym.tasks.transport.scenario import Scenario
 
 LENGTH_UM, SPEED_UM_S = 100.0, 5.0
 ARC_STEP_UM = 0.25

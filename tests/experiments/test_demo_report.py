@@ -171,7 +171,7 @@ def test_the_default_study_runs_long_enough_to_meet_obstacles_and_finish():
     the autonomous and shared trials reach the goal (the paper's took about 54 s, ours
     61-86 s) and gives the manual ones time to meet their first obstacles."""
     from otgym.study import PAPER_FIG8
-    from otgym.task.scenario import ScenarioConfig
+    from otgym.tasks.transport.scenario import ScenarioConfig
 
     limit = StudyConfig().time_limit_s
     scenario = ScenarioConfig()

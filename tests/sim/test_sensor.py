@@ -13,7 +13,7 @@ from otgym.sim.locate import kept_median, sample
 from otgym.sim.microscope import MicroscopeParams, microscope_images
 from otgym.sim.scene import SceneConfig
 from otgym.sim.sensor import VisionForceSensor, sensor_errors, trap_force_pn
-from otgym.task.task import interactive_scene
+from otgym.tasks.transport.interactive import interactive_scene
 from otgym.tasks.transport.presets import PRESETS
 
 FRAMES = 1000

@@ -43,7 +43,7 @@ def wall_distance_um(points) -> np.ndarray:
 def fast_scenario(seed: int, config=None):
     """``task.scenario(seed)`` (or with another ``ScenarioConfig``), built through the
     jitted wall distance."""
-    from otgym.task.scenario import make_scenario
+    from otgym.tasks.transport.scenario import make_scenario
 
     task = shared_task()
     return make_scenario(

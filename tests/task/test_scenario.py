@@ -1,4 +1,4 @@
-"""Tests of the seeded obstacle scenarios (``otgym.task.scenario``) on the
+"""Tests of the seeded obstacle scenarios (``otgym.tasks.transport.scenario``) on the
 interactive task's own route, chip walls and obstacle radius.
 
 The task is built once per module; most scenarios are built through a jitted copy of
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from otgym.task.scenario import Scenario, ScenarioConfig, make_scenario
+from otgym.tasks.transport.scenario import Scenario, ScenarioConfig, make_scenario
 from tests.task import fast_scenario, shared_task, wall_distance_um
 
 N_SEEDS = 50

@@ -10,6 +10,7 @@ lie more than 100 um along the route, far from the assembly in those 5 s."""
 import dataclasses
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -63,6 +64,17 @@ def gripped_pose(task):
     pose = np.asarray(state.physics.pose, float)
     normal = np.array([-np.sin(float(heading)), np.cos(float(heading))])
     return pose, np.asarray(state.physics.trap_xy_um, float), normal
+
+
+def test_the_shared_route_start_is_the_op_by_op_formation(task):
+    """The route start every route task shares (``otgym.tasks.transport.route_start``,
+    compiled whole) gives bitwise the heading and the formation that the op-by-op
+    computation gives: the paper's numbers were measured on those."""
+    pose, traps, _ = gripped_pose(task)
+    heading = fm.heading_at(task.route, 0.0)
+    offsets = fm.formation_offsets(jnp.asarray(traps, jnp.float32), task.route.points_um[0], heading)
+    assert float(task.params.heading_rad) == float(heading)
+    np.testing.assert_array_equal(task.offsets_um, np.asarray(offsets))
 
 
 def test_reset_places_cell_robots_and_obstacles(task, scenarios, fresh):

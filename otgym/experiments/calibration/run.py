@@ -1,5 +1,5 @@
 """``otgym experiment calibrate-scenarios``: sweep one parameter of the interactive task's
-obstacle scenarios (``otgym.task.scenario.ScenarioConfig``) and measure, for each value,
+obstacle scenarios (``otgym.tasks.transport.scenario.ScenarioConfig``) and measure, for each value,
 the share of obstacles the autonomous mode avoids, against the paper's autonomous
 success of 59 % (``otgym.study.PAPER_FIG8``).
 
@@ -39,8 +39,9 @@ from otgym.human.params import HumanParams
 from otgym.runtime.trials import TrialSpec, run_trials
 from otgym.study import PAPER_FIG8
 from otgym.study.stats import wilson_interval
-from otgym.task.scenario import ScenarioConfig, make_scenario
-from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
+from otgym.task.task import InteractiveConfig, InteractiveTask
+from otgym.tasks.transport.interactive import interactive_scene
+from otgym.tasks.transport.scenario import ScenarioConfig, make_scenario
 
 TARGET_AVOIDED = PAPER_FIG8["autonomous"]["success_mean"]
 """The paper's autonomous success: 59 % of the obstacles avoided (printed ± 5 %)."""

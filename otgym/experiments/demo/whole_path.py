@@ -144,7 +144,8 @@ def run(demo: WholePathDemo, out_dir: Path, progress: Callable[[int, int], None]
 
     from otgym.human.params import sample_population
     from otgym.runtime.trials import TrialSpec, run_trials
-    from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
+    from otgym.task.task import InteractiveConfig, InteractiveTask
+    from otgym.tasks.transport.interactive import interactive_scene
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -37,7 +37,8 @@ from otgym.autonomy.mpc_policy import (
 from otgym.human.params import sample_population
 from otgym.runtime.trials import TrialSpec, run_trials
 from otgym.study.summary import summarize
-from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
+from otgym.task.task import InteractiveConfig, InteractiveTask
+from otgym.tasks.transport.interactive import interactive_scene
 
 
 def _task(time_limit_s: float = 300.0) -> InteractiveTask:

@@ -18,7 +18,7 @@ Reward per decision, like the paper's speed control (progress, time, failure):
 assembly for the first time, ``detach_cost`` per detachment and ``loss_cost`` for a lost
 trap (terminal). An episode ends (terminal, value 0) once the cell is past
 ``finish_fraction`` of the route: the scenarios' crossings lie within 0.35-0.65 of it
-(``otgym.task.scenario``), so the rest of the route holds no decision worth learning;
+(``otgym.tasks.transport.scenario``), so the rest of the route holds no decision worth learning;
 or at ``time_limit_s`` (truncated: its open transition is dropped).
 
 Run ``otgym experiment learned-speed [--out OUT.npz]`` (default: the shipped
@@ -38,9 +38,9 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from otgym.autonomy.rl_navigator import DECISION_S, N_FEATURES, SPEEDS_UM_S, RLNavigator, SpeedPolicy
+from otgym.rl.dqn import double_dqn_loss, gradient_step, make_optimiser
 from otgym.rl.network import QNetwork
 from otgym.rl.policy import save_policy
 from otgym.task.task import InteractiveConfig, InteractiveTask
@@ -181,19 +181,12 @@ def make_learner(config: SpeedTrainingConfig):
     """``(init, learn)``: ``init(key) -> (params, opt_state)``; ``learn(params, opt_state,
     data, key) -> (params, opt_state, mean loss)`` runs ``updates_per_round`` double-DQN steps."""
     network = QNetwork(len(SPEEDS_UM_S), config.hidden)
-    optimiser = optax.chain(optax.clip_by_global_norm(10.0), optax.adam(config.learning_rate))
+    optimiser = make_optimiser(config.learning_rate)
+    loss_fn = double_dqn_loss(network, config.gamma)
 
     def init(key):
         params = network.init(key, jnp.zeros((1, N_FEATURES)))
         return params, optimiser.init(params)
-
-    def loss_fn(params, target, batch):
-        obs, action, reward, next_obs, terminated = batch
-        q = network.apply(params, obs)[jnp.arange(obs.shape[0]), action]
-        best = jnp.argmax(network.apply(params, next_obs), axis=-1)
-        next_q = network.apply(target, next_obs)[jnp.arange(obs.shape[0]), best]
-        goal = reward + config.gamma * (1.0 - terminated) * jax.lax.stop_gradient(next_q)
-        return jnp.mean(optax.huber_loss(q, goal))
 
     @functools.partial(jax.jit, static_argnums=())
     def learn(params, opt_state, data, key):
@@ -204,9 +197,7 @@ def make_learner(config: SpeedTrainingConfig):
             index_key, count = inputs
             index = jax.random.randint(index_key, (config.batch_size,), 0, size)
             batch = tuple(column[index] for column in data)
-            loss, grads = jax.value_and_grad(loss_fn)(params, target, batch)
-            updates, opt_state = optimiser.update(grads, opt_state, params)
-            params = optax.apply_updates(params, updates)
+            params, opt_state, loss = gradient_step(loss_fn, optimiser, params, opt_state, target, batch)
             sync = (count + 1) % config.target_every == 0
             target = jax.tree.map(lambda new, old: jnp.where(sync, new, old), params, target)
             return (params, opt_state, target), loss

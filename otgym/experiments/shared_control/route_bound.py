@@ -19,7 +19,8 @@ import pandas as pd
 from otgym.autonomy.route_timing import earliest_passage, task_assembly_shape
 from otgym.experiments.shared_control.config import check_arguments
 from otgym.runtime.trials import CRUISE_SPEED_UM_S
-from otgym.task.task import InteractiveConfig, InteractiveTask, interactive_scene
+from otgym.task.task import InteractiveConfig, InteractiveTask
+from otgym.tasks.transport.interactive import interactive_scene
 
 ROUTE_SPEED_UM_S = CRUISE_SPEED_UM_S
 """The route navigator's cruise speed in trials: the autonomous mode's pace, and

@@ -59,7 +59,7 @@ def run_experiment(
     autonomies = shared_autonomies()
     if shared_autonomy not in autonomies:
         raise ValueError(f"--shared-autonomy must be one of {', '.join(autonomies)}, got {shared_autonomy!r}")
-    from otgym.task.task import interactive_scene
+    from otgym.tasks.transport.interactive import interactive_scene
 
     task = InteractiveTask(InteractiveConfig(scene=interactive_scene(chip=chip), time_limit_s=time_limit_s))
     people = dict(enumerate(sample_population(participants, seed)))

@@ -3,7 +3,9 @@ a cell follow a segment of the planned path past moving obstacles (paper section
 II-C). ``SpeedControl``: a discrete speed along the path each step. ``CellTransport``:
 a 2-D trap velocity per robot. The functional cores are ``core`` (scene, path, the
 observation and reward), ``speed_control`` and ``cell_transport``; presets in
-``presets``."""
+``presets``. Every route task starts from ``route_start`` (route and formation). The
+paper's interactive task (section III-C) shares it: ``interactive`` is its functional
+core and ``scenario`` its obstacles (its host wrapper: ``otgym.task.task``)."""
 
 from __future__ import annotations
 

@@ -34,10 +34,9 @@ from flax import struct
 from otgym import physics as ph
 from otgym.physics import light_dose as ld
 from otgym.planning import formation as fm
-from otgym.planning import plan_path
 from otgym.sim import scene as sc
-from otgym.sim.chip import Chip, load_chip
 from otgym.tasks.transport.presets import TaskConfig
+from otgym.tasks.transport.route_start import route_start
 
 OBS_SIZE = 21
 LOOKAHEAD_UM = 5.0
@@ -75,24 +74,13 @@ def make_params(config: TaskConfig) -> TransportParams:
     if len(spots) > OBSTACLE_SPOTS:
         chosen = np.random.default_rng(0).choice(len(spots), OBSTACLE_SPOTS, replace=False)
         scene = scene.replace(obstacle_candidates_um=jnp.asarray(spots[np.sort(chosen)]))
-    chip = config.scene.chip if isinstance(config.scene.chip, Chip) else load_chip(config.scene.chip)
-    plan = plan_path(
-        chip.image,
-        chip.pixel_size_um,
-        chip.site_um(config.start_um),
-        chip.site_um(config.goal_um),
-        robot_radius_um=scene.assembly_radius_um,
-        threshold=0.5,
-    )
-    path = fm.dense_path(plan.smoothed_um)
+    start = route_start(scene, config.scene, config.start_um, config.goal_um)
+    path = start.path
     if float(path.length_um) < config.segment_um:
         raise ValueError(
             f"planned path ({float(path.length_um):.1f} um) is shorter than segment_um={config.segment_um}"
         )
-    heading = fm.heading_at(path, 0.0)
-    state = sc.reset_at(scene, jax.random.PRNGKey(0), path.points_um[0], heading)
-    offsets = fm.formation_offsets(state.physics.trap_xy_um, path.points_um[0], heading)
-    return TransportParams(scene, path, offsets, config)
+    return TransportParams(scene, path, start.offsets_um, config)
 
 
 def segment_end(params: TransportParams, state: TransportState):
