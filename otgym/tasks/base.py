@@ -15,7 +15,8 @@ mujoco_playground:
   rejects them at the host edge.
 - ``reset`` / ``step``: one environment, by default the batch of one.
 - ``observation_size(params)``, ``action_space(params)`` (a Gymnasium ``Discrete`` or
-  ``Box``), ``check_action(action, params)`` (numpy in, ValueError on bad input).
+  ``Box``), ``policy_shape(config)`` (a discrete task's sizes, from its config alone),
+  ``check_action(action, params)`` (numpy in, ValueError on bad input).
 - ``frame(state, params, size_px)``: an RGB image (H, W, 3) uint8 of one environment,
   what the Gymnasium renderer and the generic play window draw.
 - ``device_action(velocity_um_s, params)``: the action a 2-D pointing device (keyboard,
@@ -138,6 +139,18 @@ class Task:
 
     def action_space(self, params) -> gym.Space:
         raise NotImplementedError
+
+    def policy_shape(self, config) -> tuple[int, int]:
+        """(observation size, number of actions) of a discrete-action task under
+        ``config``: what a policy file's network must fit, checked before any work. The
+        default builds the params (``make_params``); a task whose sizes follow from its
+        config alone overrides it so that nothing is built. ValueError for a task whose
+        actions are not ``Discrete``."""
+        params = self.make_params(config)
+        space = self.action_space(params)
+        if not isinstance(space, gym.spaces.Discrete):
+            raise ValueError(f"task {self.name!r} has no discrete actions for a Q-network policy")
+        return self.observation_size(params), int(space.n)
 
     action_unit: ClassVar[str] = ""
     """The unit of a ``Box`` action's components, as error messages name it."""

@@ -54,16 +54,8 @@ def policy_shape(task_name: str) -> tuple[int, int]:
     (nothing built or compiled)."""
     from otgym import tasks
 
-    config = tasks.load(task_name).config(PRESETS[task_name])
-    if task_name == "assemble":
-        from otgym.tasks.assemble.core import OBS_SIZE
-    elif task_name == "sort-cells":
-        from otgym.tasks.sort_cells.core import N_ACTIONS, OBS_SIZE
-
-        return OBS_SIZE, N_ACTIONS
-    else:
-        from otgym.tasks.orient.core import OBS_SIZE
-    return OBS_SIZE, config.n_actions
+    task = tasks.load(task_name)
+    return task.policy_shape(task.config(PRESETS[task_name]))
 
 
 def check_policy(task_name: str, policy_path: Path) -> None:

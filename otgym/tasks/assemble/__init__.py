@@ -62,6 +62,9 @@ class Assemble(Task):
     def action_space(self, params) -> gym.spaces.Discrete:
         return gym.spaces.Discrete(params.config.n_actions)
 
+    def policy_shape(self, config) -> tuple[int, int]:
+        return core.OBS_SIZE, config.n_actions
+
     def frame(self, state, params, size_px=(600, 400)) -> np.ndarray:
         """The field of view: beads (yellow), traps (red rings) and the targets (grey
         discs beneath)."""

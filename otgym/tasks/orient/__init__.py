@@ -91,6 +91,9 @@ class Orient(Task):
     def action_space(self, params: OrientParams) -> gym.spaces.Discrete:
         return gym.spaces.Discrete(params.config.n_actions)
 
+    def policy_shape(self, config) -> tuple[int, int]:
+        return core.OBS_SIZE, config.n_actions
+
     def frame(self, state, params: OrientParams, size_px=(600, 400)) -> np.ndarray:
         """The formation close up (``VIEW_WIDTH_UM`` of chip about its centre): the
         robots, the cell and the traps; the target, the grip axis (robot a to robot b)

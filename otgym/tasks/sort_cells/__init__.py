@@ -84,6 +84,9 @@ class SortCells(Task):
     def action_space(self, params) -> gym.spaces.Discrete:
         return gym.spaces.Discrete(core.N_ACTIONS)
 
+    def policy_shape(self, config) -> tuple[int, int]:
+        return core.OBS_SIZE, core.N_ACTIONS
+
     def frame(self, state, params: core.SortParams, size_px=(600, 400)) -> np.ndarray:
         """The chip with its ports marked (each outlet in the colour of the kind it takes,
         labelled; the inlet), the cells coloured and sized by kind, and the manipulator:

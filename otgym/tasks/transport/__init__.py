@@ -81,6 +81,9 @@ class SpeedControl(_Transport):
     def action_space(self, params) -> gym.spaces.Discrete:
         return gym.spaces.Discrete(params.config.n_actions)
 
+    def policy_shape(self, config) -> tuple[int, int]:
+        return core.OBS_SIZE, config.n_actions
+
     def device_action(self, velocity_um_s, params) -> np.ndarray:
         """The speed level nearest the device's speed (its direction is the path's)."""
         levels = np.asarray(params.config.speed_levels_um_s)
