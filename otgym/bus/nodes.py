@@ -314,8 +314,3 @@ def run_device_node(node: Node, device: Device, name: str, stop: threading.Event
             running[0] = False
             device.set_force(np.zeros(3))
         device.stop()
-
-
-def record_all(node: Node, sink: Callable[[str, bytes], None]) -> None:
-    """``sink(topic, cdr)`` for every checked message on every otgym topic."""
-    node.subscribe("/otgym/**", lambda topic, message, data: sink(topic, data))

@@ -48,7 +48,7 @@ from jax.custom_batching import custom_vmap
 from otgym.physics.batching import batch_through
 from otgym.physics.fields import NoWalls, UniformFlow
 from otgym.physics.interactions import sphere_pair_forces, sphere_wall_forces
-from otgym.physics.model import Model, PhysicsState, sphere_positions_um, turn_to_body, turn_to_lab
+from otgym.physics.model import Model, PhysicsState, turn_to_body, turn_to_lab
 from otgym.physics.noise import substep_noise
 from otgym.physics.projection import project_overlaps
 from otgym.physics.sharding import shard_environment_tree
@@ -472,8 +472,3 @@ def rollout(model: Model, state: PhysicsState, controls: Controls, key, n_contro
 
     final, (poses, traps, reports) = jax.lax.scan(body, state, jax.random.split(key, n_control_steps))
     return final, poses, traps, reports
-
-
-def sphere_positions(model: Model, state: PhysicsState):
-    """World positions (..., N, 2) of every sphere of a (possibly batched) state."""
-    return sphere_positions_um(model, state.pose)

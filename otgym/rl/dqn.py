@@ -254,7 +254,3 @@ def make_train(config: DQNConfig, env: Env):
         return runner, jax.tree.map(lambda m: m.reshape(-1), metrics)
 
     return init, run_chunk, train
-
-
-def greedy_action(config: DQNConfig, n_actions: int, q_params, obs):
-    return jnp.argmax(QNetwork(n_actions, config.hidden).apply(q_params, obs), axis=-1)
