@@ -14,13 +14,12 @@ def _check_names(option: str, task: str):
     (the presets are read when the command runs: importing the task loads JAX)."""
 
     def check(values: list[str] | None) -> list[str] | None:
-        if task == "sort-cells":
-            from otgym.tasks.sort_cells import PRESETS
-        else:
-            from otgym.tasks.assemble.config import PRESETS
+        from otgym import tasks
+
+        presets = tasks.load(task).presets()
         for value in values or []:
-            if value not in PRESETS:
-                raise typer.BadParameter(f"{value!r} is not one of {', '.join(PRESETS)}", param_hint=option)
+            if value not in presets:
+                raise typer.BadParameter(f"{value!r} is not one of {', '.join(presets)}", param_hint=option)
         return values
 
     return check

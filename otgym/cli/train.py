@@ -44,7 +44,6 @@ def register(app: typer.Typer) -> None:
         """
         from otgym import tasks
         from otgym.experiments.common.output_folder import check_out_dir
-        from otgym.experiments.speed_control.train import train as run_training
         from otgym.experiments.speed_control.train import train_task, write_training
         from otgym.rl.dqn import DQNConfig
 
@@ -65,14 +64,11 @@ def register(app: typer.Typer) -> None:
             def report(done: int, total: int) -> None:
                 progress.update(bar, description="training", completed=done)
 
-            if task_name == "speed-control":  # the policy file records the speed levels
-                result = run_training(task_config, config, seed, report)
-            else:
-                params = task.make_params(task_config)
-                try:
-                    result = train_task(task, params, config, seed, report, preset=preset)
-                except ValueError as error:
-                    raise typer.BadParameter(str(error), param_hint="--task") from None
+            params = task.make_params(task_config)
+            try:
+                result = train_task(task, params, config, seed, report, preset=preset)
+            except ValueError as error:
+                raise typer.BadParameter(str(error), param_hint="--task") from None
         summary = write_training(result, out)
         console.print(
             f"[bold]otgym train[/bold] ({task_name}, {result.meta['preset']}): {summary['episodes']} episodes, "

@@ -16,6 +16,7 @@ mujoco_playground:
 - ``reset`` / ``step``: one environment, by default the batch of one.
 - ``observation_size(params)``, ``action_space(params)`` (a Gymnasium ``Discrete`` or
   ``Box``), ``policy_shape(config)`` (a discrete task's sizes, from its config alone),
+  ``policy_meta(params)`` (what its policy files record),
   ``check_action(action, params)`` (numpy in, ValueError on bad input).
 - ``frame(state, params, size_px)``: an RGB image (H, W, 3) uint8 of one environment,
   what the Gymnasium renderer and the generic play window draw.
@@ -151,6 +152,12 @@ class Task:
         if not isinstance(space, gym.spaces.Discrete):
             raise ValueError(f"task {self.name!r} has no discrete actions for a Q-network policy")
         return self.observation_size(params), int(space.n)
+
+    def policy_meta(self, params) -> dict:
+        """What a policy file trained on this task records beside its network, so that
+        whoever loads it can act without the task (default: nothing; speed control: its
+        speed levels). JSON-serialisable."""
+        return {}
 
     action_unit: ClassVar[str] = ""
     """The unit of a ``Box`` action's components, as error messages name it."""

@@ -8,6 +8,7 @@ import pytest
 
 from otgym.rl.policy import load_policy, save_policy
 from otgym.tasks.transport import core as tr
+from otgym.tasks.transport.presets import preset
 from tests.conftest import FIXED_POLICY_HIDDEN
 from tests.experiments.test_speed_control_eval import EPISODES
 from tests.otgym_cli import run_cli
@@ -25,6 +26,8 @@ def test_train_writes_a_loadable_policy_curve_and_summary(tmp_path, capsys):
     assert summary["env_steps"] == TRAIN_STEPS and summary["episodes"] > 0 and summary["preset"] == "paper"
     q_params, meta = load_policy(tmp_path / "policy.npz", tr.OBS_SIZE, 6)
     assert meta["seed"] == 3 and all(np.all(np.isfinite(np.asarray(v))) for v in q_params["params"]["Dense_0"].values())
+    # the task's own policy_meta: evaluating the file needs the speed levels it was trained on
+    assert meta["speed_levels_um_s"] == list(preset("paper").speed_levels_um_s) and meta["preset"] == "paper"
     assert (tmp_path / "learning_curve.png").stat().st_size > 10_000
     assert f"{TRAIN_STEPS} steps" in capsys.readouterr().out
 

@@ -62,8 +62,7 @@ def train(
     """Train the speed controller of preset ``task`` for one seed (``train_task``)."""
     speed = tasks.load("speed-control")
     params = speed.make_params(task) if params is None else params
-    extra = {"preset": task.name, "speed_levels_um_s": list(task.speed_levels_um_s)}
-    return train_task(speed, params, config, seed, progress, extra)
+    return train_task(speed, params, config, seed, progress, {"preset": task.name})
 
 
 def train_task(
@@ -77,7 +76,8 @@ def train_task(
 ) -> TrainResult:
     """Train ``task`` (a Task or a registered name; ``params`` default: its ``preset``'s)
     for one seed, chunk by chunk (each chunk one jitted call, the runner staying on the
-    device); ``progress(done_chunks, n_chunks)`` after each."""
+    device); ``progress(done_chunks, n_chunks)`` after each. The policy's meta holds the
+    task's own ``policy_meta``."""
     start = time.perf_counter()
     task = tasks.load(task) if isinstance(task, str) else task
     params = task.make_params(task.config(preset)) if params is None else params
@@ -102,6 +102,7 @@ def train_task(
         "preset": preset or task.presets()[0],
         "obs_size": env.obs_size,
         "n_actions": env.n_actions,
+        **task.policy_meta(params),
         **(extra_meta or {}),
         "hidden": list(config.hidden),
         "env_steps": config.n_chunks * config.chunk_iters * config.n_envs,

@@ -84,6 +84,9 @@ class SpeedControl(_Transport):
     def policy_shape(self, config) -> tuple[int, int]:
         return core.OBS_SIZE, config.n_actions
 
+    def policy_meta(self, params) -> dict:
+        return {"speed_levels_um_s": list(params.config.speed_levels_um_s)}
+
     def device_action(self, velocity_um_s, params) -> np.ndarray:
         """The speed level nearest the device's speed (its direction is the path's)."""
         levels = np.asarray(params.config.speed_levels_um_s)
