@@ -21,4 +21,3 @@ def test_the_shape_from_the_config_is_the_built_tasks(name):
             task.policy_shape(config)
         return
     assert task.policy_shape(config) == (task.observation_size(params), int(space.n))
-
