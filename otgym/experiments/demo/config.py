@@ -57,10 +57,9 @@ class StudyConfig:
     Its cost: time_limit_s / 20 ms control ticks of one batch (it runs until its
     slowest trial ends), most of it Python per tick (the simulated participants and the
     task's bookkeeping between small XLA calls): for the defaults, 4,500 ticks of 9
-    trials, about 125 s of CPU and 120 s of wall time alone on this machine's 2 cores
-    with warm caches. It runs beside the other stages and is the demo's longest:
-    measured 165 s of the 186 s the whole demo took with cold caches and no other job
-    (docs/performance.md has the commands)."""
+    trials, about 125 CPU-s with warm caches on two cores. It runs beside the other
+    stages and is the demo's longest (docs/performance.md has the measured times and
+    their commands)."""
 
     participants: int = 3
     trials: int = 1

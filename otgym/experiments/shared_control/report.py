@@ -37,7 +37,7 @@ def acceptance(
     """The acceptance items, each judged where its modes ran (an item whose modes or
     figures are missing is absent, not passed).
 
-    Fig. 8, the paper's law restated (issue 29): (a) autonomous avoids fewer obstacles
+    Fig. 8, the paper's law restated: (a) autonomous avoids fewer obstacles
     than shared (its success mean lower, Holm-corrected paired test p < 0.05 from
     ``stats["success"]``); (b) manual takes at least 1.8x shared's time; (c) shared
     takes at most 1.15x ``route_bound_s``, the route-keeping bound at the autonomy's

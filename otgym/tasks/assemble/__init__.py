@@ -1,4 +1,4 @@
-"""The ``assemble`` task (issue 38 item 2): beads held directly by N holographic traps
+"""The ``assemble`` task: beads held directly by N holographic traps
 are placed into a target pattern (ring, lattice, a letter) without collisions, within
 what a holographic tweezer can do (``config``: SLM refresh rate, bounded trap count,
 power shared between the traps). The assignment of beads to targets and the

@@ -1,5 +1,5 @@
 """Task ``orient``: two robots gripping a cell turn it in place to a target angle
-without losing the grip (issue 38; ``core`` holds the model, the observation and the
+without losing the grip (``core`` holds the model, the observation and the
 reward; ``baseline`` the scripted bang-bang controller).
 
 Preset ``default``: the ``paper`` trap law (equation 3, at most 0.30 pN per handle)

@@ -1,5 +1,5 @@
 """Task ``sort-cells``: cells of two sizes arrive with the flow at a sorting chip's inlet,
-and a manipulator moves each across the flow into its size's outlet (issue 38; ``config``
+and a manipulator moves each across the flow into its size's outlet (``config``
 holds the config and the manipulation it implies, ``core`` the model, ``baseline`` the
 scripted controller, ``view`` what its frame and recorded scene show). The chip,
 ``sorter`` (``otgym.sim.sorter_chip``), is a PNG with a sidecar naming its inlet, its
