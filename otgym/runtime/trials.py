@@ -221,6 +221,7 @@ def run_trials(
         built[name] = navigator_named(name)
         built[name].reset(len(rows_of))
     law = task.config.scene.trap_law
+    trap_force_pn = jax.jit(law.force_pn)  # each tick: one compiled call, not a dozen eager operations
     feedback = task_feedback(law, retarget, int(np.sum(task.trap_robot == 0)))
     people = SimulatedParticipants(
         [participants[s.participant] for s in specs],
@@ -264,7 +265,7 @@ def run_trials(
         obs = task.step(state, command.shared_um, step_key, command.alpha)
         if people_act:
             display.show(obs, command.modes, command.alpha)
-            people.feel(obs, np.asarray(law.force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
+            people.feel(obs, np.asarray(trap_force_pn(obs.trap_xy_um - obs.handle_xy_um)), task.trap_robot)
         if recorder is not None:
             lapsed = people.motor.lapsed.reshape(len(specs), -1).any(axis=1) if people_act else no_lapses
             recorder(TickView(seen, obs, command, robot, state, lapsed))

@@ -202,7 +202,8 @@ class InteractiveTask:
         size = 1 << max(int(np.ceil(np.log2(max(len(points), 1)))), 4)
         padded = np.zeros((size, 2), np.float32)
         padded[: len(points)] = points
-        return np.asarray(self._distance_jit(self.scene.model.walls, jnp.asarray(padded)))[: len(points)]
+        # the numpy array goes to the device with the call (jnp.asarray first dispatches a conversion of its own)
+        return np.asarray(self._distance_jit(self.scene.model.walls, padded))[: len(points)]
 
     def reset(self, scenarios: list[Scenario], key) -> TaskState:
         """E environments, one per scenario: the cell at the route's start, the robots
