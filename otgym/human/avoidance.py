@@ -37,22 +37,36 @@ def _closest_um(
     all, or (E,)) if the assembly moves at ``assembly_velocity_um_s`` (E, 2), or at it
     until ``until_s`` (E,) and at ``then_um_s`` (E, 2) after (a step aside that a wall
     ends)."""
+    options = (
+        None if until_s is None else np.asarray(until_s)[:, None],
+        None if then_um_s is None else np.asarray(then_um_s)[:, None],
+    )
+    velocity = np.asarray(assembly_velocity_um_s)[:, None]
+    return _closest_per_option_um(cell_um, obstacle_um, obstacle_velocity_um_s, velocity, horizon_s, *options)[:, 0]
+
+
+def _closest_per_option_um(
+    cell_um, obstacle_um, obstacle_velocity_um_s, velocities_um_s, horizon_s, until_s=None, then_um_s=None
+):
+    """``_closest_um`` for O options at once: (E, O, K) for the assembly's velocities
+    (E, O, 2), ``until_s`` (E, O) and ``then_um_s`` (E, O, 2); elementwise the same
+    arithmetic, so each option's distances are bitwise those of its own call."""
 
     def closest(relative, closing, duration_s):
         speed2 = np.maximum(np.sum(closing**2, axis=-1), 1e-9)
         t_star = np.clip(-np.sum(relative * closing, axis=-1) / speed2, 0.0, duration_s)
         return np.linalg.norm(relative + closing * t_star[..., None], axis=-1)
 
-    horizon_s = np.broadcast_to(np.asarray(horizon_s, dtype=float), (len(cell_um),))[:, None]  # (E, 1)
-    relative = obstacle_um - cell_um[:, None]
-    closing = obstacle_velocity_um_s - assembly_velocity_um_s[:, None]
+    horizon_s = np.broadcast_to(np.asarray(horizon_s, dtype=float), (len(cell_um),))[:, None, None]  # (E, 1, 1)
+    relative = (obstacle_um - cell_um[:, None])[:, None]  # (E, 1, K, 2)
+    closing = obstacle_velocity_um_s[:, None] - velocities_um_s[:, :, None]  # (E, O, K, 2)
     if until_s is None:
         return closest(relative, closing, horizon_s)
-    until = np.clip(until_s[:, None], 0.0, horizon_s)
+    until = np.clip(until_s[..., None], 0.0, horizon_s)  # (E, O, 1)
     later = relative + closing * until[..., None]
     return np.minimum(
         closest(relative, closing, until),
-        closest(later, obstacle_velocity_um_s - then_um_s[:, None], horizon_s - until),
+        closest(later, obstacle_velocity_um_s[:, None] - then_um_s[:, :, None], horizon_s - until),
     )
 
 
@@ -140,27 +154,25 @@ def choose_velocity(
     )
     along = still_k[rows, worst] | (heading_cos >= np.cos(np.radians(task.along_angle_deg)))
     rank = _option_ranks()[along.astype(int)]  # (E, options)
-    room = []
-    for index, velocity in enumerate(options):
-        if room_um is None:
-            miss = _closest_um(cell_um, obstacle_um, obstacle_velocity_um_s, velocity, task.horizon_s)
-        else:  # sideways only until a wall, then along the route; a side-step into a wall is no option
-            sideways_um_s = np.sum(velocity * left, axis=-1)
-            free_um = np.where(sideways_um_s > 0, room_um[:, 0], room_um[:, 1])
-            until_s = free_um / np.maximum(np.abs(sideways_um_s), 1e-9)
-            miss = _closest_um(
-                cell_um,
-                obstacle_um,
-                obstacle_velocity_um_s,
-                velocity,
-                task.horizon_s,
-                until_s,
-                velocity - sideways_um_s[:, None] * left,
-            )
-            if index >= len(SPEED_OPTIONS):
-                miss = np.where((free_um < task.side_step_resolution_um)[:, None], -np.inf, miss)
-        room.append((miss - clearance).min(axis=1))
-    room = np.stack(room, axis=1)  # (E, options)
+    velocities = np.stack(options, axis=1)  # (E, options, 2)
+    if room_um is None:
+        miss = _closest_per_option_um(cell_um, obstacle_um, obstacle_velocity_um_s, velocities, task.horizon_s)
+    else:  # sideways only until a wall, then along the route; a side-step into a wall is no option
+        sideways_um_s = np.sum(velocities * left[:, None], axis=-1)  # (E, options)
+        free_um = np.where(sideways_um_s > 0, room_um[:, :1], room_um[:, 1:])
+        until_s = free_um / np.maximum(np.abs(sideways_um_s), 1e-9)
+        miss = _closest_per_option_um(
+            cell_um,
+            obstacle_um,
+            obstacle_velocity_um_s,
+            velocities,
+            task.horizon_s,
+            until_s,
+            velocities - sideways_um_s[..., None] * left[:, None],
+        )
+        walled = (free_um < task.side_step_resolution_um[:, None]) & (np.arange(len(options)) >= len(SPEED_OPTIONS))
+        miss = np.where(walled[..., None], -np.inf, miss)
+    room = (miss - clearance[:, None]).min(axis=2)  # (E, options)
     safe = room >= 0.0
     onward = np.array(
         [name in ("intended", "hurried", "slowed") for name in SPEED_OPTIONS]
@@ -172,4 +184,4 @@ def choose_velocity(
     first = np.min(np.where(chosen, rank, np.inf), axis=1, keepdims=True)
     best = np.argmax(np.where(chosen & (rank == first), room, -np.inf), axis=1)
     choice = np.where(chosen.any(axis=1), best, np.argmax(room, axis=1))
-    return np.stack(options, axis=1)[rows, choice], choice > 0
+    return velocities[rows, choice], choice > 0
