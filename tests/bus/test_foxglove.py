@@ -40,9 +40,14 @@ def scene_class(schema_b64: str):
     return message_factory.GetMessageClass(pool.FindMessageTypeByName("foxglove.SceneUpdate"))
 
 
-async def first_scene(url: str, publish, deadline_s: float = 60.0):
-    """Connect, subscribe to /otgym/scene, call ``publish()`` until a scene with bodies
-    arrives; returns (advertised channel, decoded SceneUpdate)."""
+def _has_bodies(update) -> bool:
+    return any(entity.id == "bodies" for entity in update.entities)
+
+
+async def first_scene(url: str, publish, deadline_s: float = 60.0, wanted=_has_bodies):
+    """Connect, subscribe to /otgym/scene, call ``publish()`` until a scene that is
+    ``wanted`` (default: one with bodies) arrives; returns (advertised channel, decoded
+    SceneUpdate)."""
     async with websockets.connect(url, subprotocols=list(SUBPROTOCOLS)) as socket:
         assert socket.subprotocol in SUBPROTOCOLS
         info = json.loads(await socket.recv())
@@ -68,9 +73,9 @@ async def first_scene(url: str, publish, deadline_s: float = 60.0):
             opcode, subscription, _log_time_ns = struct.unpack_from("<BIQ", frame)
             if opcode == 1 and subscription == 7:
                 update = scene_class(channel["schema"]).FromString(frame[13:])
-                if any(entity.id == "bodies" for entity in update.entities):
+                if wanted(update):
                     return channel, update
-        raise AssertionError("no scene with bodies arrived")
+        raise AssertionError(f"no scene that {wanted.__name__} arrived")
 
 
 def session(stamp_s: float):
@@ -98,7 +103,12 @@ def test_the_foxglove_node_serves_the_scene_of_the_running_session(children):  #
             sim.publish(msg.TRAPS, msg.pose_array(traps_um, time.time()))
             sim.publish(msg.BODIES, msg.pose_array(spheres_um, time.time()))
 
-        channel, update = asyncio.run(first_scene(url, publish))
+        def whole(update) -> bool:
+            """Bodies with the chip's static entity once the latched route is in: the
+            route and the goal come by their own topic and may follow the first bodies."""
+            return _has_bodies(update) and any(e.id == "chip" and e.cylinders for e in update.entities)
+
+        channel, update = asyncio.run(first_scene(url, publish, wanted=whole))
     assert channel["encoding"] == "protobuf" and channel["schemaName"] == "foxglove.SceneUpdate"
     bodies = next(e for e in update.entities if e.id == "bodies")
     assert bodies.frame_id == "chip" and len(bodies.spheres) == 3
