@@ -46,14 +46,10 @@ class AssemblyShape:
 def task_assembly_shape(task) -> AssemblyShape:
     """The assembly (both robots and the cell) of an ``InteractiveTask`` as it is
     gripped at the route's start, in the route frame."""
-    import jax
-
     from otgym import physics as ph
-    from otgym.planning import formation as fm
-    from otgym.sim import scene as sc
 
-    heading = float(fm.heading_at(task.route, 0.0))
-    gripped = sc.reset_at(task.scene, jax.random.PRNGKey(0), task.route.points_um[0], heading)
+    heading = float(task.params.heading_rad)
+    gripped = task.params.gripped
     xy = np.asarray(ph.sphere_positions_um(task.scene.model, gripped.physics.pose), float)
     bodies = np.asarray(task.scene.model.sphere_body)
     payload = np.flatnonzero(bodies <= task.scene.payload)

@@ -63,8 +63,9 @@ class InteractiveConfig:
 @dataclasses.dataclass(frozen=True)
 class InteractiveParams:
     """What ``make_params`` builds once per config: the scene, its chip, the route
-    (dense path and its points and arc lengths, um), the formation's trap offsets (T, 2)
-    um, and the robot each trap holds (T,)."""
+    (dense path and its points and arc lengths, um), its heading at the start, the
+    scene at rest there with the assembly gripped (``RouteStart.gripped``), the
+    formation's trap offsets (T, 2) um, and the robot each trap holds (T,)."""
 
     scene: sc.Scene
     chip: Chip
@@ -72,6 +73,7 @@ class InteractiveParams:
     route_um: np.ndarray
     route_arc_um: np.ndarray
     heading_rad: jnp.ndarray
+    gripped: sc.SceneState
     offsets_um: np.ndarray
     trap_robot: np.ndarray
 
@@ -90,6 +92,7 @@ def make_params(config: InteractiveConfig) -> InteractiveParams:
         np.asarray(start.path.points_um, float),
         np.asarray(start.path.arc_um, float),
         start.heading_rad,
+        start.gripped,
         np.asarray(start.offsets_um),
         trap_robot,
     )
