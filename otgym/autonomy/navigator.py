@@ -28,32 +28,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from otgym.task.geometry import rotate
-from otgym.task.task import APPROACH, CARRY, Observation
-
-HEADING_LOOKAROUND_UM = 2.0
-
-
-def route_point(route_um, route_arc_um, arc_um):
-    """Points (..., 2) on the route at arc lengths ``arc_um`` (...,), clipped to its ends."""
-    arc = np.clip(arc_um, 0.0, route_arc_um[-1])
-    return np.stack(
-        [np.interp(arc, route_arc_um, route_um[:, 0]), np.interp(arc, route_arc_um, route_um[:, 1])], axis=-1
-    )
-
-
-def route_heading(route_um, route_arc_um, arc_um):
-    """Tangent angle (rad) of the route at ``arc_um``, by a central difference."""
-    delta = route_point(route_um, route_arc_um, arc_um + HEADING_LOOKAROUND_UM) - route_point(
-        route_um, route_arc_um, arc_um - HEADING_LOOKAROUND_UM
-    )
-    return np.arctan2(delta[..., 1], delta[..., 0])
-
-
-def cap_speed(increment_um, max_step_um: float):
-    """Scale each (..., 2) increment down to at most ``max_step_um`` long."""
-    norm = np.linalg.norm(increment_um, axis=-1, keepdims=True)
-    return increment_um * np.minimum(1.0, max_step_um / np.maximum(norm, 1e-12))
+from otgym.task.task import Observation
+from otgym.tasks.transport.route_follow import (  # noqa: F401  (the names the navigators' users import from here)
+    HEADING_LOOKAROUND_UM,
+    RouteFollow,
+    cap_speed,
+    route_heading,
+    route_point,
+)
 
 
 class RouteNavigator:
@@ -110,38 +92,29 @@ class RouteNavigator:
     def reset(self, n_env: int):
         self.commanded_arc_um = np.zeros(n_env)
 
+    @property
+    def follow(self) -> RouteFollow:
+        """The follower's arithmetic (``otgym.tasks.transport.route_follow``) with this navigator's settings."""
+        return RouteFollow(
+            self.route_um,
+            self.route_arc_um,
+            self.offsets_um,
+            self.tick_s,
+            self.lead_um,
+            self.max_speed_um_s,
+            self.carry_gain_per_s,
+        )
+
     def route_point_at(self, arc_um):
         return route_point(self.route_um, self.route_arc_um, arc_um)
 
     def formation_targets(self, centre_arc_um, centre_um):
         """Trap places (E, T, 2) of the formation centred at ``centre_um`` facing the route at ``centre_arc_um``."""
-        heading = route_heading(self.route_um, self.route_arc_um, centre_arc_um)
-        return centre_um[:, None] + rotate(self.offsets_um[None], heading)
+        return self.follow.formation_targets(centre_arc_um, centre_um)
 
     def increments(self, obs: Observation) -> np.ndarray:
         """dP_r (E, T, 2) in um for this tick."""
-        carrying = obs.phase == CARRY
-        start = carrying & (self.commanded_arc_um < obs.cell_arc_um - self.lead_um)
-        self.commanded_arc_um = np.where(start | (obs.phase == APPROACH), obs.cell_arc_um, self.commanded_arc_um)
-        previous_arc = self.commanded_arc_um
-        advanced = np.minimum(
-            self.commanded_arc_um + self.cruise_speed_um_s * self.tick_s, obs.cell_arc_um + self.lead_um
+        increment, self.commanded_arc_um = self.follow.increments(
+            self.commanded_arc_um, self.cruise_speed_um_s, obs.phase, obs.cell_arc_um, obs.cell_xy_um, obs.trap_xy_um
         )
-        self.commanded_arc_um = np.where(carrying, advanced, self.commanded_arc_um)
-        # each command only where some environment uses it (one environment: one of the two)
-        carry = self._carry(obs, previous_arc) if carrying.any() else 0.0
-        chase = 0.0 if carrying.all() else self.formation_targets(obs.cell_arc_um, obs.cell_xy_um) - obs.trap_xy_um
-        step = np.where(carrying[:, None, None], carry, chase)
-        return cap_speed(step, self.max_speed_um_s * self.tick_s)
-
-    def _carry(self, obs: Observation, previous_arc) -> np.ndarray:
-        """The carrying command (E, T, 2): feed-forward along the advanced arc plus the
-        capped correction of the formation's common drift and its full shape correction."""
-        places = self.formation_targets(self.commanded_arc_um, self.route_point_at(self.commanded_arc_um))
-        advanced_from = np.minimum(previous_arc, self.commanded_arc_um)  # an arc pulled back moves nothing
-        feed_forward = places - self.formation_targets(advanced_from, self.route_point_at(advanced_from))
-        correction = self.carry_gain_per_s * self.tick_s * (places - obs.trap_xy_um)
-        common = correction.mean(axis=1, keepdims=True)  # the formation's drift as a whole
-        return (
-            feed_forward + cap_speed(common, self.carry_gain_per_s * self.lead_um * self.tick_s) + (correction - common)
-        )
+        return increment

@@ -21,11 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from otgym.tasks.transport.speed_features import MOVING_SPEED_UM_S, tracked_velocity_um_s
+
 PREDICTION_LENGTH_S = 1e6
 """Predicted tracks never end: the model has no way of knowing where an obstacle stops."""
-MOVING_SPEED_UM_S = 1.0
-"""An obstacle whose fitted speed exceeds this has been seen moving (the fit's noise is
-about 0.44 um/s per axis for a free obstacle over 1 s; tracked ones wander less)."""
 
 
 class ObstacleTracker:
@@ -64,17 +63,7 @@ class ObstacleTracker:
 
     def velocity_um_s(self) -> np.ndarray:
         """Least-squares velocity (E, K, 2) over the window; zero with fewer than two observations."""
-        filled = np.minimum(self.count, self.capacity)
-        valid = np.arange(self.capacity)[None] < filled[:, None]  # (E, W): ring slots holding data
-        weight = valid.astype(float)
-        n = np.maximum(weight.sum(axis=1), 1.0)
-        t_mean = (self.times_s * weight).sum(axis=1) / n
-        dt = (self.times_s - t_mean[:, None]) * weight  # (E, W)
-        xy_mean = (self.xy_um * weight[:, :, None, None]).sum(axis=1) / n[:, None, None]
-        covariance = (dt[:, :, None, None] * (self.xy_um - xy_mean[:, None])).sum(axis=1)
-        variance = (dt**2).sum(axis=1)
-        enough = (filled >= 2) & (variance > 0)
-        return np.where(enough[:, None, None], covariance / np.where(enough, variance, 1.0)[:, None, None], 0.0)
+        return tracked_velocity_um_s(self.times_s, self.xy_um, self.count)
 
     def predicted_tracks(self, now_s) -> dict[str, np.ndarray]:
         """Constant-velocity tracks (E, K, ...) from the last observed positions at

@@ -4,20 +4,11 @@ route exactly as ``RouteNavigator`` does, but its cruise speed is chosen every
 ``decision_s`` (0.5 s) by a small Q-network from ``SPEEDS_UM_S`` instead of being the
 constant 5 um/s.
 
-The network sees ``speed_features`` (``N_FEATURES`` numbers per environment), all in the
-route's frame so that they do not depend on where on the chip the route runs:
-
-* per obstacle (the ``K_OBSTACLES`` nearest by their gap to the assembly; missing ones
-  padded as far away): where it is along the route relative to the cell (its nearest
-  route point's arc minus the cell's, / 50 um), how far it is off the route (/ 20 um),
-  how fast it closes on the route (its velocity across the route towards it, / 2 um/s,
-  from ``ObstacleTracker``'s 1 s least-squares fit of what the camera showed), its
-  gap to the assembly (/ 20 um), each clipped to [-2, 2], and whether it has never yet
-  been seen moving (1: it may still cross; one that moved and stopped has crossed:
-  the scenarios' obstacles wait beside the route, cross once and park);
-* the speed now (/ 8 um/s), the share of the route left, the traps' margin (the largest
-  handle-to-trap distance over the trap law's escape distance: 1 is a trap lost) and
-  whether the formation carries the cell.
+The network sees ``speed_features`` (``otgym.tasks.transport.speed_features``:
+``N_FEATURES`` numbers per environment in the route's frame: the nearest obstacles
+along and across the route, their closing speed as a 1 s least-squares fit of what the
+camera showed, their gaps and whether they were ever seen moving; the speed now, the
+share of the route left, the traps' margin and whether the cell is carried).
 
 The policy file (``otgym.rl.policy``'s format, ``__meta__`` with ``task:
 "interactive"``, the speeds, the decision period and the layer widths) is trained by
@@ -42,91 +33,17 @@ from otgym.autonomy.obstacle_prediction import ObstacleTracker
 from otgym.rl.network import QNetwork
 from otgym.rl.policy import load_policy, policy_meta
 from otgym.task.task import CARRY, Observation
+from otgym.tasks.transport.speed_features import (  # noqa: F401  (the names the policy's users import from here)
+    DECISION_S,
+    N_FEATURES,
+    SPEEDS_UM_S,
+    TRACKER_WINDOW_S,
+    route_tangents,
+    speed_features,
+)
 
-SPEEDS_UM_S = (0.0, 2.0, 3.5, 5.0, 6.5, 8.0)
-"""The cruise speeds the policy chooses from, um/s (5: the route navigator's constant
-cruise; 8: a person's hurried pace)."""
-DECISION_S = 0.5
-"""How often the policy chooses a speed, s (an obstacle at 2 um/s moves 1 um meanwhile)."""
-K_OBSTACLES = 4
-"""Obstacles the policy sees (the task's scenarios have four)."""
-PER_OBSTACLE = 5
-N_GLOBAL = 4
-N_FEATURES = K_OBSTACLES * PER_OBSTACLE + N_GLOBAL
-ALONG_SCALE_UM = 50.0
-ACROSS_SCALE_UM = 20.0
-CLOSING_SCALE_UM_S = 2.0
-GAP_SCALE_UM = 20.0
-SPEED_SCALE_UM_S = 8.0
-FEATURE_CLIP = 2.0
-TRACKER_WINDOW_S = 1.0
-FAR_OBSTACLE = (FEATURE_CLIP, FEATURE_CLIP, 0.0, FEATURE_CLIP, 0.0)
-"""The features of an obstacle that is not there: far ahead, far off the route, still."""
 SPEED_POLICY = Path(__file__).resolve().parent.parent / "data" / "policies" / "speed_interactive.npz"
 """The learned speed policy shipped with the package (``otgym.experiments.learned_speed.train``)."""
-
-
-def route_tangents(route_um) -> np.ndarray:
-    """Unit tangents (M, 2) of a dense route (M, 2), by central differences."""
-    tangent = np.gradient(np.asarray(route_um, float), axis=0)
-    return tangent / np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
-
-
-def speed_features(
-    route_um,
-    route_arc_um,
-    tangents,
-    cell_arc_um,
-    obstacle_xy_um,
-    obstacle_velocity_um_s,
-    obstacle_gap_um,
-    obstacle_idle,
-    speed_um_s,
-    trap_margin,
-    carrying,
-) -> np.ndarray:
-    """Features (E, ``N_FEATURES``) float32 (module docstring). Obstacles (E, K, 2) are
-    placed on the route by their nearest route point; ``obstacle_idle`` (E, K) is 1 for
-    one never seen moving; ``speed_um_s``, ``trap_margin`` and ``carrying`` are (E,)."""
-    route_um = np.asarray(route_um, float)
-    xy = np.asarray(obstacle_xy_um, float)
-    n_env, n_obstacles = xy.shape[:2]
-    if n_obstacles:
-        nearest = np.argmin(np.sum((xy[:, :, None] - route_um[None, None]) ** 2, axis=-1), axis=-1)  # (E, K)
-        tangent = tangents[nearest]
-        offset = xy - route_um[nearest]
-        across = tangent[..., 0] * offset[..., 1] - tangent[..., 1] * offset[..., 0]
-        velocity = np.asarray(obstacle_velocity_um_s, float)
-        across_velocity = tangent[..., 0] * velocity[..., 1] - tangent[..., 1] * velocity[..., 0]
-        per_obstacle = np.stack(
-            [
-                (route_arc_um[nearest] - np.asarray(cell_arc_um, float)[:, None]) / ALONG_SCALE_UM,
-                np.abs(across) / ACROSS_SCALE_UM,
-                -np.sign(across) * across_velocity / CLOSING_SCALE_UM_S,
-                np.asarray(obstacle_gap_um, float) / GAP_SCALE_UM,
-                np.asarray(obstacle_idle, float),
-            ],
-            axis=-1,
-        )
-        order = np.argsort(np.asarray(obstacle_gap_um, float), axis=1, kind="stable")[:, :K_OBSTACLES]
-        per_obstacle = np.take_along_axis(per_obstacle, order[..., None], axis=1)
-    else:
-        per_obstacle = np.zeros((n_env, 0, PER_OBSTACLE))
-    padding = np.broadcast_to(np.array(FAR_OBSTACLE), (n_env, K_OBSTACLES - per_obstacle.shape[1], PER_OBSTACLE))
-    obstacles = np.clip(np.concatenate([per_obstacle, padding], axis=1), -FEATURE_CLIP, FEATURE_CLIP)
-    length = float(route_arc_um[-1])
-    general = np.stack(
-        [
-            np.asarray(speed_um_s, float) / SPEED_SCALE_UM_S,
-            (length - np.asarray(cell_arc_um, float)) / length,
-            np.asarray(trap_margin, float),
-            np.asarray(carrying, float),
-        ],
-        axis=-1,
-    )
-    return np.concatenate(
-        [obstacles.reshape(n_env, -1), np.clip(general, -FEATURE_CLIP, FEATURE_CLIP)], axis=-1
-    ).astype(np.float32)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -168,11 +85,17 @@ def _check_speeds(speeds_um_s: Sequence[float], decision_s: float) -> None:
         raise ValueError(f"decision_s must be positive, got {decision_s!r}")
 
 
+POLICY_TASKS = ("interactive-speed", "interactive")
+"""The tasks whose policy files this navigator reads: ``interactive-speed``
+(``otgym train --task interactive-speed``), and ``interactive``, the name the first
+trainer wrote."""
+
+
 def load_speed_policy(path=SPEED_POLICY) -> SpeedPolicy:
     """The speed policy in ``path`` (default: the shipped one); raises FileNotFoundError,
     or ValueError for a file that is not an interactive speed policy."""
     meta = policy_meta(path)
-    if meta.get("task") != "interactive" or meta.get("obs_size") != N_FEATURES:
+    if meta.get("task") not in POLICY_TASKS or meta.get("obs_size") != N_FEATURES:
         raise ValueError(
             f"{path} is not an interactive-task speed policy with {N_FEATURES} features "
             f"(task {meta.get('task')!r}, observation size {meta.get('obs_size')!r})"

@@ -3,12 +3,6 @@ formation with it, the simulated participants their robots."""
 
 from __future__ import annotations
 
-import numpy as np
+from otgym.tasks.transport.route_follow import rotate
 
-
-def rotate(vectors, angle):
-    """Rotate (..., T, 2) vectors by ``angle`` (...,) rad."""
-    cos, sin = np.cos(angle)[..., None], np.sin(angle)[..., None]
-    return np.stack(
-        [cos * vectors[..., 0] - sin * vectors[..., 1], sin * vectors[..., 0] + cos * vectors[..., 1]], axis=-1
-    )
+__all__ = ["rotate"]

@@ -31,9 +31,9 @@ from otgym.physics import light_dose as ld
 from otgym.sim import scene as sc
 from otgym.tasks.transport import interactive as core
 from otgym.tasks.transport.interactive import InteractiveConfig
+from otgym.tasks.transport.route_follow import APPROACH, CARRY, DONE
 from otgym.tasks.transport.scenario import Scenario, make_scenario, stack_tracks
 
-APPROACH, CARRY, DONE = 0, 1, 2
 ALPHA_BANDS = (("autonomous", 0.0, 0.2), ("balanced", 0.2, 0.4), ("fine_tune", 0.4, 1.0 + 1e-9))
 """The paper's three operation modes of shared control by the human's share alpha
 (alpha 0.1 far from obstacles, 0.5 near them); manual control counts as fine-tuning."""
@@ -168,7 +168,6 @@ class InteractiveTask:
         trap-speed clamp of teleoperation stays below it)."""
         self._step = jax.jit(functools.partial(core.advance, config=config))
         self._measure_jit = jax.jit(functools.partial(core.measure, config=config))
-        self._distance_jit = jax.jit(lambda walls, points: walls.distance_and_normal(points)[0])
         self._scenarios: dict[int, Scenario] = {}
 
     @property
@@ -196,14 +195,8 @@ class InteractiveTask:
         return self._scenarios[seed]
 
     def wall_distance_um(self, points_um) -> np.ndarray:
-        """Wall distance (n,) at points (n, 2) (what the microscope shows of the chip), padded to a power of two so that one
-        compiled sampler serves every track length."""
-        points = np.asarray(points_um, np.float32)
-        size = 1 << max(int(np.ceil(np.log2(max(len(points), 1)))), 4)
-        padded = np.zeros((size, 2), np.float32)
-        padded[: len(points)] = points
-        # the numpy array goes to the device with the call (jnp.asarray first dispatches a conversion of its own)
-        return np.asarray(self._distance_jit(self.scene.model.walls, padded))[: len(points)]
+        """Wall distance (n,) at points (n, 2) um (``otgym.tasks.transport.interactive.wall_distance_um``)."""
+        return core.wall_distance_um(self.scene, points_um)
 
     def reset(self, scenarios: list[Scenario], key) -> TaskState:
         """E environments, one per scenario: the cell at the route's start, the robots

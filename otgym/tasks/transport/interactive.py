@@ -98,6 +98,20 @@ def make_params(config: InteractiveConfig) -> InteractiveParams:
     )
 
 
+_wall_distance = jax.jit(lambda walls, points: walls.distance_and_normal(points)[0])
+
+
+def wall_distance_um(scene: sc.Scene, points_um) -> np.ndarray:
+    """Wall distance (n,) at points (n, 2) um (what the microscope shows of the chip),
+    padded to a power of two so that one compiled sampler serves every track length."""
+    points = np.asarray(points_um, np.float32)
+    size = 1 << max(int(np.ceil(np.log2(max(len(points), 1)))), 4)
+    padded = np.zeros((size, 2), np.float32)
+    padded[: len(points)] = points
+    # the numpy array goes to the device with the call (jnp.asarray first dispatches a conversion of its own)
+    return np.asarray(_wall_distance(scene.model.walls, padded))[: len(points)]
+
+
 def escape_speed_um_s(scene: sc.Scene, config: InteractiveConfig) -> float:
     """Speed at which the traps' largest force no longer drags the assembly: every trap's
     largest force over the assembly's largest translational drag (any direction; a lower
