@@ -33,8 +33,12 @@ def register(app: typer.Typer) -> None:
             None, "--preset", metavar="NAME", callback=_check_preset, help="The task's preset (default: its first)."
         ),
         out: Path = options.out_dir(Path("results/train"), "Folder for the results."),
-        steps: int = typer.Option(200_000, "--steps", min=1, max=10**9, help="Environment steps in all."),
-        envs: int = typer.Option(64, "--envs", min=1, max=2**20, help="Environments simulated at once."),
+        steps: int = typer.Option(
+            None, "--steps", min=1, max=10**9, help="Environment steps in all (default: the task's, else 200000)."
+        ),
+        envs: int = typer.Option(
+            None, "--envs", min=1, max=2**20, help="Environments simulated at once (default: the task's, else 64)."
+        ),
         seed: int = options.seed(0, "Random seed,"),
     ) -> None:
         """Train a DQN policy on a task with discrete actions; by default the paper's speed
@@ -49,7 +53,12 @@ def register(app: typer.Typer) -> None:
 
         task = tasks.load(task_name)
         task_config = task.config(preset)
-        config = DQNConfig(n_envs=envs, total_env_steps=steps)
+        config = DQNConfig(
+            **{
+                **task.dqn_config(task_config),
+                **{name: value for name, value in (("n_envs", envs), ("total_env_steps", steps)) if value is not None},
+            }
+        )
         check_out_dir(out)
         console = Console()
         columns = (

@@ -59,6 +59,16 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
     ),
     (
         "tasks",
+        "interactive-speed",
+        "otgym.tasks.transport.interactive_speed:InteractiveSpeed",
+        "the interactive task's route follower past crossing obstacles: pick its speed every 0.5 s",
+        (),
+        {
+            "gym_id": "otgym/interactive-speed-v0",
+        },
+    ),
+    (
+        "tasks",
         "assemble",
         "otgym.tasks.assemble:Assemble",
         "holographic micro-assembly: beads in N traps placed into a ring, lattice or letter, SLM-paced",

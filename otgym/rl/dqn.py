@@ -9,7 +9,9 @@ Q-network takes ``updates_per_iter`` Adam steps on uniform mini-batches with the
 double-DQN target (van Hasselt et al. 2016) r + gamma (1 - terminated)
 Q_target(s', argmax_a Q(s', a)) and the Huber loss; the target network is copied
 every ``target_every`` iterations. Truncated episodes bootstrap (only termination
-cuts the return). The paper's hyper-parameters (learning rate 6.5e-5, batch 32,
+cuts the return). With ``explore_hold_max`` above 1 the exploration is sticky: a
+random action, once drawn, is held for 1 to ``explore_hold_max`` steps (uniform), so
+that a long wait, which independent draws almost never make, is tried. The paper's hyper-parameters (learning rate 6.5e-5, batch 32,
 buffer 20k, target every 40 steps) were tuned for one environment and 15 hours; the
 defaults here are for 64 environments and about a minute.
 """
@@ -46,6 +48,7 @@ class DQNConfig:
     updates_per_iter: int = 2
     hidden: tuple[int, ...] = (128, 128)
     huber_delta: float = 1.0
+    explore_hold_max: int = 1
 
     def __post_init__(self):
         for name in (
@@ -56,6 +59,7 @@ class DQNConfig:
             "batch_size",
             "target_every",
             "updates_per_iter",
+            "explore_hold_max",
         ):
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
@@ -103,6 +107,8 @@ class Runner:
     episode_return: jnp.ndarray
     iteration: jnp.ndarray
     key: jnp.ndarray
+    held_action: jnp.ndarray  # (E,) the random action being held (sticky exploration)
+    hold_left: jnp.ndarray  # (E,) steps it is still held
 
 
 def epsilon(config: DQNConfig, iteration):
@@ -175,6 +181,8 @@ def make_train(config: DQNConfig, env: Env):
             jnp.zeros(config.n_envs),
             jnp.zeros((), jnp.int32),
             key,
+            jnp.zeros(config.n_envs, jnp.int32),
+            jnp.zeros(config.n_envs, jnp.int32),
         )
 
     def update(carry, key):
@@ -195,7 +203,19 @@ def make_train(config: DQNConfig, env: Env):
         greedy = jnp.argmax(network.apply(runner.q_params, runner.obs), axis=-1)
         random_action = jax.random.randint(act_key, greedy.shape, 0, env.n_actions)
         explore = jax.random.uniform(explore_key, greedy.shape) < epsilon(config, runner.iteration)
-        action = jnp.where(explore, random_action, greedy)
+        held_action, hold_left = runner.held_action, runner.hold_left
+        if config.explore_hold_max > 1:
+            start = (hold_left <= 0) & explore
+            held_action = jnp.where(start, random_action, held_action)
+            hold_steps = jax.random.randint(
+                jax.random.fold_in(act_key, 1), greedy.shape, 1, config.explore_hold_max + 1
+            )
+            hold_left = jnp.where(start, hold_steps, hold_left)
+            exploring = hold_left > 0
+            hold_left = hold_left - exploring
+            action = jnp.where(exploring, held_action, greedy)
+        else:
+            action = jnp.where(explore, random_action, greedy)
         next_obs, env_state, reward, terminated, truncated, info = env.step(step_key, runner.env_state, action)
         buffer = runner.buffer
         rows = (buffer.pointer + jnp.arange(config.n_envs)) % capacity
@@ -242,6 +262,8 @@ def make_train(config: DQNConfig, env: Env):
             jnp.where(done, 0.0, episode_return),
             runner.iteration + 1,
             key,
+            held_action,
+            jnp.where(done, 0, hold_left),
         )
         return runner, metrics
 

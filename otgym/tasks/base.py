@@ -16,7 +16,8 @@ mujoco_playground:
 - ``reset`` / ``step``: one environment, by default the batch of one.
 - ``observation_size(params)``, ``action_space(params)`` (a Gymnasium ``Discrete`` or
   ``Box``), ``policy_shape(config)`` (a discrete task's sizes, from its config alone),
-  ``policy_meta(params)`` (what its policy files record),
+  ``policy_meta(params)`` (what its policy files record), ``dqn_config(config)`` (the
+  DQN hyper-parameters it trains with),
   ``check_action(action, params)`` (numpy in, ValueError on bad input).
 - ``frame(state, params, size_px)``: an RGB image (H, W, 3) uint8 of one environment,
   what the Gymnasium renderer and the generic play window draw.
@@ -152,6 +153,12 @@ class Task:
         if not isinstance(space, gym.spaces.Discrete):
             raise ValueError(f"task {self.name!r} has no discrete actions for a Q-network policy")
         return self.observation_size(params), int(space.n)
+
+    def dqn_config(self, config) -> dict:
+        """The DQN hyper-parameters (``otgym.rl.dqn.DQNConfig`` fields) this task trains
+        with under ``config`` where they differ from ``DQNConfig``'s defaults: what
+        ``otgym train --task`` starts from (default: none)."""
+        return {}
 
     def policy_meta(self, params) -> dict:
         """What a policy file trained on this task records beside its network, so that

@@ -107,6 +107,10 @@ def train_task(
         "hidden": list(config.hidden),
         "env_steps": config.n_chunks * config.chunk_iters * config.n_envs,
         "seed": seed,
+        "dqn": {
+            name: list(value) if isinstance(value, tuple) else value
+            for name, value in dataclasses.asdict(config).items()
+        },
     }
     return TrainResult(
         jax.device_get(runner.q_params),
