@@ -108,6 +108,12 @@ def register(app: typer.Typer) -> None:
         mpc_plan_steps: int = typer.Option(
             24, "--mpc-plan-steps", min=1, max=1000, help="The MPC's plan length in 0.1 s steps (horizon: one more)."
         ),
+        rl_policy: Path = typer.Option(
+            None,
+            "--rl-policy",
+            metavar="FILE",
+            help="The speed policy (.npz) of navigator rl; default: the shipped one (otgym experiment learned-speed).",
+        ),
         out: Path = options.out_dir(..., "Folder for trials.csv, summary.*, stats.json, fig8.png."),
         trace: str = typer.Option(
             None,
@@ -139,6 +145,13 @@ def register(app: typer.Typer) -> None:
             mpc_config = MPCConfig(n_rollouts=mpc_rollouts, plan_steps=mpc_plan_steps)
         except ValueError as error:
             raise ValueError(f"--mpc-rollouts/--mpc-plan-steps: {error}") from None
+        if rl_policy is not None:
+            from otgym.autonomy.rl_navigator import load_speed_policy
+
+            try:
+                speed_policy = load_speed_policy(rl_policy)
+            except (OSError, ValueError) as error:
+                raise typer.BadParameter(str(error), param_hint="--rl-policy") from None
         config = SharedControlConfig(
             participants,
             trials,
@@ -147,7 +160,7 @@ def register(app: typer.Typer) -> None:
             chip,
             time_limit_s,
             shared_autonomy,
-            {"mpc": {"config": mpc_config}},
+            {"mpc": {"config": mpc_config}, **({} if rl_policy is None else {"rl": {"policy": speed_policy}})},
             traced,
         )
         check_out_dir(out)

@@ -37,21 +37,20 @@ def register(experiment: typer.Typer) -> None:
             help="Where to write the policy (.npz); default: the shipped otgym/data/policies/speed_interactive.npz.",
         ),
     ) -> None:
-        """Train the interactive task's learned speed policy (navigator rl) on its registered
-        training seed and scenarios, and write it.
+        """Train the interactive task's learned speed policy (navigator rl): otgym train on
+        task interactive-speed with its registered training seed and scenarios, and write it.
 
         Example: otgym experiment learned-speed --out speed_interactive.npz
         """
         if out is not None and not out.parent.is_dir():
             raise ValueError(f"--out: {out.parent} is not a folder")
         from otgym.autonomy.rl_navigator import SPEED_POLICY
-        from otgym.experiments.learned_speed.train import TRAINING_SEED, SpeedTrainingConfig, save_speed_policy, train
+        from otgym.experiments.learned_speed.train import TRAINING_SEED, save_speed_policy, train
 
         path = SPEED_POLICY if out is None else out
-        config = SpeedTrainingConfig()
-        policy, log = train(config, TRAINING_SEED, report=lambda line: print(line, flush=True))
-        save_speed_policy(path, policy, config, TRAINING_SEED, log)
-        print(f"trained in {log['wall_s']:.0f} s; wrote {path}")
+        result = train(TRAINING_SEED, progress=lambda done, total: print(f"chunk {done}/{total}", flush=True))
+        save_speed_policy(path, result)
+        print(f"{result.episodes} episodes, {result.env_steps} decisions in {result.wall_s:.0f} s; wrote {path}")
 
     @experiment.command("fig8-json")
     def fig8_json(

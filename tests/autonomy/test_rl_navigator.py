@@ -9,6 +9,7 @@ import pytest
 from otgym.autonomy import rl_navigator as rn
 from otgym.rl.policy import PRETRAINED_POLICY
 from otgym.task.task import CARRY
+from otgym.tasks.transport import speed_features as sf
 from tests.human.test_participants import OFFSETS_UM, TICK_S, scene
 
 ROUTE = np.stack([np.linspace(0.0, 300.0, 2401), np.zeros(2401)], axis=1)
@@ -70,11 +71,11 @@ def test_features_place_an_obstacle_along_and_across_the_route_and_its_closing_s
         nav.increments(obs)
     features = nav.features(obs)[0]
     y = 16.0 - 2.0 * 50 * TICK_S
-    assert features[0] == pytest.approx(14.0 / rn.ALONG_SCALE_UM, abs=1e-3)
-    assert features[1] == pytest.approx(y / rn.ACROSS_SCALE_UM, abs=1e-3)
-    assert features[2] == pytest.approx(2.0 / rn.CLOSING_SCALE_UM_S, abs=1e-3)  # towards the route: positive
-    assert features[4] == 0.0 and features[rn.PER_OBSTACLE + 4] == 1.0  # seen moving; never seen moving
-    assert features[-4:] == pytest.approx([5.0 / rn.SPEED_SCALE_UM_S, 200.0 / 300.0, 0.0, 1.0], abs=1e-3)
+    assert features[0] == pytest.approx(14.0 / sf.ALONG_SCALE_UM, abs=1e-3)
+    assert features[1] == pytest.approx(y / sf.ACROSS_SCALE_UM, abs=1e-3)
+    assert features[2] == pytest.approx(2.0 / sf.CLOSING_SCALE_UM_S, abs=1e-3)  # towards the route: positive
+    assert features[4] == 0.0 and features[sf.PER_OBSTACLE + 4] == 1.0  # seen moving; never seen moving
+    assert features[-4:] == pytest.approx([5.0 / sf.SPEED_SCALE_UM_S, 200.0 / 300.0, 0.0, 1.0], abs=1e-3)
     # the same obstacle on the other side moving away opens: negative
     mirrored = observation([(CELL_X_UM + 14.0, -y)], [5.0])
     assert rn.speed_features(
@@ -114,44 +115,39 @@ def speed_and_q(policy, observations):
     return nav.cruise_speed_um_s[0], nav.policy.q_values(nav.last_features)[0]
 
 
-def slows_for_a_crossing_and_cruises_when_clear(policy) -> bool:
+AHEAD_UM = (10.0, 15.0, 20.0, 30.0)
+
+
+def slows_for_a_crossing(policy) -> bool:
     """The decision at 1 s (tick 50), after the tracker has seen the obstacle close on
-    the route at 2 um/s for a second: an obstacle 20 um ahead, 14 um off the route then,
-    entering the assembly's corridor (half-width 11.7 um) a second later; the clear way: four still obstacles 60 um away.
-    Slowing: a speed below 5 um/s, and the best slow speed's value above every cruising
-    speed's (>= 5 um/s); cruising: the reverse."""
-    danger_speed, danger_q = speed_and_q(policy, crossing(51, ahead_um=20.0))
-    clear_speed, clear_q = speed_and_q(policy, clear(51))
-    slow = [i for i, v in enumerate(rn.SPEEDS_UM_S) if v < 5.0]
-    fast = [i for i, v in enumerate(rn.SPEEDS_UM_S) if v >= 5.0]
-    return bool(
-        danger_speed < 5.0
-        and clear_speed >= 5.0
-        and danger_q[slow].max() > danger_q[fast].max()
-        and clear_q[fast].max() > clear_q[slow].max()
-    )
+    the route at 2 um/s for a second: an obstacle 10, 15, 20 or 30 um ahead, 14 um off
+    the route then, entering the assembly's corridor (half-width 11.7 um) a second
+    later; the clear way: four still obstacles 60 um away. Slowing: a lower speed for
+    each crossing than on the clear way."""
+    clear_speed, _ = speed_and_q(policy, clear(51))
+    return all(speed_and_q(policy, crossing(51, ahead_um=ahead))[0] < clear_speed for ahead in AHEAD_UM)
 
 
 @pytest.mark.slow
-def test_the_shipped_policy_slows_for_an_obstacle_crossing_ahead_and_cruises_on_a_clear_way():
-    """The shipped policy slows (3.5 um/s) for an obstacle entering the corridor 20 um
-    ahead and cruises (6.5 um/s) on a clear way. Networks that learned nothing do not:
-    of 20 freshly initialised ones (same layers, keys 0-19) 2 pass by chance (were each
-    condition a coin toss, 1 in 16 would pass: 1.25 of 20, s.e. 1.1); the test allows 3. What the policy does not do is in docs/rl-navigator.md: for an
-    obstacle closer than about 15 um ahead it pushes on at 6.5-8 um/s."""
+def test_the_shipped_policy_slows_for_an_obstacle_crossing_ahead():
+    """The shipped policy cruises at 6.5 um/s on a clear way and slows to 5 um/s for an
+    obstacle entering the corridor 10-30 um ahead. Networks that learned nothing rarely
+    do: of 200 freshly initialised ones (same layers, keys 0-199) 27 did (13.5 %), so of
+    the 20 here (keys 0-19) 2.7 are expected (s.d. 1.5); the test allows 5. What the
+    policy does not do (wait, step aside) is in docs/rl-navigator.md."""
     import jax
     import jax.numpy as jnp
 
     from otgym.rl.network import QNetwork
 
     shipped = rn.load_speed_policy()
-    assert slows_for_a_crossing_and_cruises_when_clear(shipped)
+    assert slows_for_a_crossing(shipped)
     network = QNetwork(len(rn.SPEEDS_UM_S), shipped.hidden)
     untrained = [
         rn.SpeedPolicy(network.init(jax.random.PRNGKey(seed), jnp.zeros((1, rn.N_FEATURES))), shipped.hidden)
         for seed in range(20)
     ]
-    assert sum(slows_for_a_crossing_and_cruises_when_clear(policy) for policy in untrained) <= 3
+    assert sum(slows_for_a_crossing(policy) for policy in untrained) <= 5
 
 
 def test_bad_input_is_refused(tmp_path):

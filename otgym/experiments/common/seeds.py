@@ -114,7 +114,13 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     SeedUse(
         "training", 10, 19, "issue 29's development of the speed front's family (reward and loss variants, seed 10)"
     ),
-    _one("training", 29, "the interactive task's learned speed policy (otgym.experiments.learned_speed.train)"),
+    _one("training", 29, "the interactive task's first learned speed policy (the first trainer, rounds of 64)"),
+    _one(
+        "training",
+        31,
+        "the interactive task's learned speed policy by the one DQN trainer (otgym.experiments.learned_speed.train, "
+        "task interactive-speed, preset train)",
+    ),
     # shared-control study seeds (population, scenarios seed*10000+t, simulation seed+i)
     _one("study", 0, "otgym experiment shared-control's old default: the first Fig. 8 runs, participant development"),
     _one(
@@ -172,6 +178,12 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
     SeedUse("scenarios", 910000, 910015, "grip-place fix on 64 manual trials (910000-910007), DAgger selection"),
     SeedUse("scenarios", 910016, 910255, "tick-cost timing of 32-256 batched trials (no outcome read), learned speed"),
     SeedUse("scenarios", 960000, 961023, "training episodes of the learned speed policy (rounds of 64 from 960000)"),
+    SeedUse(
+        "scenarios",
+        962000,
+        962639,
+        "the pool of task interactive-speed (preset train: 962000-962639; default and the tests: 962000-962063)",
+    ),
     # simulated participants
     SeedUse("population", 2, 3, "diagnosis of squeeze losses at the grip (pop-seed 3: 12 x 12 s, 2: 8 x 30 s)"),
     _one("population", 4242, "participant model development (scenarios 900000-900003, 910000-910007)"),
