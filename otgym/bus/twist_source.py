@@ -26,3 +26,21 @@ def attach(node: Node, device: TwistDevice, topic: str = DEFAULT_TOPIC) -> str:
     """Feed ``device`` from ``topic`` (resolved in the node's namespace); returns its
     fully qualified name."""
     return node.subscribe_ros(topic, TYPES, lambda name, message, data: device.feed(linear_m_s(message)))
+
+
+def run_node(stop, endpoints: dict, name: str, ready, topic: str = DEFAULT_TOPIC) -> None:
+    """A device node ``name`` driven by ``topic`` (``otgym node device --device twist``)
+    until ``stop`` is set; ``ready(text)`` once it listens; prints what it did."""
+    from otgym.bus.nodes import run_device_node
+
+    driver = TwistDevice()
+    with Node("device", name, **endpoints) as node:
+        resolved = attach(node, driver, topic)
+        ready(f"device {name} ({driver.caps.name} from {resolved})")
+        published = run_device_node(node, driver, name, stop)
+    print(
+        f"device {name}: {published} samples published; {driver.received} commands applied, "
+        f"{driver.dropped_nonfinite} non-finite dropped, {driver.clamped} clamped; "
+        f"{sum(node.dropped.values())} messages dropped by the bus checks",
+        flush=True,
+    )

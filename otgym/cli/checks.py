@@ -21,6 +21,39 @@ def check_mode(mode: str) -> str:
     return mode
 
 
+def _node_options(device: str) -> dict[str, tuple[str, bool]]:
+    """``--OPTION`` -> (driver keyword, required) of a registered device (extra ``node_options``)."""
+    from otgym import registry
+
+    spec = registry.entry("devices", device).extras.get("node_options", "")
+    pairs = (item.strip().partition("=") for item in spec.split(",") if item.strip())
+    return {option: (keyword.rstrip("!"), keyword.endswith("!")) for option, _, keyword in pairs}
+
+
+def device_node_options(device: str, given: dict) -> dict:
+    """The driver keywords of ``otgym node device``'s ``--OPTION`` values ``given``
+    (None: not given) for ``device``; ValueError for an option the device does not take
+    or a required one left out (the registry's ``node_options`` say which)."""
+    from otgym import registry
+
+    accepted = _node_options(device)
+    for option, value in given.items():
+        if value is not None and option not in accepted:
+            takers = [name for name in registry.names("devices", "node") if option in _node_options(name)]
+            raise ValueError(f"--{option} needs --device {' or '.join(takers)}, not --device {device}")
+    for option, (_, required) in accepted.items():
+        if required and given.get(option) is None:
+            raise ValueError(f"--device {device} needs --{option}")
+    return {keyword: given[option] for option, (keyword, _) in accepted.items() if given.get(option) is not None}
+
+
+def device_node_arguments(device: str, keywords: dict) -> list[str]:
+    """The ``otgym node device`` arguments that give ``device``'s driver ``keywords``
+    (the inverse of ``device_node_options``)."""
+    option_of = {keyword: option for option, (keyword, _) in _node_options(device).items()}
+    return [text for keyword, value in keywords.items() for text in (f"--{option_of[keyword]}", str(value))]
+
+
 def check_participant(participant: str) -> str:
     """A participant ID (written in every trial row): non-empty, no commas; stripped."""
     if not participant.strip() or "," in participant:

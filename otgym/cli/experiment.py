@@ -111,6 +111,8 @@ def register(app: typer.Typer) -> None:
         rl_policy: Path = typer.Option(
             None,
             "--rl-policy",
+            exists=True,
+            dir_okay=False,
             metavar="FILE",
             help="The speed policy (.npz) of navigator rl; default: the shipped one (otgym experiment learned-speed).",
         ),

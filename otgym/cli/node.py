@@ -248,11 +248,11 @@ def device(
         None, "--replay", exists=True, dir_okay=False, help="With --device replay: the CSV to play (looped)."
     ),
     twist_topic: str = typer.Option(
-        "/cmd_vel",
+        None,
         "--twist-topic",
         metavar="TOPIC",
         callback=options.check_topic,
-        help="With --device twist: the ROS 2 topic of its geometry_msgs/Twist commands.",
+        help="With --device twist: the ROS 2 topic of its geometry_msgs/Twist commands (default /cmd_vel).",
     ),
     listen: Listen = None,
     connect: Connect = None,
@@ -263,51 +263,30 @@ def device(
 
     Example: otgym node device --device simulated --name device0
     """
+    from otgym import registry
     from otgym.bus.nodes import run_device_node
     from otgym.bus.transport import Node
     from otgym.teleop.device import DeviceError, open_device
 
-    if device == "replay" and replay is None:
-        raise ValueError("--device replay needs --replay FILE")
-    if replay is not None and device != "replay":
-        raise ValueError(f"--replay plays a recorded CSV: it needs --device replay, not --device {device}")
-    if device_name is not None and device != "touch":
-        raise ValueError(f"--device-name names a Touch: it needs --device touch, not --device {device}")
+    keywords = checks.device_node_options(
+        device, {"device-name": device_name, "replay": replay, "twist-topic": twist_topic}
+    )
     stop, endpoints = _bus(listen, connect, zenoh_config, namespace)
-    if device == "twist":
-        _twist_device(stop, endpoints, name, twist_topic)
+    entry = registry.entry("devices", device, "node")
+    if "driver" not in entry.tags:  # a node of its own (twist)
+        entry.load()(stop, endpoints, name, _ready, **keywords)
         return
-    driver_options = {"path": replay, "loop": True} if device == "replay" else {}
-    if device == "touch" and device_name:
-        driver_options["device_name"] = device_name
     try:
-        driver = open_device(device, **driver_options)
+        if "node_driver" in entry.extras:
+            driver = entry.load_extra("node_driver")(**keywords)
+        else:
+            driver = open_device(device, **keywords)
     except DeviceError as error:
         raise ValueError(str(error)) from None
     with Node("device", name, **endpoints) as node:
         _ready(f"device {name} ({driver.caps.name})")
         published = run_device_node(node, driver, name, stop)
     print(f"device {name}: {published} samples published", flush=True)
-
-
-def _twist_device(stop: threading.Event, endpoints: dict, name: str, twist_topic: str) -> None:
-    """A device driven by ROS 2 ``geometry_msgs/Twist`` (teleop_twist_keyboard, teleop_twist_joy)."""
-    from otgym.bus import twist_source
-    from otgym.bus.nodes import run_device_node
-    from otgym.bus.transport import Node
-    from otgym.teleop.twist import TwistDevice
-
-    driver = TwistDevice()
-    with Node("device", name, **endpoints) as node:
-        topic = twist_source.attach(node, driver, twist_topic)
-        _ready(f"device {name} ({driver.caps.name} from {topic})")
-        published = run_device_node(node, driver, name, stop)
-    print(
-        f"device {name}: {published} samples published; {driver.received} commands applied, "
-        f"{driver.dropped_nonfinite} non-finite dropped, {driver.clamped} clamped; "
-        f"{sum(node.dropped.values())} messages dropped by the bus checks",
-        flush=True,
-    )
 
 
 @node_app.command("recorder")
@@ -420,6 +399,7 @@ def ui(
     from otgym.experiments.common.output_folder import check_out_dir
     from otgym.task.layout import layout_of
     from otgym.teleop.device import DeviceError
+    from otgym.ui.bindings import takes_over
     from otgym.ui.node import run_window
 
     names = checks.bus_names(name)
@@ -434,7 +414,7 @@ def ui(
                 node,
                 layout,
                 device,
-                names if device == "mouse" else [],
+                names if takes_over(device) else [],
                 out,
                 questionnaire=not no_questionnaire,
                 stop=stop,

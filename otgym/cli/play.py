@@ -266,28 +266,28 @@ def run_play(
 
 def node_plan(device: str, endpoint: str) -> tuple[list[tuple[str, list[str]]], list[str], str, list[str]]:
     """For ``--device``: the device nodes (label, arguments), the sim's device
-    arguments, what the window sends (keyboard, gamepad or mouse) and the device nodes
-    whose feedback it shows. The keyboard and the gamepad are the window's own (sent as
-    ui0, ui1); the simulated stylus and the Touches are device nodes, which the
-    window's mouse takes over while it drags."""
+    arguments, what the window sends and the device nodes whose feedback it shows. A
+    window device (the keyboard, the gamepad) is the window's own (sent as ui0, ui1);
+    any other is a device node per robot its play binding opens (the simulated stylus:
+    robot 0; the Touches: one each, by name), which the window's takeover device (the
+    mouse) takes over while it drags."""
     from otgym import registry
-    from otgym.ui.device_names import TOUCH_NAMES
+    from otgym.cli.checks import device_node_arguments
+    from otgym.ui.bindings import play_binding, takeover_device
 
-    connect = ["--connect", endpoint]
     if "window" in registry.entry("devices", device).tags:
         return [], ["--name", "ui0,ui1"], device, []
-    if device == "simulated":
-        return (
-            [("device0", ["device", "--device", "simulated", "--name", "device0", *connect])],
-            ["--name", "device0", "--takeover", "ui0,ui1"],
-            "mouse",
-            ["device0"],
-        )
     nodes = [
-        (f"device{i}", ["device", "--device", "touch", "--device-name", touch, "--name", f"device{i}", *connect])
-        for i, touch in enumerate(TOUCH_NAMES)
+        (
+            f"device{robot}",
+            ["device", "--device", device, *device_node_arguments(device, options), "--name", f"device{robot}"]
+            + ["--connect", endpoint],
+        )
+        for robot, options in enumerate(play_binding(device).session)
+        if options is not None
     ]
-    return nodes, ["--name", "device0,device1", "--takeover", "ui0,ui1"], "mouse", ["device0", "device1"]
+    names = [label for label, _ in nodes]
+    return nodes, ["--name", ",".join(names), "--takeover", "ui0,ui1"], takeover_device(), names
 
 
 RECORDER_DRAIN_S = 10.0

@@ -74,11 +74,19 @@ class Entry:
         """The target, imported now (a chip: its sidecar's ``Path``)."""
         if self.kind == "chips":
             return Path(self.target)
-        module, _, attribute = self.target.partition(":")
-        value = importlib.import_module(module)
-        for part in attribute.split(".") if attribute else ():
-            value = getattr(value, part)
-        return value
+        return _import(self.target)
+
+    def load_extra(self, name: str):
+        """Extra ``name``, a ``"module:attribute"``, imported now (KeyError if it has none)."""
+        return _import(self.extras[name])
+
+
+def _import(target: str):
+    module, _, attribute = target.partition(":")
+    value = importlib.import_module(module)
+    for part in attribute.split(".") if attribute else ():
+        value = getattr(value, part)
+    return value
 
 
 _entries: dict[str, dict[str, Entry]] = {kind: {} for kind in KINDS}

@@ -5,7 +5,14 @@ description, tags, extras)``. Chips are not listed: each ``NAME.png`` with its s
 Tags say what a part is usable for. Devices: ``play`` (``otgym play --device``),
 ``node`` (``otgym node device --device``), ``window`` (the window node's own input),
 ``driver`` (a ``Device`` that ``otgym.teleop.device.open_device`` builds by name);
-extra ``play_binding``: how it drives the two robots (``otgym.ui.bindings.PlayBinding``).
+extra ``play_binding``: how it drives the two robots (``otgym.ui.bindings.PlayBinding``);
+extra ``window_takeover``: the window device that takes over the robots' device nodes
+while it drags (the window's input when those devices are nodes: ``otgym play
+--distributed``, ``otgym node ui --device-names``); extra ``node_options``: the ``otgym node device`` options it takes, comma-separated
+``OPTION=KEYWORD`` (the option ``--OPTION`` gives its driver's keyword ``KEYWORD``; a
+trailing ``!``: required); extra ``node_driver``: the ``"module:attribute"`` factory
+that node builds it with (default: its target). A ``node`` device that is not a ``driver`` is a node of its
+own: its target is called as ``target(stop, endpoints, name, ready, **keywords)``.
 Navigators (each a class with ``for_task(task, max_speed_um_s=...)``, and optionally
 ``warm_up()``, which the autonomy node calls before its first answer): ``trial-mode``
 (also a mode of the batched trials, beside manual, shared and autonomous), ``shared``
@@ -159,7 +166,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.teleop.touch:TouchDevice",
         "3D Systems' Geomagic Touch haptic stylus, with force feedback (needs OpenHaptics)",
         ("play", "node", "driver"),
-        {"play_binding": "otgym.ui.bindings:A_DEVICE_EACH_BY_NAME"},
+        {"play_binding": "otgym.ui.bindings:A_DEVICE_EACH_BY_NAME", "node_options": "device-name=device_name"},
     ),
     (
         "devices",
@@ -173,9 +180,9 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "devices",
         "replay",
         "otgym.teleop.replay:ReplayDevice",
-        "a recorded stream of device samples (CSV), replayed in real time",
+        "a recorded stream of device samples (CSV), replayed in real time (looped in a device node)",
         ("node", "driver"),
-        {},
+        {"node_options": "replay=path!", "node_driver": "otgym.teleop.replay:looped_replay"},
     ),
     (
         "devices",
@@ -183,15 +190,15 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
         "otgym.teleop.mouse_drag:MouseDragDevice",
         "the window's mouse alone: drag a robot to grip and carry",
         ("window",),
-        {},
+        {"window_takeover": "yes"},
     ),
     (
         "devices",
         "twist",
-        "otgym.bus.twist_source:attach",
+        "otgym.bus.twist_source:run_node",
         "ROS 2 geometry_msgs/Twist commands from the bus (teleop_twist_keyboard, teleop_twist_joy)",
         ("node",),
-        {},
+        {"node_options": "twist-topic=topic"},
     ),
     # navigators
     (

@@ -122,3 +122,8 @@ class ReplayDevice(Device):
             recorded.velocity_mm_s,
             recorded.buttons,
         )
+
+
+def looped_replay(path) -> ReplayDevice:
+    """A replay that starts over at its end: what ``otgym node device --device replay`` plays."""
+    return ReplayDevice(path, loop=True)

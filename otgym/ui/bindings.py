@@ -33,7 +33,6 @@ process boundary it need not cross.
 from __future__ import annotations
 
 import dataclasses
-import importlib
 
 from otgym import registry
 from otgym.runtime.loop import DeviceBinding
@@ -76,11 +75,24 @@ ROBOT_0_ONLY = PlayBinding(session=({}, None))
 def play_binding(name: str) -> PlayBinding:
     """The binding of registered device ``name`` (ValueError for an unknown one)."""
     found = registry.entry("devices", name)
-    target = found.extras.get("play_binding")
-    if target is None:
+    if "play_binding" not in found.extras:
         return ROBOT_0_ONLY if "play" in found.tags else PlayBinding()
-    module, _, attribute = target.partition(":")
-    return getattr(importlib.import_module(module), attribute)
+    return found.load_extra("play_binding")
+
+
+def takeover_device() -> str:
+    """The registered window device that takes over the robots' device nodes while it
+    drags (extra ``window_takeover``: the mouse)."""
+    return next(
+        name
+        for name in registry.names("devices", "window")
+        if registry.entry("devices", name).extras.get("window_takeover")
+    )
+
+
+def takes_over(name: str) -> bool:
+    """Whether window device ``name`` takes over device nodes (``takeover_device``)."""
+    return bool(registry.entry("devices", name).extras.get("window_takeover"))
 
 
 def window_devices(name: str) -> list[Device]:

@@ -43,10 +43,12 @@ from otgym.physics import light_dose as ld
 from otgym.runtime.loop import TickRecord
 from otgym.runtime.snapshot import Snapshot, smoothed_velocity
 from otgym.runtime.trials import TASK_RETARGET
+from otgym.shared.arbitration import MODES
 from otgym.task.layout import TaskLayout, observation_from_spheres
 from otgym.teleop.device import DeviceCaps, DeviceError, Sample
 from otgym.teleop.forwarded import ForwardedDevice
 from otgym.teleop.mouse_drag import MouseDragDevice
+from otgym.ui.bindings import play_binding
 
 UI_DEVICES = ("ui0", "ui1")
 """The names under which the window publishes robot 0's and robot 1's input."""
@@ -63,6 +65,7 @@ class BusSession:
     ):
         registry.check("devices", kind, "window")
         self.node, self.layout, self.kind = node, layout, kind
+        self.clutch = play_binding(kind).clutch
         self.device_names = [msg.check_name(name) for name in device_names]
         self.forwarded = [ForwardedDevice(caps) for caps in window_caps]
         # one window device drives both robots (the keyboard), two one each (the gamepad's
@@ -139,7 +142,7 @@ class BusSession:
                 self.participant = str(fields.get("participant", self.participant))
                 self._paused = False
                 self._new_trial()
-            elif name == "mode" and fields.get("mode") in ("manual", "shared", "autonomous"):
+            elif name == "mode" and fields.get("mode") in MODES:
                 self._mode = fields["mode"]
             elif name in ("paused", "resumed"):
                 self._paused = name == "paused"
@@ -272,7 +275,7 @@ class BusSession:
     def _publish(self, robot: int, sample: Sample) -> None:
         self._published[robot] = sample.sequence
         name, stamp_s = UI_DEVICES[robot], time.time()
-        buttons = sample.buttons | 1 if self.kind == "keyboard" else sample.buttons
+        buttons = sample.buttons if self.clutch else sample.buttons | 1  # a device without a clutch holds it
         self.node.publish(msg.buttons_topic(name), msg.joy(buttons, stamp_s, name))
         self.node.publish(msg.twist_topic(name), msg.twist(sample, stamp_s, name))
 

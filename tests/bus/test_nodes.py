@@ -521,7 +521,8 @@ def test_a_twist_handed_on_while_the_node_is_lost_never_follows_its_rest_sample(
         (["sim", "--mode", "telepathic"], "--mode must be one of manual, shared, autonomous, not 'telepathic'"),
         (["sim", "--participant", "P1,P2"], "--participant must be a non-empty ID without commas"),
         (["sim", "--takeover", "ui0,,ui1"], "device name must be a letter"),
-        (["device", "--device", "replay"], "--device replay needs --replay FILE"),
+        (["device", "--device", "replay"], "--device replay needs --replay"),
+        (["device", "--device", "simulated", "--device-name", "Left"], "--device-name needs --device touch, not"),
     ],
 )
 def test_bad_node_arguments_end_in_one_line_and_exit_2(args, message):
