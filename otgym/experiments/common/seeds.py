@@ -159,6 +159,12 @@ DEVELOPMENT: tuple[SeedUse, ...] = (
         "was changed after it (issue 40: decision 0027, the watched pace), so the next report uses seed 7700, "
         "pre-registered on docs/results.md",
     ),
+    _one(
+        "study",
+        7800,
+        "the learned speed's report (one DQN trainer's policy against the first's and the route follower, "
+        "1 x 128, planned in docs/rl-navigator.md before its run)",
+    ),
     # scenarios reached outside their study seed's own runs
     _one("scenarios", 10001, "shared diagnosis of an obstacle held against a wall (side-step before waiting)"),
     SeedUse("scenarios", 20001, 20008, "manual diagnosis: wall clearance, two hands planning as one"),
