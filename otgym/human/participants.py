@@ -72,8 +72,8 @@ from otgym.human.motor import HumanMotor
 from otgym.human.params import HumanParams
 from otgym.human.participant_task import ParticipantTask, ParticipantTasks
 from otgym.human.percept import DISPLAY_LATENCY_S, Percept, ShownRoute, latency_ticks, rows_at_latency
-from otgym.task.geometry import rotate
 from otgym.task.task import APPROACH, CARRY
+from otgym.tasks.transport.route_follow import rotate
 from otgym.teleop.feedback import FeedbackConfig, chip_force_n
 from otgym.teleop.retarget import BatchRetargeter, RetargetConfig
 
