@@ -235,7 +235,9 @@ def test_recorder_node_killed_with_sigkill_keeps_all_but_its_last_moments(tmp_pa
             time.sleep(0.02)  # 50 Hz, the rate of a session's ticks
         kill(children[0])
     recording = read_recording(path)
-    values = [msg.decode(msg.ALPHA, m.data).data for m in recording.messages]
+    # only this test's topic: a node of a parallel test that retries a port it knew can
+    # reach a recorder that listens there now (seen once: a trial_end event)
+    values = [msg.decode(msg.ALPHA, m.data).data for m in recording.messages if m.topic == msg.ALPHA]
     assert not recording.complete and 50 <= len(values) <= sent
     assert values == [i / 1000 for i in range(len(values))], values[:8]  # in order, none missing
 
