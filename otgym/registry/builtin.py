@@ -21,7 +21,9 @@ in the simulation's own process: ``otgym play`` runs it without ``--distributed`
 ``session-default`` (the one a session runs itself when no other is named); extras
 ``label`` (its short name in reports), ``about`` (what it does, in a report's words),
 ``measured`` (its measured full-size result on the shared-control study, with where)
-and ``start_note`` (for one that takes long to start: what it does meanwhile; the
+``acceptance_rate`` (the share of obstacles avoided and of goals reached that
+``otgym experiment shared-control`` accepts of it, alone and as shared control's
+autonomy) and ``start_note`` (for one that takes long to start: what it does meanwhile; the
 autonomy node says so and ``otgym play --distributed`` starts it first and waits).
 Plants (what moves the interactive task's bodies under the controller's trap
 commands: ``otgym node sim --plant``): a callable ``(task, measured, send_start)`` that
@@ -222,6 +224,7 @@ ENTRIES: tuple[tuple[str, str, str, str, tuple[str, ...], dict[str, str]], ...] 
             "about": "the MPC (model-predictive navigation: it predicts the obstacles and steps aside or waits)",
             "measured": "the MPC's measured rate is 128 of 128 goals and 459 of 460 obstacles avoided on 128 "
             "held-out scenarios (`otgym experiment shared-control --modes mpc`, seed 13; docs/mpc.md)",
+            "acceptance_rate": "0.99",
         },
     ),
     (

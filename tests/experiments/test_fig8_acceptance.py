@@ -12,9 +12,11 @@ import json
 import pandas as pd
 import pytest
 
-from otgym.experiments.shared_control.report import MPC_ACCEPTANCE_RATE, acceptance, write_experiment
+from otgym.experiments.shared_control.report import acceptance, acceptance_rates, write_experiment
 from otgym.study.stats import compare_modes
 from otgym.study.summary import summarize
+
+MPC_ACCEPTANCE_RATE = acceptance_rates()["mpc"]  # its registry entry's acceptance_rate
 
 PARTICIPANTS = 4
 TRIALS = 2
@@ -178,3 +180,32 @@ def test_acceptance_json_holds_the_checks_of_the_written_summary(tmp_path):
     assert {name: written[name] for name in ITEMS} == checks
     assert set(written) == set(ITEMS) | {"mpc", "route_bound_s"} and written["route_bound_s"] == ROUTE_BOUND_S
     assert written["mpc"]["trials"] == PARTICIPANTS * TRIALS and written["mpc"]["goals_reached"] == 8
+
+
+def test_a_navigator_registered_with_an_acceptance_rate_is_judged_by_it():
+    """A navigator that a user registers with extra ``acceptance_rate`` gets the MPC's
+    items under its own name and label, at its own rate: the MPC's rows renamed
+    ``careful`` with one obstacle missed in each of its 8 trials (39 of 40) pass at 0.9
+    and would fail at the MPC's 0.99."""
+    from otgym import registry
+
+    registry.register(
+        "navigators",
+        "careful",
+        "otgym.autonomy.navigator:RouteNavigator",
+        "a test's navigator",
+        tags=("trial-mode", "shared"),
+        label="careful one",
+        acceptance_rate="0.9",
+    )
+    try:
+        table = trials_table()
+        table.loc[table["mode"] == "mpc", "mode"] = "careful"
+        table = change(table, "careful", obstacles_avoided=39)
+        checks = checks_of(table, shared_autonomy="careful")
+    finally:
+        registry.unregister("navigators", "careful")
+    assert checks["careful obstacles avoided >= 0.9"] and checks["careful goal reached >= 0.9"]
+    assert checks["(e) shared over the careful one avoids >= 0.9 of >= 256 obstacles"]
+    assert not any(name.startswith("mpc") or "MPC" in name for name in checks)
+    assert 39 / 40 < MPC_ACCEPTANCE_RATE

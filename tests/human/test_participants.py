@@ -519,8 +519,8 @@ def test_grip_heading_is_the_robots_own_turn_not_the_tilt_of_a_shear_between_the
     """Each robot's turn comes from its own two traps: a formation turned by 0.4 rad reads
     0.4 rad, and shifting robot B 1.5 um along the route (a shear, which tilts the line
     between the robots by about 0.11 rad) does not change it."""
-    from otgym.tasks.transport.route_follow import rotate
     from otgym.human.participants import robots_heading
+    from otgym.tasks.transport.route_follow import rotate
     from tests.task import shared_task
 
     task = shared_task()
