@@ -1,7 +1,8 @@
 """Task ``interactive-speed`` (``otgym.tasks.transport.interactive_speed``): its
 features and route follower are the real-time navigator's own arithmetic under
 ``jax.numpy``; a constant speed carries the cell as the real-time task with the
-navigator ``rl`` does; the reward counts progress, time and the episode's end."""
+navigator ``rl`` does; the reward counts progress and time; an episode terminates past
+the finish and is truncated at the time limit."""
 
 import dataclasses
 
@@ -134,6 +135,22 @@ def test_the_episode_ends_past_the_finish_and_a_batch_restarts_it(one_scenario):
     assert float(info["cell_arc_um"][0]) >= 0.03 * float(params.route_arc_um[-1])
     obs, state = task.auto_reset(jax.random.PRNGKey(9), params, obs, state, terminated | truncated)
     assert int(state.steps[0]) == 0 and int(state.steps[1]) == i + 1
+
+
+@pytest.mark.slow
+def test_the_time_limit_truncates_and_does_not_terminate(one_scenario):
+    """At 0 um/s with a 2 s limit: four decisions, the fourth truncated, none terminated
+    (the time limit is no failure and no success: DQN bootstraps through it)."""
+    config, params, _ = one_scenario
+    short = dataclasses.replace(config.interactive, time_limit_s=2.0)
+    params = params.replace(config=dataclasses.replace(config, interactive=short))
+    obs, state = its.reset_batch(jax.random.PRNGKey(2), params, 1)
+    step = jax.jit(lambda key, state: its.step_batch(key, state, jnp.array([0]), params))
+    ends = []
+    for i in range(4):
+        obs, state, reward, terminated, truncated, info = step(jax.random.PRNGKey(i), state)
+        ends.append((bool(terminated[0]), bool(truncated[0]), bool(info["success"][0])))
+    assert ends == [(False, False, False)] * 3 + [(False, True, False)]
 
 
 def test_the_task_is_registered_with_its_spaces_and_its_dqn_settings():

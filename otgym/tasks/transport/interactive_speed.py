@@ -288,12 +288,10 @@ def _tick(params: SpeedTaskParams, state: SpeedTaskState, key) -> SpeedTaskState
 def _ended(params, state):
     """(terminated, ended) per environment: past the finish, at the goal or a trap lost;
     or else done (the time limit)."""
+    config = params.config.interactive
     finish = params.config.finish_fraction * params.route_arc_um[-1]
-    terminated = (
-        state.lost
-        | (_cell_arc(params, state) >= finish)
-        | ((state.phase == DONE) & (state.scene.time_s < params.config.interactive.time_limit_s - 0.01))
-    )
+    timed_out = state.scene.time_s >= config.time_limit_s - 0.5 * config.tick_s  # as _tick's timeout
+    terminated = state.lost | (_cell_arc(params, state) >= finish) | ((state.phase == DONE) & ~timed_out)
     return terminated, terminated | (state.phase == DONE)
 
 
