@@ -148,6 +148,7 @@ class SimulatedParticipants:
         self._intended_um: np.ndarray | None = None  # shared mode: where the person wants the formation's centre
         self.feedback_n = np.zeros((self.n_env, N_HANDS, 2))
         self.closing = np.zeros(self.n_env, bool)
+        self._side_steps: tuple | None = None  # (max_um, steps (E, S), counts (E,)): _side_steps_um
 
     def _grip_places(self, cell_now, traps_now, phase, trap_robot):
         """Each trap's place (E, T, 2): around the cell at the robots' present orientation,
@@ -221,6 +222,19 @@ class SimulatedParticipants:
         common = np.stack([shift[:, trap_robot == r][:, 0] for r in range(N_HANDS)], axis=1).sum(axis=1)
         return places + np.where(carried[:, None, None], common[:, None], shift)
 
+    def _side_steps_um(self, max_um: float):
+        """(E, S) each environment's side steps, 0 to ``max_um`` in steps of its
+        ``side_step_resolution_um``, the last repeated to the longest grid, and (E,) how
+        many are its own; made once per distinct resolution and kept while ``max_um``
+        stays (it changes only with the pace)."""
+        if self._side_steps is None or self._side_steps[0] != max_um:
+            resolutions, which = np.unique(self.task.side_step_resolution_um, return_inverse=True)
+            grids = [np.arange(0.0, max_um + r, r) for r in resolutions]
+            longest = max(len(grid) for grid in grids)
+            padded = np.stack([np.pad(grid, (0, longest - len(grid)), mode="edge") for grid in grids])
+            self._side_steps = max_um, padded[which], np.array([len(grid) for grid in grids])[which]
+        return self._side_steps[1:]
+
     def _side_room_um(self, traps_um, route_direction, max_um: float):
         """(E, 2) how far the formation of traps (E, T, 2) can move to the left and to the
         right of ``route_direction`` (E, 2), in steps of ``side_step_resolution_um``, up to
@@ -229,11 +243,7 @@ class SimulatedParticipants:
         if self.wall_distance_um is None:
             return None
         task = self.task
-        grids = {r: np.arange(0.0, max_um + r, r) for r in np.unique(task.side_step_resolution_um)}
-        counts = np.array([len(grids[r]) for r in task.side_step_resolution_um])  # (E,)
-        steps_um = np.stack(  # (E, S): each environment's grid, its last step repeated to the longest
-            [np.pad(grids[r], (0, counts.max() - len(grids[r])), mode="edge") for r in task.side_step_resolution_um]
-        )
+        steps_um, counts = self._side_steps_um(max_um)
         left = np.stack([-route_direction[:, 1], route_direction[:, 0]], axis=-1)
         sides = np.stack([left, -left], axis=1)  # (E, 2, 2)
         probes = traps_um[:, None, None] + steps_um[:, None, :, None, None] * sides[:, :, None, None]
