@@ -563,3 +563,34 @@ def test_one_batch_gives_each_environment_its_own_task_and_latency():
         [STEADY] * 2, TICK_S, 0, shown_route(), TASK_RETARGET, FeedbackConfig(), 0.6, TASK, None, np.array([0.0, 0.2])
     )
     np.testing.assert_allclose(late.delay_s - people([STEADY] * 2).delay_s, [0.0, 0.2])
+
+
+def test_the_room_beside_the_route_is_counted_in_each_persons_own_steps_for_any_reach():
+    """The side room a person judges (``_side_room_um``), against counting it step by step:
+    three people with side steps of 0.25, 0.5 and 1 um in a channel whose walls lie at
+    y = -20 and y = 10 um, the formation centred on the route (handles at -6.5 to 6.5 um),
+    asked up to 5, then 20, then 5 um again. Fails if a person's steps were another's, or
+    if the steps kept from one reach answered another (the 20 um ask would stop at 5)."""
+    resolutions = (0.25, 0.5, 1.0)
+    tasks = [ParticipantTask(side_step_resolution_um=r) for r in resolutions]
+    channel = lambda points: np.minimum(np.asarray(points, float)[:, 1] + 20.0, 10.0 - np.asarray(points, float)[:, 1])  # noqa: E731
+    participants = people([STEADY] * 3, task=tasks, wall_distance_um=channel)
+    traps = np.repeat(OFFSETS_UM[None], 3, axis=0)
+    along_x = np.tile([1.0, 0.0], (3, 1))
+
+    def counted(resolution, side, max_um):
+        now = channel(OFFSETS_UM)
+        limit = np.minimum(TASK.wall_clearance_um, now)
+        room, step = 0.0, 0
+        while step * resolution <= max_um + 1e-9:
+            moved = OFFSETS_UM + side * step * resolution * np.array([0.0, 1.0])
+            if np.any(channel(moved) < limit - 1e-6):
+                break
+            room, step = step * resolution, step + 1
+        return room
+
+    for max_um in (5.0, 20.0, 5.0):
+        room = participants._side_room_um(traps, along_x, max_um)
+        expected = [[counted(r, side, max_um) for side in (1.0, -1.0)] for r in resolutions]
+        np.testing.assert_allclose(room, expected, atol=1e-9, err_msg=f"up to {max_um} um")
+    assert room[0, 1] == 5.0 and participants._side_room_um(traps, along_x, 20.0)[0, 1] == 11.5
